@@ -1,0 +1,122 @@
+// `f16race bench ...`: throughput measurements. Speed claims in this project come from here
+// (median of several repeats, machine and thread count printed), never from unit tests.
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "dynamics/f16_batch.hpp"
+#include "dynamics/trim.hpp"
+
+namespace f16race::app {
+namespace {
+
+using namespace f16race::dynamics;
+
+std::string cpu_model() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const auto p = line.find(':');
+      if (p != std::string::npos) return line.substr(p + 2);
+    }
+  }
+  return "unknown CPU";
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+struct SimBenchOptions {
+  int aircraft = 8192;
+  int substeps = 100;
+  int repeats = 5;
+  double dt_s = 0.01;
+  bool json = false;
+  std::vector<int> threads;
+};
+
+// Median RK4 aircraft-substeps per second for one model and thread count. The aircraft start
+// trimmed at speeds spread over 450-750 ft/s and hold their trim, so none leaves the envelope.
+double bench_sim_case(AeroModel model, int n_aircraft, int n_threads, const SimBenchOptions& o) {
+  omp_set_num_threads(n_threads);
+  F16BatchConfig cfg;
+  cfg.n_env = n_aircraft;
+  cfg.n_agent = 1;
+  cfg.model = model;
+  F16Batch batch(cfg);
+  constexpr int kTrims = 16;
+  std::vector<TrimResult> trims;
+  for (int k = 0; k < kTrims; ++k) {
+    TrimRequest req;
+    req.model = model;
+    req.vt_ftps = 450.0 + 300.0 * k / (kTrims - 1);
+    req.alt_ft = 5000.0 + 1000.0 * k;
+    trims.push_back(trim_level_flight(req));
+  }
+  std::vector<double> rates;
+  for (int rep = 0; rep < o.repeats + 1; ++rep) {
+    for (int i = 0; i < n_aircraft; ++i) batch.reset_aircraft(i, trims[i % kTrims].x0, trims[i % kTrims].u_ref);
+    const auto t0 = std::chrono::steady_clock::now();
+    const int failed = batch.step(o.dt_s, o.substeps);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (failed != 0) throw std::runtime_error("bench sim: " + std::to_string(failed) + " aircraft left the envelope");
+    const double seconds = std::chrono::duration<double>(t1 - t0).count();
+    if (rep > 0) rates.push_back(static_cast<double>(n_aircraft) * o.substeps / seconds);  // rep 0 warms up
+  }
+  return median(rates);
+}
+
+void run_bench_sim(const SimBenchOptions& o) {
+  std::vector<int> threads = o.threads;
+  if (threads.empty()) {
+    threads.push_back(1);
+    if (omp_get_num_procs() > 1) threads.push_back(omp_get_num_procs());
+  }
+  if (!o.json) {
+    std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s\n", o.dt_s);
+    std::printf("machine: %s, %d cores; %d aircraft, %d substeps per run, median of %d runs\n", cpu_model().c_str(),
+                omp_get_num_procs(), o.aircraft, o.substeps, o.repeats);
+    std::printf("%-8s %8s %10s %22s\n", "model", "threads", "aircraft", "aircraft-substeps/s");
+  }
+  for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
+    for (int t : threads) {
+      const double rate = bench_sim_case(model, o.aircraft, t, o);
+      if (o.json) {
+        std::printf("{\"bench\": \"sim\", \"model\": \"%s\", \"threads\": %d, \"aircraft\": %d, \"substeps_per_s\": %.6g}\n",
+                    aero_model_name(model), t, o.aircraft, rate);
+      } else {
+        std::printf("%-8s %8d %10d %22.4g\n", aero_model_name(model), t, o.aircraft, rate);
+      }
+      std::fflush(stdout);
+    }
+  }
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+  CLI::App* bench = app.add_subcommand("bench", "Throughput benchmarks (medians of repeated runs)");
+  bench->require_subcommand(1);
+  auto sim = std::make_shared<SimBenchOptions>();
+  CLI::App* cmd = bench->add_subcommand("sim", "Batched simulator: RK4 aircraft-substeps per second");
+  cmd->add_option("--aircraft", sim->aircraft, "Number of aircraft")->check(CLI::Range(1, 10000000));
+  cmd->add_option("--substeps", sim->substeps, "RK4 substeps per timed run")->check(CLI::Range(1, 100000));
+  cmd->add_option("--repeats", sim->repeats, "Timed runs (median reported)")->check(CLI::Range(1, 1000));
+  cmd->add_option("--threads", sim->threads, "Thread counts to measure (default: 1 and all cores)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_flag("--json", sim->json, "One JSON object per measured case, one per line");
+  cmd->callback([sim]() { run_bench_sim(*sim); });
+}
+
+}  // namespace f16race::app

@@ -1,0 +1,22 @@
+#pragma once
+// Each subcommand lives in its own file and registers itself on the CLI11 app here.
+#include <stdexcept>
+#include <string>
+
+namespace CLI {
+class App;
+}
+
+namespace f16race::app {
+
+// An error the user can fix (bad flag, missing file, bad value): main prints its one-line
+// message and exits with status 2. Anything else is reported as an internal error (status 1).
+class UserError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+void add_simulate_command(CLI::App& app);
+void add_bench_command(CLI::App& app);
+
+}  // namespace f16race::app

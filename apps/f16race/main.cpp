@@ -1,0 +1,40 @@
+// f16race: batched F-16 team racing, from the flight model to trained policies.
+#include <omp.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+
+#include "commands.hpp"
+#include "io/csv_table.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"f16race: simulate, race, train and evaluate teams of F-16 aircraft (AeroBench dynamics)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "f16race 0.1.0");
+  int threads = 0;
+  app.add_option("--threads", threads, "OpenMP threads for the simulator (0 = all cores)")
+      ->check(CLI::NonNegativeNumber);
+  // Thread count is set once, before any parallel region; subcommands never change it
+  // (except `bench`, which measures 1 thread and all threads on purpose).
+  app.parse_complete_callback([&]() {
+    if (threads > 0) omp_set_num_threads(threads);
+  });
+  f16race::app::add_simulate_command(app);
+  f16race::app::add_bench_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const f16race::app::UserError& e) {
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 2;
+  } catch (const f16race::io::CsvError& e) {
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "f16race: internal error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,226 @@
+#include "dynamics/f16_batch.hpp"
+
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <stdexcept>
+#include <string>
+
+#include "dynamics/inner_loop.hpp"
+
+namespace f16race::dynamics {
+
+bool parse_aero_model(const char* text, AeroModel* out) {
+  if (std::strcmp(text, "morelli") == 0) { *out = AeroModel::kMorelli; return true; }
+  if (std::strcmp(text, "stevens") == 0) { *out = AeroModel::kStevens; return true; }
+  return false;
+}
+
+const char* aero_model_name(AeroModel model) { return model == AeroModel::kMorelli ? "morelli" : "stevens"; }
+
+bool parse_integrator(const char* text, Integrator* out) {
+  if (std::strcmp(text, "rk4") == 0) { *out = Integrator::kRk4; return true; }
+  if (std::strcmp(text, "euler") == 0) { *out = Integrator::kEuler; return true; }
+  return false;
+}
+
+const char* integrator_name(Integrator integrator) { return integrator == Integrator::kRk4 ? "rk4" : "euler"; }
+
+const char* status_name(std::int32_t status) {
+  switch (status) {
+    case kStatusOk: return "ok";
+    case kStatusNonFinite: return "non_finite";
+    case kStatusAlpha: return "alpha_limit";
+    case kStatusBeta: return "beta_limit";
+    case kStatusTheta: return "theta_limit";
+    case kStatusSpeed: return "speed_limit";
+    case kStatusAltitude: return "altitude_limit";
+    case kStatusPadding: return "padding";
+    default: return "unknown";
+  }
+}
+
+void F16Batch::FreeDeleter::operator()(void* p) const { std::free(p); }
+
+namespace {
+
+template <typename T>
+T* aligned_array(std::size_t count) {
+  std::size_t bytes = count * sizeof(T);
+  bytes = (bytes + 63) / 64 * 64;  // aligned_alloc wants a multiple of the alignment
+  void* p = std::aligned_alloc(64, bytes);
+  if (p == nullptr) throw std::bad_alloc();
+  return static_cast<T*>(p);
+}
+
+// What the kernels read and write: one base pointer and a row stride, so every access is an
+// affine index the vectoriser can see through (an array of row pointers defeats it).
+struct BatchView {
+  double* data;          // rows [16 states | 4 refs | 7 outputs] x [stride]
+  int stride;            // padded aircraft count (int: keeps index arithmetic affine for GCC)
+  std::int32_t* status;  // [stride]
+};
+
+F16_INLINE bool is_finite(double v) { return std::fabs(v) <= DBL_MAX; }
+
+// One aircraft, one fixed step, inlined into the SIMD lane loop of step_block. Frozen lanes
+// are computed too (SIMD has no per-lane branches) but their results are discarded.
+template <AeroModel MODEL, Integrator INTEGRATOR>
+F16_INLINE void step_lane(double* __restrict data, int stride, std::int32_t* __restrict status_arr, int i,
+                          double dt, const EnvelopeLimits& lim) {
+  const std::int32_t status = status_arr[i];
+  double x[kNumStates];
+#pragma GCC unroll 16
+  for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
+  double u[kNumRefs];
+#pragma GCC unroll 4
+  for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
+
+  double xn[kNumStates];
+  if constexpr (INTEGRATOR == Integrator::kRk4) {
+    const ClosedLoopOutputs k1 = closed_loop_derivative<MODEL>(x, u);
+    double xs[kNumStates];
+#pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + 0.5 * dt * k1.xdot[s];
+    const ClosedLoopOutputs k2 = closed_loop_derivative<MODEL>(xs, u);
+#pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + 0.5 * dt * k2.xdot[s];
+    const ClosedLoopOutputs k3 = closed_loop_derivative<MODEL>(xs, u);
+#pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + dt * k3.xdot[s];
+    const ClosedLoopOutputs k4 = closed_loop_derivative<MODEL>(xs, u);
+#pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s)
+      xn[s] = x[s] + (dt / 6.0) * (k1.xdot[s] + 2.0 * k2.xdot[s] + 2.0 * k3.xdot[s] + k4.xdot[s]);
+  } else {
+    const ClosedLoopOutputs k1 = closed_loop_derivative<MODEL>(x, u);
+#pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s) xn[s] = x[s] + dt * k1.xdot[s];
+  }
+
+  const std::int32_t verdict = classify_state(xn, lim);
+  const bool active = status == kStatusOk;
+  const bool accept = active & (verdict == kStatusOk);
+#pragma GCC unroll 16
+  for (int s = 0; s < kNumStates; ++s) data[s * stride + i] = accept ? xn[s] : x[s];
+  status_arr[i] = active ? verdict : status;
+}
+
+// One block of kBlock lanes, one step. Kept out of line with restrict pointers and scalars
+// by value: that is the shape GCC's vectoriser reliably turns into full-width SIMD.
+template <AeroModel MODEL, Integrator INTEGRATOR>
+__attribute__((noinline)) void step_block(double* __restrict data, int stride, std::int32_t* __restrict status,
+                                          int i0, double dt, EnvelopeLimits lim) {
+#pragma omp simd
+  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) step_lane<MODEL, INTEGRATOR>(data, stride, status, i, dt, lim);
+}
+
+template <AeroModel MODEL, Integrator INTEGRATOR>
+void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimits& lim) {
+  const int n_blocks = v.stride / F16Batch::kBlock;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < n_blocks; ++b) {
+    // Substeps inside the block loop: the block's state stays in L1 for the whole call.
+    for (int k = 0; k < substeps; ++k)
+      step_block<MODEL, INTEGRATOR>(v.data, v.stride, v.status, b * F16Batch::kBlock, dt, lim);
+  }
+}
+
+template <AeroModel MODEL>
+__attribute__((noinline)) void outputs_block(double* __restrict data, int stride, int i0) {
+#pragma omp simd
+  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) {
+    double x[kNumStates];
+#pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
+    double u[kNumRefs];
+#pragma GCC unroll 4
+    for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
+    const ClosedLoopOutputs o = closed_loop_derivative<MODEL>(x, u);
+    double* out = data + (kNumStates + kNumRefs) * stride + i;
+    out[kOutNz * stride] = o.nz_g;
+    out[kOutPs * stride] = o.ps_radps;
+    out[kOutNyR * stride] = o.ny_r;
+    out[kOutThrottle * stride] = o.surfaces.throttle;
+    out[kOutElevator * stride] = o.surfaces.elevator_deg;
+    out[kOutAileron * stride] = o.surfaces.aileron_deg;
+    out[kOutRudder * stride] = o.surfaces.rudder_deg;
+  }
+}
+
+template <AeroModel MODEL>
+void outputs_kernel(const BatchView& v) {
+  const int n_blocks = v.stride / F16Batch::kBlock;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < n_blocks; ++b) outputs_block<MODEL>(v.data, v.stride, b * F16Batch::kBlock);
+}
+
+}  // namespace
+
+F16Batch::F16Batch(const F16BatchConfig& config) : config_(config) {
+  if (config.n_env < 1 || config.n_agent < 1) {
+    throw std::invalid_argument("F16Batch: n_env and n_agent must be >= 1 (got " + std::to_string(config.n_env) +
+                                " x " + std::to_string(config.n_agent) + ")");
+  }
+  size_ = config.n_env * config.n_agent;
+  padded_ = (size_ + kBlock - 1) / kBlock * kBlock;
+  const std::size_t rows = kNumStates + kNumRefs + kNumOutputs;
+  data_.reset(aligned_array<double>(rows * padded_));
+  status_.reset(aligned_array<std::int32_t>(padded_));
+  std::memset(data_.get(), 0, rows * padded_ * sizeof(double));
+  // Every lane, padding included, starts at the LQR design point so no lane computes garbage.
+  StateVector xeq{};
+  #pragma GCC unroll 16
+  for (int s = 0; s < kNumPlantStates; ++s) xeq[s] = lqr::kXequil[s];
+  for (int i = 0; i < padded_; ++i) {
+    #pragma GCC unroll 16
+    for (int s = 0; s < kNumStates; ++s) state(s)[i] = xeq[s];
+    status_[i] = i < size_ ? kStatusOk : kStatusPadding;
+  }
+}
+
+void F16Batch::reset_aircraft(int i, const StateVector& x, const RefVector& u_ref) {
+  #pragma GCC unroll 16
+  for (int s = 0; s < kNumStates; ++s) state(s)[i] = x[s];
+  #pragma GCC unroll 16
+  for (int r = 0; r < kNumRefs; ++r) ref(r)[i] = u_ref[r];
+  status_[i] = kStatusOk;
+}
+
+StateVector F16Batch::aircraft_state(int i) const {
+  StateVector x;
+  #pragma GCC unroll 16
+  for (int s = 0; s < kNumStates; ++s) x[s] = state(s)[i];
+  return x;
+}
+
+namespace {
+BatchView make_view(F16Batch& b, double* data, int padded) {
+  return BatchView{data, padded, b.status()};
+}
+}  // namespace
+
+int F16Batch::step(double dt_s, int substeps) {
+  const BatchView v = make_view(*this, data_.get(), padded_);
+  int ok_before = 0;
+  for (int i = 0; i < size_; ++i) ok_before += status_[i] == kStatusOk;
+  const EnvelopeLimits& lim = config_.limits;
+  if (config_.model == AeroModel::kMorelli) {
+    if (config_.integrator == Integrator::kRk4) step_kernel<AeroModel::kMorelli, Integrator::kRk4>(v, dt_s, substeps, lim);
+    else step_kernel<AeroModel::kMorelli, Integrator::kEuler>(v, dt_s, substeps, lim);
+  } else {
+    if (config_.integrator == Integrator::kRk4) step_kernel<AeroModel::kStevens, Integrator::kRk4>(v, dt_s, substeps, lim);
+    else step_kernel<AeroModel::kStevens, Integrator::kEuler>(v, dt_s, substeps, lim);
+  }
+  int ok_after = 0;
+  for (int i = 0; i < size_; ++i) ok_after += status_[i] == kStatusOk;
+  return ok_before - ok_after;
+}
+
+void F16Batch::evaluate_outputs() {
+  const BatchView v = make_view(*this, data_.get(), padded_);
+  if (config_.model == AeroModel::kMorelli) outputs_kernel<AeroModel::kMorelli>(v);
+  else outputs_kernel<AeroModel::kStevens>(v);
+}
+
+}  // namespace f16race::dynamics
