@@ -18,5 +18,6 @@ class UserError : public std::runtime_error {
 
 void add_simulate_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
+void add_race_command(CLI::App& app);
 
 }  // namespace f16race::app

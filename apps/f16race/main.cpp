@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "io/csv_table.hpp"
+#include "io/yaml_config.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"f16race: simulate, race, train and evaluate teams of F-16 aircraft (AeroBench dynamics)"};
@@ -21,12 +22,16 @@ int main(int argc, char** argv) {
     if (threads > 0) omp_set_num_threads(threads);
   });
   f16race::app::add_simulate_command(app);
+  f16race::app::add_race_command(app);
   f16race::app::add_bench_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const f16race::app::UserError& e) {
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 2;
+  } catch (const f16race::io::ConfigError& e) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
   } catch (const f16race::io::CsvError& e) {

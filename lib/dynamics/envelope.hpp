@@ -21,6 +21,7 @@ enum AircraftStatus : std::int32_t {
   kStatusSpeed = 5,       // airspeed outside the model's range
   kStatusAltitude = 6,    // altitude outside the atmosphere model's range
   kStatusPadding = 7,     // not an aircraft: lanes that round the batch up to whole blocks
+  kStatusRetired = 8,     // taken out by the owner (e.g. the race ended it for this aircraft)
 };
 const char* status_name(std::int32_t status);
 

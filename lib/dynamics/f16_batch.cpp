@@ -36,6 +36,7 @@ const char* status_name(std::int32_t status) {
     case kStatusSpeed: return "speed_limit";
     case kStatusAltitude: return "altitude_limit";
     case kStatusPadding: return "padding";
+    case kStatusRetired: return "retired";
     default: return "unknown";
   }
 }

@@ -1,0 +1,42 @@
+#pragma once
+// Figures through gnuplot. The caller writes the data (CSV); this module writes a gnuplot
+// script next to it and runs gnuplot to make the PNG or SVG. The script stays on disk so a user
+// can restyle the figure and re-run `gnuplot FILE.gp`. Without gnuplot the data and script are
+// still written and render() says so.
+#include <string>
+#include <vector>
+
+namespace f16race::io {
+
+struct PlotSeries {
+  std::string data_file;  // CSV with a header row (relative paths are relative to the script)
+  std::string using_expr; // gnuplot `using` clause, e.g. "3:4" or "1:($2*2)"
+  std::string style;      // e.g. "lines lw 1.5 lc rgb '#1f77b4'"
+  std::string title;      // legend entry; empty = no legend entry
+  std::string every;      // optional gnuplot `every` clause
+};
+
+struct PlotPanel {
+  std::string title, xlabel, ylabel;
+  std::vector<PlotSeries> series;
+  std::string extra;      // raw gnuplot commands for this panel (ranges, key position, ...)
+};
+
+struct PlotSpec {
+  std::string output;     // .png or .svg
+  int width_px = 1400;
+  int height_px = 900;
+  int rows = 1, cols = 1; // multiplot layout, panels fill row by row
+  std::string title;
+  std::vector<PlotPanel> panels;
+};
+
+// Writes `script_path` and runs gnuplot on it. Returns true when the image was made; otherwise
+// false with `message` saying why (gnuplot missing or failed). Throws io::CsvError-style
+// std::runtime_error only when the script itself cannot be written.
+bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message);
+
+// True when a `gnuplot` executable is on the PATH.
+bool gnuplot_available();
+
+}  // namespace f16race::io

@@ -1,0 +1,57 @@
+#pragma once
+// Typed, validated reading of YAML configs into plain structs. Every error is one line naming
+// the file, the dotted key path, the offending value and what is allowed; unknown keys are
+// errors too (a typo must never silently fall back to a default).
+#include <yaml-cpp/yaml.h>
+
+#include <cstdint>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace f16race::io {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Loads a YAML file (ConfigError when missing or malformed, with the line).
+YAML::Node load_yaml_file(const std::string& path);
+
+// Applies `key.path=value` overrides (from --set) onto a YAML tree; the value is parsed as YAML,
+// so numbers, booleans, strings and [lists] work. Unknown keys are caught later by the reader.
+void apply_override(YAML::Node& root, const std::string& assignment);
+
+// Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
+class ConfigReader {
+ public:
+  ConfigReader(YAML::Node node, std::string source, std::string path = "");
+
+  // A missing key keeps the struct's default. Ranges are inclusive.
+  void read(const char* key, double* value, double lo, double hi);
+  void read(const char* key, int* value, int lo, int hi);
+  void read(const char* key, std::uint64_t* value);
+  void read(const char* key, bool* value);
+  void read(const char* key, std::string* value, const std::vector<std::string>& allowed);
+  void read(const char* key, std::vector<int>* value, int lo, int hi);
+
+  // Sub-mapping (possibly absent: then an empty reader that keeps every default).
+  ConfigReader child(const char* key);
+  bool has(const char* key) const;
+  // Throws ConfigError for any key of this mapping that no read_*/child call asked for.
+  void finish() const;
+
+  const std::string& source() const { return source_; }
+  std::string key_path(const char* key) const { return path_.empty() ? key : path_ + "." + key; }
+  [[noreturn]] void fail(const char* key, const std::string& what) const;
+
+ private:
+  YAML::Node node_;
+  std::string source_;
+  std::string path_;
+  std::set<std::string> used_;
+};
+
+}  // namespace f16race::io

@@ -1,0 +1,83 @@
+#include "race/race_config.hpp"
+
+#include "io/yaml_config.hpp"
+
+namespace f16race::race {
+
+void read_race_config(io::ConfigReader& r, RaceConfig* c) {
+  r.read("n_env", &c->n_env, 1, 1 << 20);
+  r.read("team_size", &c->team_size, 1, 8);
+  std::string model = dynamics::aero_model_name(c->model);
+  r.read("model", &model, {"morelli", "stevens"});
+  dynamics::parse_aero_model(model.c_str(), &c->model);
+  r.read("seed", &c->seed);
+  r.read("dt_ll_s", &c->dt_ll_s, 0.001, 1.0);
+  r.read("substeps", &c->substeps, 1, 1000);
+  r.read("dt_hl_s", &c->dt_hl_s, 0.08, 600.0);
+  r.read("time_limit_s", &c->time_limit_s, 1.0, 3600.0);
+
+  io::ConfigReader t = r.child("track");
+  t.read("n_waypoints", &c->track.n_waypoints, 4, 1000);
+  t.read("leg_min_ft", &c->track.leg_min_ft, 500.0, 1e6);
+  t.read("leg_max_ft", &c->track.leg_max_ft, 500.0, 1e6);
+  t.read("max_turn_deg", &c->track.max_turn_deg, 0.0, 90.0);
+  t.read("max_heading_dev_deg", &c->track.max_heading_dev_deg, 0.0, 89.0);
+  t.read("max_climb_deg", &c->track.max_climb_deg, 0.0, 30.0);
+  t.read("max_climb_change_deg", &c->track.max_climb_change_deg, 0.0, 30.0);
+  t.read("alt_min_ft", &c->track.alt_min_ft, 0.0, 60000.0);
+  t.read("alt_max_ft", &c->track.alt_max_ft, 0.0, 60000.0);
+  t.read("radius_min_ft", &c->track.radius_min_ft, 50.0, 1e5);
+  t.read("radius_max_ft", &c->track.radius_max_ft, 50.0, 1e5);
+  t.read("spacing_ft", &c->track.spacing_ft, 1.0, 1000.0);
+  t.finish();
+
+  r.read("start_s_ft", &c->start_s_ft, 0.0, 1e6);
+  r.read("start_speed_ftps", &c->start_speed_ftps, 300.0, 1200.0);
+  r.read("start_offset_frac", &c->start_offset_frac, 0.0, 0.95);
+  r.read("start_min_separation_ft", &c->start_min_separation_ft, 0.0, 5000.0);
+  r.read("finish_margin_ft", &c->finish_margin_ft, 0.0, 1e6);
+  r.read("collision_radius_ft", &c->collision_radius_ft, 0.0, 5000.0);
+  r.read("alt_min_ft", &c->alt_min_ft, -1000.0, 100000.0);
+  r.read("alt_max_ft", &c->alt_max_ft, 0.0, 100000.0);
+  r.read("nz_min_g", &c->nz_min_g, -20.0, 0.0);
+  r.read("nz_max_g", &c->nz_max_g, 1.0, 20.0);
+  r.read("turn_rate_max_dps", &c->turn_rate_max_dps, 1.0, 360.0);
+  std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";
+  r.read("tube_exit", &exit, {"grace", "terminate"});
+  c->tube_exit = exit == "grace" ? TubeExit::kGrace : TubeExit::kTerminate;
+  r.read("tube_grace_s", &c->tube_grace_s, 0.0, 3600.0);
+  r.read("nz_ref_min_g", &c->nz_ref_min_g, -1.0, 6.0);
+  r.read("nz_ref_max_g", &c->nz_ref_max_g, -1.0, 6.0);
+  r.read("ps_ref_max_radps", &c->ps_ref_max_radps, 0.0, 10.0);
+  r.read("hl_bins", &c->hl_bins, 1, 63);
+  r.read("goal_ahead_ft", &c->goal_ahead_ft, 0.0, 1e6);
+  r.read("goal_bin_scale", &c->goal_bin_scale, 0.0, 5.0);
+  r.read("preview_points", &c->preview_points, 1, 64);
+  r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
+  r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
+  r.read("w_goal_proximity", &c->w_goal_proximity, -1e6, 1e6);
+  r.read("goal_scale_ft", &c->goal_scale_ft, 1.0, 1e6);
+  r.read("w_tube", &c->w_tube, -1e6, 1e6);
+  r.read("w_collision", &c->w_collision, -1e6, 1e6);
+  r.read("w_termination", &c->w_termination, -1e6, 1e6);
+  r.read("w_action_change", &c->w_action_change, -1e6, 1e6);
+  r.read("w_rates", &c->w_rates, -1e6, 1e6);
+  r.finish();
+  validate_race_config(*c, r.source());
+}
+
+void validate_race_config(const RaceConfig& c, const std::string& source) {
+  auto fail = [&](const std::string& what) { throw io::ConfigError(source + ": race: " + what); };
+  if (c.track.leg_min_ft > c.track.leg_max_ft) fail("track.leg_min_ft must be <= track.leg_max_ft");
+  if (c.track.alt_min_ft >= c.track.alt_max_ft) fail("track.alt_min_ft must be < track.alt_max_ft");
+  if (c.track.radius_min_ft > c.track.radius_max_ft) fail("track.radius_min_ft must be <= track.radius_max_ft");
+  if (c.alt_min_ft >= c.alt_max_ft) fail("alt_min_ft must be < alt_max_ft");
+  if (c.track.alt_min_ft - c.track.radius_max_ft < c.alt_min_ft || c.track.alt_max_ft + c.track.radius_max_ft > c.alt_max_ft)
+    fail("the track band [track.alt_min_ft - radius, track.alt_max_ft + radius] must lie inside [alt_min_ft, alt_max_ft]");
+  if (c.nz_ref_min_g >= c.nz_ref_max_g) fail("nz_ref_min_g must be < nz_ref_max_g");
+  if (c.hl_bins % 2 == 0) fail("hl_bins must be odd so that the middle bin is the center-line");
+  if (c.start_s_ft + c.finish_margin_ft + 1000.0 > c.track.leg_min_ft * (c.track.n_waypoints - 1))
+    fail("start_s_ft + finish_margin_ft leaves no race on the shortest possible track");
+}
+
+}  // namespace f16race::race

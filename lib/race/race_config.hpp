@@ -1,0 +1,86 @@
+#pragma once
+// Everything that defines a race, with the defaults documented in docs/race.md. Plain struct;
+// read_race_config() fills it from the `race:` section of a YAML config and validates it.
+#include <cstdint>
+#include <string>
+
+#include "dynamics/state.hpp"
+#include "race/track.hpp"
+
+namespace f16race::io {
+class ConfigReader;
+}
+
+namespace f16race::race {
+
+enum class TubeExit { kTerminate, kGrace };
+
+struct RaceConfig {
+  int n_env = 64;
+  int team_size = 4;                 // aircraft per team; two teams, blue (0) and red (1)
+  dynamics::AeroModel model = dynamics::AeroModel::kMorelli;
+  std::uint64_t seed = 1;
+
+  // Timing (paper: LL control at 12.5 Hz, HL every 8 s or 20 s).
+  double dt_ll_s = 0.08;
+  int substeps = 8;                  // RK4 steps per LL step: 0.01 s
+  double dt_hl_s = 8.0;
+  double time_limit_s = 120.0;
+
+  TrackConfig track;
+
+  // Start: same forward displacement for all, random offsets inside the tube, level trim.
+  double start_s_ft = 1500.0;
+  double start_speed_ftps = 700.0;
+  double start_offset_frac = 0.6;    // offsets drawn within this fraction of the tube radius
+  double start_min_separation_ft = 300.0;
+  double finish_margin_ft = 1500.0;  // finish line this far before the end of the center-line
+
+  // Terminations.
+  double collision_radius_ft = 60.0;
+  double alt_min_ft = 1000.0;
+  double alt_max_ft = 40000.0;
+  double nz_min_g = -3.0;            // structural load limits on AeroBench's Nz
+  double nz_max_g = 9.0;
+  double turn_rate_max_dps = 40.0;   // heading rate; beyond this the manoeuvre is not realistic
+  TubeExit tube_exit = TubeExit::kGrace;
+  double tube_grace_s = 3.0;         // time allowed outside the tube before termination
+
+  // LL action mapping from [-1, 1]: throttle [0, 1], Nz_ref [nz_ref_min, nz_ref_max] g,
+  // ps_ref [-ps_ref_max, ps_ref_max] rad/s; Ny_r_ref is 0 (paper, following AeroBench).
+  double nz_ref_min_g = -1.0;
+  double nz_ref_max_g = 6.0;
+  double ps_ref_max_radps = 2.5;
+
+  // HL goals: 7 bins per axis around the center-line point goal_ahead_ft ahead; the outer bins
+  // sit at goal_bin_scale x the local tube radius.
+  int hl_bins = 7;
+  double goal_ahead_ft = 6000.0;
+  double goal_bin_scale = 0.9;
+
+  // Observations.
+  int preview_points = 6;
+  double preview_spacing_ft = 2000.0;
+
+  // LL reward weights (per LL step unless noted).
+  double w_goal_progress = 1.0;      // closing speed toward the goal, per goal_scale_ft
+  double w_goal_proximity = 0.05;    // exp(-distance / goal_scale_ft)
+  double goal_scale_ft = 2000.0;
+  double w_tube = 0.5;               // per second outside the tube, scaled by how far outside
+  double w_collision = 5.0;          // once, when taken out by a collision
+  double w_termination = 5.0;        // once, for any other termination
+  double w_action_change = 0.02;     // |a_t - a_{t-1}|^2
+  double w_rates = 0.01;             // p^2 + q^2 + r^2 [rad^2/s^2]
+
+  int n_agent() const { return 2 * team_size; }
+};
+
+// Reads the `race:` section (absent keys keep defaults) and checks cross-field consistency.
+// Throws io::ConfigError naming the file and key.
+void read_race_config(io::ConfigReader& reader, RaceConfig* config);
+
+// Checks the relations between fields that a single range cannot (e.g. nz_ref_min < nz_ref_max);
+// throws io::ConfigError naming `source`.
+void validate_race_config(const RaceConfig& config, const std::string& source);
+
+}  // namespace f16race::race

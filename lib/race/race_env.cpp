@@ -1,0 +1,519 @@
+#include "race/race_env.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "dynamics/inner_loop.hpp"
+#include "io/yaml_config.hpp"
+#include "race/ranking.hpp"
+
+namespace f16race::race {
+
+using namespace f16race::dynamics;
+
+namespace {
+
+constexpr double kPi = 3.141592653589793;
+constexpr double kG = 32.17;
+
+float clampf(double v, double lo, double hi) { return static_cast<float>(std::min(std::max(v, lo), hi)); }
+
+// North-east-up velocity from the body velocities (AeroBench's navigation equations).
+Vec3 velocity_neu(const F16Batch& sim, int i) {
+  const double vt = sim.state(kVt)[i], a = sim.state(kAlpha)[i], b = sim.state(kBeta)[i];
+  const double ph = sim.state(kPhi)[i], th = sim.state(kTheta)[i], ps = sim.state(kPsi)[i];
+  const double u = vt * std::cos(a) * std::cos(b), v = vt * std::sin(b), w = vt * std::sin(a) * std::cos(b);
+  const double sph = std::sin(ph), cph = std::cos(ph), sth = std::sin(th), cth = std::cos(th);
+  const double sps = std::sin(ps), cps = std::cos(ps);
+  const double t1 = sph * cps, t2 = cph * sth, t3 = sph * sps;
+  return {u * cth * cps + v * (t1 * sth - cph * sps) + w * (t2 * cps + t3),
+          u * cth * sps + v * (t3 * sth + cph * cps) + w * (t2 * sps - t1),
+          u * sth - v * sph * cth - w * cph * cth};
+}
+
+Vec3 position(const F16Batch& sim, int i) { return {sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]}; }
+
+// Heading-aligned ego frame: x forward along psi, y to the right, z up.
+struct EgoFrame {
+  double c, s;
+  void apply(const Vec3& d, double* x, double* y, double* z) const {
+    *x = c * d.n + s * d.e;
+    *y = -s * d.n + c * d.e;
+    *z = d.u;
+  }
+};
+
+// Range and direction as (range/scale, sin az, cos az, sin el): spherical without atan2/asin.
+void spherical4(double x, double y, double z, double scale, float* out) {
+  const double rh = std::sqrt(x * x + y * y);
+  const double r = std::sqrt(rh * rh + z * z);
+  out[0] = clampf(r / scale, 0.0, 10.0);
+  out[1] = rh > 1e-6 ? static_cast<float>(y / rh) : 0.0f;
+  out[2] = rh > 1e-6 ? static_cast<float>(x / rh) : 1.0f;
+  out[3] = r > 1e-6 ? static_cast<float>(z / r) : 0.0f;
+}
+
+}  // namespace
+
+const char* cause_name(int cause) {
+  switch (cause) {
+    case kCauseNone: return "none";
+    case kCauseCollision: return "collision";
+    case kCauseAltitude: return "altitude";
+    case kCauseLoad: return "load";
+    case kCauseTurnRate: return "turn_rate";
+    case kCauseTube: return "tube";
+    case kCauseSimulator: return "simulator";
+    default: return "unknown";
+  }
+}
+
+int task_dim(const RaceConfig& c) { return 5 * c.preview_points + 8; }
+
+namespace {
+F16BatchConfig batch_config(const RaceConfig& c) {
+  F16BatchConfig b;
+  b.n_env = c.n_env;
+  b.n_agent = c.n_agent();
+  b.model = c.model;
+  b.integrator = Integrator::kRk4;
+  return b;
+}
+}  // namespace
+
+RaceEnv::RaceEnv(const RaceConfig& config)
+    : config_(config), n_agent_(config.n_agent()), task_dim_(race::task_dim(config)), sim_(batch_config(config)) {
+  validate_race_config(config_, "race config");
+  // Level trims on a fine altitude grid covering every possible start height; a start altitude
+  // snaps to the grid so each aircraft begins in exact trim.
+  const double lo = config_.track.alt_min_ft - config_.track.radius_max_ft - trim_step_ft_;
+  const double hi = config_.track.alt_max_ft + config_.track.radius_max_ft + trim_step_ft_;
+  trim_alt0_ft_ = std::floor(lo / trim_step_ft_) * trim_step_ft_;
+  const int n_trims = static_cast<int>(std::ceil((hi - trim_alt0_ft_) / trim_step_ft_)) + 1;
+  trims_.reserve(n_trims);
+  for (int k = 0; k < n_trims; ++k) {
+    TrimRequest req;
+    req.model = config_.model;
+    req.vt_ftps = config_.start_speed_ftps;
+    req.alt_ft = trim_alt0_ft_ + k * trim_step_ft_;
+    try {
+      trims_.push_back(trim_level_flight(req));
+    } catch (const std::runtime_error& e) {
+      throw io::ConfigError(std::string("race.start_speed_ftps: ") + e.what());
+    }
+  }
+
+  const int n = n_aircraft();
+  tracks_.resize(n_env());
+  rng_.reserve(n_env());
+  for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(e));
+  time_s_.assign(n_env(), 0.0);
+  hl_time_left_s_.assign(n_env(), 0.0);
+  hl_due_.assign(n_env(), 1);
+  env_done_.assign(n_env(), 0);
+  alive_.assign(n, 0);
+  acted_.assign(n, 0);
+  terminated_.assign(n, 0);
+  truncated_.assign(n, 0);
+  cause_.assign(n, kCauseNone);
+  step_cause_.assign(n, kCauseNone);
+  track_hint_.assign(n, -1);
+  ego_rank_.assign(n, 0);
+  prev_ego_rank_.assign(n, 0);
+  progress_ft_.assign(n, 0.0);
+  lateral_ft_.assign(n, 0.0);
+  vertical_ft_.assign(n, 0.0);
+  dist_ft_.assign(n, 0.0);
+  radius_ft_.assign(n, 1.0);
+  tube_out_s_.assign(n, 0.0);
+  team_rank_.assign(n, 0.0);
+  goal_dist_ft_.assign(n, 0.0);
+  start_lateral_ft_.assign(n, 0.0);
+  start_vertical_ft_.assign(n, 0.0);
+  goal_point_.assign(n, Vec3{});
+  last_action_.assign(static_cast<std::size_t>(n) * kActionDim, 0.0f);
+  ego_.assign(static_cast<std::size_t>(n) * kEgoDim, 0.0f);
+  prev_action_.assign(static_cast<std::size_t>(n) * kActionDim, 0.0f);
+  goal_obs_.assign(static_cast<std::size_t>(n) * kGoalDim, 0.0f);
+  ado_.assign(static_cast<std::size_t>(n) * (n_agent_ - 1) * kAdoDim, 0.0f);
+  ado_alive_.assign(static_cast<std::size_t>(n) * (n_agent_ - 1), 0);
+  task_.assign(static_cast<std::size_t>(n) * task_dim_, 0.0f);
+  ll_reward_.assign(n, 0.0f);
+  hl_reward_.assign(n, 0.0f);
+  step_stats_.assign(n_env(), StepStats{});
+  reset();
+}
+
+void RaceEnv::reset() {
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < n_env(); ++e) {
+    reset_env(e);
+    env_done_[e] = 0;
+    write_observations(e);
+  }
+}
+
+void RaceEnv::refresh() {
+  for (int e = 0; e < n_env(); ++e) {
+    update_track_geometry(e);
+    compute_ranks(e);
+    write_observations(e);
+  }
+}
+
+void RaceEnv::reset_env(int env) {
+  RandomStream& rng = rng_[env];
+  tracks_[env] = Track::generate(config_.track, rng);
+  const Track& tr = tracks_[env];
+  time_s_[env] = 0.0;
+  hl_time_left_s_[env] = 0.0;
+  hl_due_[env] = 1;
+  const TrackFrame fr = tr.frame_at(config_.start_s_ft);
+  const double heading = std::atan2(fr.tangent.e, fr.tangent.n);
+  const double max_off = config_.start_offset_frac * fr.radius_ft;
+  const int base = env * n_agent_;
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    // Uniform in the disc, re-drawn (a bounded number of times) if too close to another aircraft.
+    double lat = 0.0, vert = 0.0;
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      const double r = max_off * std::sqrt(rng.uniform()), ang = rng.uniform(0.0, 2.0 * kPi);
+      lat = r * std::cos(ang);
+      vert = r * std::sin(ang);
+      bool clear = true;
+      for (int b = 0; b < a; ++b) {
+        const double dl = lat - start_lateral_ft_[base + b], dv = vert - start_vertical_ft_[base + b];
+        clear = clear && dl * dl + dv * dv >= config_.start_min_separation_ft * config_.start_min_separation_ft;
+      }
+      if (clear) break;
+    }
+    const Vec3 p = fr.center + lat * fr.right + vert * fr.up;
+    const int k = std::clamp(static_cast<int>(std::lround((p.u - trim_alt0_ft_) / trim_step_ft_)), 0,
+                             static_cast<int>(trims_.size()) - 1);
+    const TrimResult& trim = trims_[k];
+    StateVector x = trim.x0;
+    x[kPn] = p.n;
+    x[kPe] = p.e;
+    x[kPsi] = heading;  // x[kAlt] is the trim grid altitude, within trim_step/2 of p.u
+    sim_.reset_aircraft(i, x, trim.u_ref);
+    start_lateral_ft_[i] = lat;
+    start_vertical_ft_[i] = vert;
+    alive_[i] = 1;
+    cause_[i] = kCauseNone;
+    tube_out_s_[i] = 0.0;
+    track_hint_[i] = -1;
+    // The trim's own commands, in action units, are the "previous action" of the first step.
+    float* la = &last_action_[static_cast<std::size_t>(i) * kActionDim];
+    la[0] = static_cast<float>(2.0 * (trim.u_ref[kThrottleDelta] + lqr::kThrottleEquil) - 1.0);
+    la[1] = static_cast<float>(2.0 * (trim.u_ref[kNzRef] - config_.nz_ref_min_g) /
+                                   (config_.nz_ref_max_g - config_.nz_ref_min_g) - 1.0);
+    la[2] = 0.0f;
+  }
+  update_track_geometry(env);
+  compute_ranks(env);
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    prev_ego_rank_[i] = ego_rank_[i];
+    const std::int64_t mid[3] = {config_.hl_bins / 2, config_.hl_bins / 2, config_.hl_bins / 2};
+    place_goal(i, mid);  // until the HL policy decides (hl_due is up)
+  }
+}
+
+void RaceEnv::update_track_geometry(int env) {
+  const Track& tr = tracks_[env];
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = env * n_agent_ + a;
+    if (!alive_[i] && track_hint_[i] >= 0) continue;  // frozen at its last position
+    const TrackQuery q = tr.project(position(sim_, i), track_hint_[i]);
+    track_hint_[i] = q.index;
+    progress_ft_[i] = q.s_ft;
+    lateral_ft_[i] = q.lateral_ft;
+    vertical_ft_[i] = q.vertical_ft;
+    dist_ft_[i] = q.dist_ft;
+    radius_ft_[i] = q.radius_ft;
+  }
+}
+
+void RaceEnv::compute_ranks(int env) {
+  const int base = env * n_agent_;
+  race::compute_ranks(n_agent_, config_.team_size, &alive_[base], &progress_ft_[base], &ego_rank_[base],
+                      &team_rank_[base]);
+}
+
+void RaceEnv::place_goal(int i, const std::int64_t* bins) {
+  const int env = i / n_agent_;
+  const TrackFrame fr = tracks_[env].frame_at(progress_ft_[i] + config_.goal_ahead_ft);
+  const double half = 0.5 * (config_.hl_bins - 1);
+  const double step = half > 0 ? config_.goal_bin_scale * fr.radius_ft / half : 0.0;
+  auto offset = [&](std::int64_t b) {
+    const double bb = std::clamp(static_cast<double>(b), 0.0, static_cast<double>(config_.hl_bins - 1));
+    return (bb - half) * step;
+  };
+  // Offsets along north, east and up (the paper's d_pn, d_pe, d_pa).
+  goal_point_[i] = fr.center + Vec3{offset(bins[0]), offset(bins[1]), offset(bins[2])};
+  const Vec3 d = goal_point_[i] - position(sim_, i);
+  goal_dist_ft_[i] = std::sqrt(dot(d, d));
+}
+
+void RaceEnv::set_hl_actions(const std::int64_t* bins) {
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < n_env(); ++e) {
+    if (!hl_due_[e]) continue;
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = e * n_agent_ + a;
+      if (alive_[i]) place_goal(i, bins + static_cast<std::size_t>(i) * kHlDims);
+      write_goal_observation(i);
+    }
+    hl_due_[e] = 0;
+    hl_time_left_s_[e] = config_.dt_hl_s;
+  }
+}
+
+StepStats RaceEnv::step(const float* actions) {
+  const int n = n_aircraft();
+  const RaceConfig& c = config_;
+  // 1. Actions -> references for the aircraft still racing.
+  for (int i = 0; i < n; ++i) {
+    acted_[i] = alive_[i];
+    step_cause_[i] = kCauseNone;
+    terminated_[i] = 0;
+    truncated_[i] = 0;
+    if (!alive_[i]) continue;
+    const float* a = actions + static_cast<std::size_t>(i) * kActionDim;
+    float* la = &last_action_[static_cast<std::size_t>(i) * kActionDim];
+    double da2 = 0.0;
+    for (int k = 0; k < kActionDim; ++k) {
+      const float v = std::min(std::max(a[k], -1.0f), 1.0f);
+      da2 += (v - la[k]) * (v - la[k]);
+      prev_action_[static_cast<std::size_t>(i) * kActionDim + k] = v;
+      la[k] = v;
+    }
+    ll_reward_[i] = static_cast<float>(-c.w_action_change * da2);
+    const double throttle = 0.5 * (la[0] + 1.0);
+    sim_.ref(kThrottleDelta)[i] = throttle - lqr::kThrottleEquil;
+    sim_.ref(kNzRef)[i] = c.nz_ref_min_g + 0.5 * (la[1] + 1.0) * (c.nz_ref_max_g - c.nz_ref_min_g);
+    sim_.ref(kPsRef)[i] = la[2] * c.ps_ref_max_radps;
+    sim_.ref(kNyRRef)[i] = 0.0;
+  }
+  // 2. Flight dynamics.
+  sim_.step(c.dt_ll_s / c.substeps, c.substeps);
+  sim_.evaluate_outputs();
+
+  // 3. Race logic and observations, env by env.
+  std::vector<StepStats>& per_env = step_stats_;
+  std::fill(per_env.begin(), per_env.end(), StepStats{});
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < n_env(); ++e) {
+    StepStats& st = per_env[e];
+    const int base = e * n_agent_;
+    time_s_[e] += c.dt_ll_s;
+    update_track_geometry(e);
+    std::int8_t new_cause[16] = {};
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = base + a;
+      if (!alive_[i]) continue;
+      const double phi = sim_.state(kPhi)[i], th = sim_.state(kTheta)[i];
+      const double psi_dot = (sim_.state(kQ)[i] * std::sin(phi) + sim_.state(kR)[i] * std::cos(phi)) / std::cos(th);
+      const double nz = sim_.output(kOutNz)[i];
+      const double alt = sim_.state(kAlt)[i];
+      const bool outside = dist_ft_[i] > radius_ft_[i];
+      tube_out_s_[i] = outside ? tube_out_s_[i] + c.dt_ll_s : 0.0;
+      std::int8_t cause = kCauseNone;
+      if (sim_.status()[i] != kStatusOk) cause = kCauseSimulator;
+      else if (alt < c.alt_min_ft || alt > c.alt_max_ft) cause = kCauseAltitude;
+      else if (nz < c.nz_min_g || nz > c.nz_max_g) cause = kCauseLoad;
+      else if (std::fabs(psi_dot) * 180.0 / kPi > c.turn_rate_max_dps) cause = kCauseTurnRate;
+      else if (outside && (c.tube_exit == TubeExit::kTerminate || tube_out_s_[i] > c.tube_grace_s)) cause = kCauseTube;
+      new_cause[a] = cause;
+    }
+    // Collisions between any two aircraft that flew this step: both are out.
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = base + a;
+      if (!acted_[i]) continue;
+      for (int b = a + 1; b < n_agent_; ++b) {
+        const int j = base + b;
+        if (!acted_[j]) continue;
+        const Vec3 d = position(sim_, i) - position(sim_, j);
+        if (dot(d, d) < c.collision_radius_ft * c.collision_radius_ft) {
+          if (new_cause[a] == kCauseNone) new_cause[a] = kCauseCollision;
+          if (new_cause[b] == kCauseNone) new_cause[b] = kCauseCollision;
+        }
+      }
+    }
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = base + a;
+      if (new_cause[a] == kCauseNone) continue;
+      alive_[i] = 0;
+      cause_[i] = new_cause[a];
+      step_cause_[i] = new_cause[a];
+      terminated_[i] = 1;
+      st.terminations[new_cause[a]] += 1;
+      sim_.status()[i] = kStatusRetired;  // frozen where it was taken out
+    }
+    compute_ranks(e);
+
+    // Rewards for every aircraft that acted this step.
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = base + a;
+      if (!acted_[i]) {
+        ll_reward_[i] = 0.0f;
+        hl_reward_[i] = 0.0f;
+        continue;
+      }
+      hl_reward_[i] = static_cast<float>(race::hl_reward(team_rank_[i], prev_ego_rank_[i], ego_rank_[i]));
+      const Vec3 d = goal_point_[i] - position(sim_, i);
+      const double gd = std::sqrt(dot(d, d));
+      double r = ll_reward_[i];  // already holds the action-change penalty
+      r += c.w_goal_progress * (goal_dist_ft_[i] - gd) / c.goal_scale_ft;
+      r += c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
+      goal_dist_ft_[i] = gd;
+      if (dist_ft_[i] > radius_ft_[i]) r -= c.w_tube * c.dt_ll_s * (dist_ft_[i] - radius_ft_[i]) / radius_ft_[i];
+      const double p = sim_.state(kP)[i], q = sim_.state(kQ)[i], rr = sim_.state(kR)[i];
+      r -= c.w_rates * (p * p + q * q + rr * rr);
+      if (cause_[i] == kCauseCollision && terminated_[i]) r -= c.w_collision;
+      else if (terminated_[i]) r -= c.w_termination;
+      ll_reward_[i] = static_cast<float>(r);
+      prev_ego_rank_[i] = ego_rank_[i];
+    }
+
+    // Race end: finish line, a whole team out, or the time limit.
+    bool finished = false;
+    int team_alive[2] = {0, 0};
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = base + a;
+      team_alive[team_of(a, c.team_size)] += alive_[i];
+      finished = finished || (alive_[i] && progress_ft_[i] >= tracks_[e].length_ft() - c.finish_margin_ft);
+    }
+    const bool eliminated = team_alive[0] == 0 || team_alive[1] == 0;
+    const bool timeout = time_s_[e] >= c.time_limit_s - 1e-9;
+    env_done_[e] = finished || eliminated || timeout;
+    if (env_done_[e]) {
+      st.races_finished = 1;
+      const double tr_blue = team_rank_[base];
+      if (tr_blue == 0.0) st.races_won[0] = 1;
+      else if (tr_blue == 1.0) st.races_won[1] = 1;
+      else st.races_drawn = 1;
+      st.races_by_finish_line = finished;
+      st.races_by_elimination = !finished && eliminated;
+      st.races_by_time_limit = !finished && !eliminated;
+      for (int a = 0; a < n_agent_; ++a) {
+        const int i = base + a;
+        if (!alive_[i]) continue;
+        st.aircraft_alive_at_end += 1;
+        if (finished || eliminated) terminated_[i] = 1;
+        else truncated_[i] = 1;
+      }
+      reset_env(e);
+    } else {
+      hl_time_left_s_[e] -= c.dt_ll_s;
+      if (hl_time_left_s_[e] <= 1e-9) hl_due_[e] = 1;
+    }
+    write_observations(e);
+  }
+  StepStats total;
+  for (const StepStats& s : per_env) {
+    for (int k = 0; k < kNumCauses; ++k) total.terminations[k] += s.terminations[k];
+    total.races_finished += s.races_finished;
+    total.races_won[0] += s.races_won[0];
+    total.races_won[1] += s.races_won[1];
+    total.races_drawn += s.races_drawn;
+    total.races_by_finish_line += s.races_by_finish_line;
+    total.races_by_elimination += s.races_by_elimination;
+    total.races_by_time_limit += s.races_by_time_limit;
+    total.aircraft_alive_at_end += s.aircraft_alive_at_end;
+  }
+  return total;
+}
+
+void RaceEnv::write_goal_observation(int i) {
+  const double psi = sim_.state(kPsi)[i];
+  const EgoFrame f{std::cos(psi), std::sin(psi)};
+  double x, y, z;
+  f.apply(goal_point_[i] - position(sim_, i), &x, &y, &z);
+  const double rh = std::sqrt(x * x + y * y);
+  float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
+  g[0] = clampf(std::sqrt(rh * rh + z * z) / config_.goal_ahead_ft, 0.0, 10.0);
+  g[1] = static_cast<float>(std::atan2(y, x) / kPi);
+  g[2] = static_cast<float>(std::atan2(z, rh) / (0.5 * kPi));
+}
+
+void RaceEnv::write_observations(int env) {
+  const RaceConfig& c = config_;
+  const int base = env * n_agent_;
+  const Track& tr = tracks_[env];
+  Vec3 vel[16], pos[16];
+  for (int a = 0; a < n_agent_; ++a) {
+    vel[a] = velocity_neu(sim_, base + a);
+    pos[a] = position(sim_, base + a);
+  }
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    const double psi = sim_.state(kPsi)[i];
+    const EgoFrame f{std::cos(psi), std::sin(psi)};
+
+    float* o = &ego_[static_cast<std::size_t>(i) * kEgoDim];
+    o[0] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
+    int k = 1;
+    for (int s : {kAlpha, kBeta, kPhi, kTheta, kPsi}) {
+      o[k++] = static_cast<float>(std::sin(sim_.state(s)[i]));
+      o[k++] = static_cast<float>(std::cos(sim_.state(s)[i]));
+    }
+    o[11] = clampf(sim_.state(kP)[i] / 2.0, -10.0, 10.0);
+    o[12] = clampf(sim_.state(kQ)[i], -10.0, 10.0);
+    o[13] = clampf(sim_.state(kR)[i], -10.0, 10.0);
+    o[14] = static_cast<float>(sim_.state(kAlt)[i] / 10000.0);
+    o[15] = static_cast<float>(sim_.state(kPow)[i] / 100.0);
+    o[16] = clampf(sim_.state(kIntNz)[i] / 5.0, -10.0, 10.0);
+    o[17] = clampf(sim_.state(kIntPs)[i] / 2.0, -10.0, 10.0);
+    o[18] = clampf(sim_.state(kIntNyR)[i] / 2.0, -10.0, 10.0);
+    o[19] = clampf(sim_.output(kOutNz)[i] / 5.0, -10.0, 10.0);
+
+    // Other aircraft in agent order (self skipped), so permuting them permutes rows only.
+    int row = 0;
+    for (int b = 0; b < n_agent_; ++b) {
+      if (b == a) continue;
+      const int j = base + b;
+      const std::size_t r = static_cast<std::size_t>(i) * (n_agent_ - 1) + row;
+      float* d = &ado_[r * kAdoDim];
+      ado_alive_[r] = alive_[j];
+      if (alive_[j]) {
+        double x, y, z;
+        f.apply(pos[b] - pos[a], &x, &y, &z);
+        spherical4(x, y, z, 5000.0, d);
+        f.apply(vel[b] - vel[a], &x, &y, &z);
+        d[4] = static_cast<float>(x / 500.0);
+        d[5] = static_cast<float>(y / 500.0);
+        d[6] = static_cast<float>(z / 500.0);
+        d[7] = clampf((progress_ft_[j] - progress_ft_[i]) / 5000.0, -10.0, 10.0);
+      } else {
+        for (int q = 0; q < 8; ++q) d[q] = 0.0f;
+      }
+      d[8] = team_of(b, c.team_size) == team_of(a, c.team_size) ? 1.0f : 0.0f;
+      d[9] = alive_[j] ? 1.0f : 0.0f;
+      ++row;
+    }
+
+    float* t = &task_[static_cast<std::size_t>(i) * task_dim_];
+    for (int p = 0; p < c.preview_points; ++p) {
+      const double s = progress_ft_[i] + (p + 1) * c.preview_spacing_ft;
+      double x, y, z;
+      f.apply(tr.point_at(s) - pos[a], &x, &y, &z);
+      spherical4(x, y, z, 5000.0, t + 5 * p);
+      t[5 * p + 4] = static_cast<float>(tr.radius_at(s) / 2000.0);
+    }
+    float* u = t + 5 * c.preview_points;
+    u[0] = clampf(lateral_ft_[i] / radius_ft_[i], -10.0, 10.0);
+    u[1] = clampf(vertical_ft_[i] / radius_ft_[i], -10.0, 10.0);
+    u[2] = clampf(dist_ft_[i] / radius_ft_[i], 0.0, 10.0);
+    u[3] = static_cast<float>(progress_ft_[i] / tr.length_ft());
+    u[4] = static_cast<float>(1.0 - time_s_[env] / c.time_limit_s);
+    u[5] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
+    u[6] = static_cast<float>(ego_rank_[i]) / static_cast<float>(n_agent_ - 1);
+    u[7] = static_cast<float>(team_rank_[i]);
+    write_goal_observation(i);
+  }
+}
+
+}  // namespace f16race::race

@@ -1,0 +1,152 @@
+#pragma once
+// n_env independent two-team races stepped together on the batched F-16 simulator.
+//
+// Per LL step (12.5 Hz): actions [n_env, n_agent, 3] in [-1, 1] -> (throttle, Nz_ref, ps_ref)
+// -> `substeps` RK4 steps -> progress, terminations, ranks, rewards -> finished races reset with
+// a fresh track -> observations written in one pass into preallocated float buffers that a
+// tensor can wrap without a copy. Every HL interval the caller picks 7-bin goal offsets per
+// aircraft (set_hl_actions). Torch-free; see docs/race.md for every number and formula.
+#include <cstdint>
+#include <vector>
+
+#include "dynamics/f16_batch.hpp"
+#include "dynamics/trim.hpp"
+#include "race/race_config.hpp"
+#include "race/random_stream.hpp"
+#include "race/track.hpp"
+
+namespace f16race::race {
+
+// Observation widths (see docs/race.md for the order of every entry).
+inline constexpr int kEgoDim = 20;   // s-bar: state with angles as sin/cos, scaled to O(1)
+inline constexpr int kAdoDim = 10;   // one other aircraft
+inline constexpr int kGoalDim = 3;   // HL goal in spherical ego coordinates
+inline constexpr int kActionDim = 3; // LL action: throttle, Nz_ref, ps_ref in [-1, 1]
+inline constexpr int kHlDims = 3;    // HL action: bins for (d_north, d_east, d_up)
+int task_dim(const RaceConfig& config);
+
+// Why an aircraft left the race. Each is counted separately in StepStats.
+enum TerminationCause : std::int8_t {
+  kCauseNone = 0,
+  kCauseCollision = 1,
+  kCauseAltitude = 2,
+  kCauseLoad = 3,
+  kCauseTurnRate = 4,
+  kCauseTube = 5,
+  kCauseSimulator = 6,  // the flight model's envelope or a non-finite state
+  kNumCauses = 7
+};
+const char* cause_name(int cause);
+
+// Aggregates over the envs of one step (and of the races that ended in it).
+struct StepStats {
+  int terminations[kNumCauses] = {};  // per cause, aircraft taken out this step
+  int races_finished = 0;             // races that ended this step
+  int races_won[2] = {};              // by team (blue, red)
+  int races_drawn = 0;
+  int races_by_finish_line = 0;       // ended because an aircraft crossed the finish line
+  int races_by_elimination = 0;       // ended because a whole team was out
+  int races_by_time_limit = 0;
+  int aircraft_alive_at_end = 0;      // over the races that ended this step
+};
+
+class RaceEnv {
+ public:
+  explicit RaceEnv(const RaceConfig& config);
+
+  const RaceConfig& config() const { return config_; }
+  int n_env() const { return config_.n_env; }
+  int n_agent() const { return n_agent_; }
+  int n_aircraft() const { return n_env() * n_agent_; }
+  int task_dim() const { return task_dim_; }
+
+  // Starts every race afresh (new tracks from each env's stream) and writes observations.
+  void reset();
+  // Advances every env by one LL step. actions: [n_env, n_agent, 3] in [-1, 1] (clamped).
+  StepStats step(const float* actions);
+  // Sets HL goals for the envs whose hl_due() flag is up; others are ignored. bins: [n_env,
+  // n_agent, 3] in [0, hl_bins). Rewrites those envs' goal observations.
+  void set_hl_actions(const std::int64_t* bins);
+
+  // --- observation buffers (row-major, float32, allocated once) ---
+  const float* obs_ego() const { return ego_.data(); }            // [n_env, n_agent, kEgoDim]
+  const float* obs_prev_action() const { return prev_action_.data(); }  // [n_env, n_agent, 3]
+  const float* obs_goal() const { return goal_obs_.data(); }      // [n_env, n_agent, kGoalDim]
+  const float* obs_ado() const { return ado_.data(); }            // [n_env, n_agent, n_agent-1, kAdoDim]
+  const std::uint8_t* obs_ado_alive() const { return ado_alive_.data(); }  // [n_env, n_agent, n_agent-1]
+  const float* obs_task() const { return task_.data(); }          // [n_env, n_agent, task_dim]
+
+  // --- per-step outputs ---
+  const float* ll_reward() const { return ll_reward_.data(); }    // [n_env, n_agent]
+  const float* hl_reward() const { return hl_reward_.data(); }    // [n_env, n_agent], this LL step's r_HL
+  // 1 where the aircraft acted this step (was alive before it): the samples a learner keeps.
+  const std::uint8_t* acted() const { return acted_.data(); }     // [n_env, n_agent]
+  const std::uint8_t* terminated() const { return terminated_.data(); }  // [n_env, n_agent]
+  const std::uint8_t* truncated() const { return truncated_.data(); }    // [n_env, n_agent] (time limit)
+  // TerminationCause that took the aircraft out in this step (kCauseNone otherwise); kept when
+  // the race ended and was reset in the same step.
+  const std::int8_t* step_cause() const { return step_cause_.data(); }  // [n_env, n_agent]
+  const std::uint8_t* hl_due() const { return hl_due_.data(); }   // [n_env]: call set_hl_actions
+  const std::uint8_t* env_done() const { return env_done_.data(); }  // [n_env]: race ended (and was reset)
+
+  // --- state for tools, scripted pilots and tests ---
+  const dynamics::F16Batch& sim() const { return sim_; }
+  const Track& track(int env) const { return tracks_[env]; }
+  double race_time_s(int env) const { return time_s_[env]; }
+  bool alive(int i) const { return alive_[i] != 0; }
+  int cause(int i) const { return cause_[i]; }
+  double progress_ft(int i) const { return progress_ft_[i]; }
+  double lateral_ft(int i) const { return lateral_ft_[i]; }
+  double vertical_ft(int i) const { return vertical_ft_[i]; }
+  int ego_rank(int i) const { return ego_rank_[i]; }
+  double team_rank(int i) const { return team_rank_[i]; }
+  const Vec3& goal_point(int i) const { return goal_point_[i]; }
+  // Start offsets in the tube cross-section (used by the scripted pilot to keep its lane).
+  double start_lateral_ft(int i) const { return start_lateral_ft_[i]; }
+  double start_vertical_ft(int i) const { return start_vertical_ft_[i]; }
+  static int team_of(int agent, int team_size) { return agent < team_size ? 0 : 1; }
+
+  // For tools and tests: write access to the simulator, then refresh() recomputes track
+  // geometry, ranks and observations from the current states without stepping.
+  dynamics::F16Batch& mutable_sim() { return sim_; }
+  void refresh();
+
+ private:
+  void reset_env(int env);
+  void update_track_geometry(int env);
+  void compute_ranks(int env);
+  void write_observations(int env);
+  void write_goal_observation(int i);
+  void place_goal(int i, const std::int64_t* bins3);
+
+  RaceConfig config_;
+  int n_agent_;
+  int task_dim_;
+  dynamics::F16Batch sim_;
+  std::vector<dynamics::TrimResult> trims_;  // level trims at start_speed every trim_step_ft
+  double trim_alt0_ft_ = 0.0, trim_step_ft_ = 50.0;
+
+  // Per env.
+  std::vector<Track> tracks_;
+  std::vector<RandomStream> rng_;
+  std::vector<double> time_s_, hl_time_left_s_;
+  std::vector<std::uint8_t> hl_due_, env_done_;
+
+  // Per aircraft [n_env * n_agent].
+  std::vector<std::uint8_t> alive_, acted_, terminated_, truncated_;
+  std::vector<std::int8_t> cause_, step_cause_;
+  std::vector<int> track_hint_, ego_rank_, prev_ego_rank_;
+  std::vector<double> progress_ft_, lateral_ft_, vertical_ft_, dist_ft_, radius_ft_;
+  std::vector<double> tube_out_s_, team_rank_, goal_dist_ft_;
+  std::vector<double> start_lateral_ft_, start_vertical_ft_;
+  std::vector<Vec3> goal_point_;
+  std::vector<float> last_action_;  // [N, 3]
+
+  // Outputs.
+  std::vector<float> ego_, prev_action_, goal_obs_, ado_, task_;
+  std::vector<std::uint8_t> ado_alive_;
+  std::vector<float> ll_reward_, hl_reward_;
+  std::vector<StepStats> step_stats_;  // [n_env], reused every step
+};
+
+}  // namespace f16race::race

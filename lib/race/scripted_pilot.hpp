@@ -1,0 +1,23 @@
+#pragma once
+// A hand-written pilot for the race: keep the lane you started in and fly toward the tube's
+// center-line a few seconds ahead. It proves tracks are flyable, gives `f16race race` something
+// to show without a trained policy, and is a baseline opponent.
+#include "race/race_env.hpp"
+
+namespace f16race::race {
+
+struct ScriptedPilotConfig {
+  double lookahead_ft = 2500.0;    // aim point this far ahead along the center-line
+  double lane_fraction = 0.8;      // keep this fraction of the start offset (lane keeping)
+  double speed_ftps = 700.0;       // speed hold target
+  double k_heading = 5.0;          // bank angle per rad of heading error
+  double max_bank_rad = 1.2;
+  double k_bank = 3.0;             // roll-rate ref per rad of bank error [1/s]
+  double k_climb = 1.5;            // extra g per (rad of flight-path error * vt / g)
+  double k_speed = 0.004;          // throttle per ft/s of speed error
+};
+
+// Writes LL actions [n_env, n_agent, 3] in [-1, 1] for every aircraft of `env`.
+void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& pilot, float* actions);
+
+}  // namespace f16race::race

@@ -1,0 +1,218 @@
+#include "race/track.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "io/csv_table.hpp"
+
+namespace f16race::race {
+namespace {
+
+constexpr double kPi = 3.141592653589793;
+constexpr double kDeg = kPi / 180.0;
+
+double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
+Vec3 normalized(Vec3 a) {
+  const double n = norm(a);
+  return n > 0.0 ? (1.0 / n) * a : Vec3{1.0, 0.0, 0.0};
+}
+Vec3 cross(Vec3 a, Vec3 b) { return {a.e * b.u - a.u * b.e, a.u * b.n - a.n * b.u, a.n * b.e - a.e * b.n}; }
+
+// Centripetal Catmull-Rom (Barry-Goldman form) between p1 and p2: no cusps or self-loops
+// within a segment even for uneven waypoint spacing.
+Vec3 catmull_rom(Vec3 p0, Vec3 p1, Vec3 p2, Vec3 p3, double u) {
+  auto knot = [](double t, Vec3 a, Vec3 b) { return t + std::sqrt(std::max(norm(b - a), 1e-9)); };
+  const double t0 = 0.0, t1 = knot(t0, p0, p1), t2 = knot(t1, p1, p2), t3 = knot(t2, p2, p3);
+  const double t = t1 + u * (t2 - t1);
+  auto lerp = [](Vec3 a, Vec3 b, double ta, double tb, double tt) {
+    return ((tb - tt) / (tb - ta)) * a + ((tt - ta) / (tb - ta)) * b;
+  };
+  const Vec3 a1 = lerp(p0, p1, t0, t1, t), a2 = lerp(p1, p2, t1, t2, t), a3 = lerp(p2, p3, t2, t3, t);
+  const Vec3 b1 = lerp(a1, a2, t0, t2, t), b2 = lerp(a2, a3, t1, t3, t);
+  return lerp(b1, b2, t1, t2, t);
+}
+
+}  // namespace
+
+Track Track::generate(const TrackConfig& c, RandomStream& rng) {
+  std::vector<Waypoint> wps;
+  const double margin = 0.25 * (c.alt_max_ft - c.alt_min_ft);
+  Vec3 p{0.0, 0.0, rng.uniform(c.alt_min_ft + margin, c.alt_max_ft - margin)};
+  const double heading0 = rng.uniform(0.0, 2.0 * kPi);
+  double heading = heading0;
+  double climb = 0.0;  // the first leg is level: the race starts from level trimmed flight
+  wps.push_back({p, rng.uniform(c.radius_min_ft, c.radius_max_ft)});
+  for (int k = 1; k < c.n_waypoints; ++k) {
+    if (k > 1) {
+      heading += rng.uniform(-c.max_turn_deg, c.max_turn_deg) * kDeg;
+      // Reflect at the deviation bound: every leg keeps moving along the first leg's direction,
+      // so the center-line never crosses itself and progress is unambiguous.
+      const double dev = heading - heading0, lim = c.max_heading_dev_deg * kDeg;
+      if (dev > lim) heading = heading0 + 2.0 * lim - dev;
+      if (dev < -lim) heading = heading0 - 2.0 * lim - dev;
+      climb += rng.uniform(-c.max_climb_change_deg, c.max_climb_change_deg) * kDeg;
+      climb = std::clamp(climb, -c.max_climb_deg * kDeg, c.max_climb_deg * kDeg);
+    }
+    const double leg = rng.uniform(c.leg_min_ft, c.leg_max_ft);
+    Vec3 next = p + leg * Vec3{std::cos(climb) * std::cos(heading), std::cos(climb) * std::sin(heading), std::sin(climb)};
+    if (next.u < c.alt_min_ft || next.u > c.alt_max_ft) {  // bounce off the altitude band
+      climb = -climb;
+      next = p + leg * Vec3{std::cos(climb) * std::cos(heading), std::cos(climb) * std::sin(heading), std::sin(climb)};
+      next.u = std::clamp(next.u, c.alt_min_ft, c.alt_max_ft);
+    }
+    p = next;
+    wps.push_back({p, rng.uniform(c.radius_min_ft, c.radius_max_ft)});
+  }
+  return from_waypoints(std::move(wps), c.spacing_ft);
+}
+
+Track Track::from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft) {
+  if (waypoints.size() < 4) throw std::invalid_argument("a track needs at least 4 waypoints, got " + std::to_string(waypoints.size()));
+  if (!(spacing_ft > 0.0)) throw std::invalid_argument("track spacing must be > 0 ft");
+  for (std::size_t k = 0; k < waypoints.size(); ++k) {
+    const Waypoint& w = waypoints[k];
+    if (!std::isfinite(w.p.n) || !std::isfinite(w.p.e) || !std::isfinite(w.p.u) || !(w.radius_ft > 0.0))
+      throw std::invalid_argument("waypoint " + std::to_string(k) + " has a non-finite position or a radius <= 0");
+    if (k > 0 && norm(w.p - waypoints[k - 1].p) < 10.0)
+      throw std::invalid_argument("waypoints " + std::to_string(k - 1) + " and " + std::to_string(k) + " are closer than 10 ft");
+  }
+  Track t;
+  t.waypoints_ = std::move(waypoints);
+  t.build(spacing_ft);
+  return t;
+}
+
+void Track::build(double spacing_ft) {
+  spacing_ft_ = spacing_ft;
+  const std::size_t n = waypoints_.size();
+  std::vector<Vec3> w(n + 2);
+  for (std::size_t k = 0; k < n; ++k) w[k + 1] = waypoints_[k].p;
+  w[0] = 2.0 * w[1] - w[2];  // phantom end points continue the first and last legs
+  w[n + 1] = 2.0 * w[n] - w[n - 1];
+
+  // Dense parameter sampling, cumulative chord length, and the arc length of each waypoint.
+  constexpr int kPerSegment = 400;
+  std::vector<Vec3> dense{w[1]};
+  std::vector<double> dense_s{0.0};
+  std::vector<double> waypoint_s{0.0};
+  for (std::size_t k = 1; k < n; ++k) {
+    for (int i = 1; i <= kPerSegment; ++i) {
+      const Vec3 q = catmull_rom(w[k - 1], w[k], w[k + 1], w[k + 2], static_cast<double>(i) / kPerSegment);
+      dense_s.push_back(dense_s.back() + norm(q - dense.back()));
+      dense.push_back(q);
+    }
+    waypoint_s.push_back(dense_s.back());
+  }
+  // Resample uniformly in arc length; the track ends at the last whole sample, so every query
+  // indexes samples directly (the dropped tail is shorter than one spacing).
+  const int m = static_cast<int>(std::floor(dense_s.back() / spacing_ft)) + 1;
+  length_ft_ = (m - 1) * spacing_ft;
+  points_.resize(m);
+  radii_.resize(m);
+  std::size_t j = 0, wk = 0;
+  for (int i = 0; i < m; ++i) {
+    const double s = i * spacing_ft;
+    while (j + 1 < dense_s.size() - 1 && dense_s[j + 1] < s) ++j;
+    const double seg = dense_s[j + 1] - dense_s[j];
+    const double f = seg > 0.0 ? (s - dense_s[j]) / seg : 0.0;
+    points_[i] = dense[j] + f * (dense[j + 1] - dense[j]);
+    while (wk + 2 < waypoint_s.size() && waypoint_s[wk + 1] < s) ++wk;
+    const double g = std::clamp((s - waypoint_s[wk]) / (waypoint_s[wk + 1] - waypoint_s[wk]), 0.0, 1.0);
+    radii_[i] = waypoints_[wk].radius_ft + g * (waypoints_[wk + 1].radius_ft - waypoints_[wk].radius_ft);
+  }
+  tangents_.resize(m);
+  for (int i = 0; i < m; ++i) {
+    const int a = std::max(i - 1, 0), b = std::min(i + 1, m - 1);
+    tangents_[i] = normalized(points_[b] - points_[a]);
+  }
+}
+
+double Track::radius_at(double s_ft) const {
+  const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
+  const int i = std::min(static_cast<int>(x), n_samples() - 2);
+  const double f = x - i;
+  return radii_[i] + f * (radii_[i + 1] - radii_[i]);
+}
+
+TrackFrame Track::frame_at(double s_ft) const {
+  const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
+  const int i = std::min(static_cast<int>(x), n_samples() - 2);
+  const double f = x - i;
+  TrackFrame fr;
+  fr.center = points_[i] + f * (points_[i + 1] - points_[i]);
+  fr.tangent = normalized(tangents_[i] + f * (tangents_[i + 1] - tangents_[i]));
+  fr.right = normalized(cross(Vec3{0.0, 0.0, 1.0}, fr.tangent));
+  fr.up = cross(fr.tangent, fr.right);
+  fr.radius_ft = radii_[i] + f * (radii_[i + 1] - radii_[i]);
+  return fr;
+}
+
+TrackQuery Track::project(const Vec3& pos, int hint) const {
+  const int m = n_samples();
+  auto d2 = [&](int i) {
+    const Vec3 d = pos - points_[i];
+    return dot(d, d);
+  };
+  int i;
+  if (hint < 0 || hint >= m) {
+    i = 0;  // cold start: global scan (reset, or a user's one-off query)
+    double best = d2(0);
+    for (int k = 1; k < m; ++k) {
+      const double v = d2(k);
+      if (v < best) best = v, i = k;
+    }
+  } else {
+    // Warm start: walk downhill in distance from the previous answer. Tracks never fold back
+    // within a tube radius, so the local minimum is the global one near the aircraft.
+    i = hint;
+    double cur = d2(i);
+    while (i + 1 < m && d2(i + 1) < cur) cur = d2(++i);
+    while (i > 0 && d2(i - 1) < cur) cur = d2(--i);
+  }
+  // Refine on the neighbouring segment on whichever side the aircraft lies.
+  const Vec3 d = pos - points_[i];
+  int a = i, b = i + 1;
+  if (i == m - 1 || (i > 0 && dot(d, tangents_[i]) < 0.0)) a = i - 1, b = i;
+  const Vec3 seg = points_[b] - points_[a];
+  const double f = std::clamp(dot(pos - points_[a], seg) / std::max(dot(seg, seg), 1e-12), 0.0, 1.0);
+  TrackQuery q;
+  q.s_ft = (a + f) * spacing_ft_;
+  q.index = i;
+  const TrackFrame fr = frame_at(q.s_ft);
+  const Vec3 off = pos - fr.center;
+  q.lateral_ft = dot(off, fr.right);
+  q.vertical_ft = dot(off, fr.up);
+  q.dist_ft = std::sqrt(q.lateral_ft * q.lateral_ft + q.vertical_ft * q.vertical_ft);
+  q.radius_ft = fr.radius_ft;
+  return q;
+}
+
+Track Track::load_csv(const std::string& path, double spacing_ft) {
+  const io::CsvTable t = io::CsvTable::read(path);
+  for (const char* c : {"pn_ft", "pe_ft", "alt_ft", "radius_ft"})
+    if (!t.has_column(c)) throw io::CsvError(path + ": missing column '" + c + "' (a track file has pn_ft, pe_ft, alt_ft, radius_ft)");
+  const std::vector<double> n = t.numeric("pn_ft"), e = t.numeric("pe_ft"), u = t.numeric("alt_ft"),
+                            r = t.numeric("radius_ft");
+  std::vector<Waypoint> w;
+  for (std::size_t k = 0; k < n.size(); ++k) w.push_back({{n[k], e[k], u[k]}, r[k]});
+  try {
+    return from_waypoints(std::move(w), spacing_ft);
+  } catch (const std::invalid_argument& ex) {
+    throw io::CsvError(path + ": " + ex.what());
+  }
+}
+
+void Track::save_csv(const std::string& path) const {
+  std::vector<std::vector<double>> cols(4);
+  for (const Waypoint& w : waypoints_) {
+    cols[0].push_back(w.p.n);
+    cols[1].push_back(w.p.e);
+    cols[2].push_back(w.p.u);
+    cols[3].push_back(w.radius_ft);
+  }
+  io::write_csv(path, {"pn_ft", "pe_ft", "alt_ft", "radius_ft"}, cols);
+}
+
+}  // namespace f16race::race

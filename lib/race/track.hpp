@@ -1,0 +1,96 @@
+#pragma once
+// A race track: a smooth 3-D center-line through random waypoints, each with its own tube
+// radius, resampled at a fixed arc-length spacing so queries for many aircraft are O(1) each.
+// Coordinates are AeroBench's: north, east, altitude (up), in feet.
+#include <string>
+#include <vector>
+
+#include "race/random_stream.hpp"
+
+namespace f16race::race {
+
+struct Vec3 {
+  double n = 0.0, e = 0.0, u = 0.0;  // north, east, up [ft]
+};
+inline Vec3 operator+(Vec3 a, Vec3 b) { return {a.n + b.n, a.e + b.e, a.u + b.u}; }
+inline Vec3 operator-(Vec3 a, Vec3 b) { return {a.n - b.n, a.e - b.e, a.u - b.u}; }
+inline Vec3 operator*(double k, Vec3 a) { return {k * a.n, k * a.e, k * a.u}; }
+inline double dot(Vec3 a, Vec3 b) { return a.n * b.n + a.e * b.e + a.u * b.u; }
+
+struct Waypoint {
+  Vec3 p;            // [ft]
+  double radius_ft;  // tube radius around the center-line here
+};
+
+// How random tracks are drawn. Angles in degrees, lengths in feet.
+struct TrackConfig {
+  int n_waypoints = 12;
+  double leg_min_ft = 5000.0;
+  double leg_max_ft = 8000.0;
+  double max_turn_deg = 30.0;          // heading change between consecutive legs
+  double max_heading_dev_deg = 80.0;   // from the first leg: keeps the track from crossing itself
+  double max_climb_deg = 5.0;          // climb/descent angle of a leg
+  double max_climb_change_deg = 4.0;   // change of climb angle between legs
+  double alt_min_ft = 5000.0;          // center-line altitude band
+  double alt_max_ft = 15000.0;
+  double radius_min_ft = 900.0;
+  double radius_max_ft = 1800.0;
+  double spacing_ft = 50.0;            // arc-length resolution of the resampled center-line
+};
+
+// Local tube geometry at arc length s.
+struct TrackFrame {
+  Vec3 center;   // center-line point [ft]
+  Vec3 tangent;  // unit, along the track
+  Vec3 right;    // unit, horizontal, to the right of the tangent
+  Vec3 up;       // unit, tangent x right
+  double radius_ft;
+};
+
+// Where an aircraft is relative to the track.
+struct TrackQuery {
+  double s_ft;         // arc length of the closest center-line point (progress)
+  int index;           // sample index, the warm start for the next query
+  double lateral_ft;   // offset to the right of the center-line
+  double vertical_ft;  // offset above the center-line (in the tube's cross-section)
+  double dist_ft;      // distance from the center-line
+  double radius_ft;    // local tube radius
+};
+
+class Track {
+ public:
+  Track() = default;
+  // Random track from `rng`; deterministic for a given stream state on every machine.
+  static Track generate(const TrackConfig& config, RandomStream& rng);
+  // Center-line through given waypoints (at least 4); throws std::invalid_argument otherwise.
+  static Track from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft = 50.0);
+
+  // CSV with columns pn_ft, pe_ft, alt_ft, radius_ft, one waypoint per row.
+  static Track load_csv(const std::string& path, double spacing_ft = 50.0);
+  void save_csv(const std::string& path) const;
+
+  const std::vector<Waypoint>& waypoints() const { return waypoints_; }
+  double length_ft() const { return length_ft_; }
+  double spacing_ft() const { return spacing_ft_; }
+  int n_samples() const { return static_cast<int>(points_.size()); }
+
+  // Geometry at arc length s (clamped to [0, length]).
+  TrackFrame frame_at(double s_ft) const;
+  Vec3 point_at(double s_ft) const { return frame_at(s_ft).center; }
+  double radius_at(double s_ft) const;
+
+  // Closest center-line point to `pos`, searched from `hint` (a previous answer's index, or
+  // -1 for a global search). A warm-started call walks only a few samples: O(1).
+  TrackQuery project(const Vec3& pos, int hint) const;
+
+ private:
+  void build(double spacing_ft);
+  std::vector<Waypoint> waypoints_;
+  std::vector<Vec3> points_;     // [n_samples] center-line every spacing_ft of arc length
+  std::vector<Vec3> tangents_;   // [n_samples] unit tangents
+  std::vector<double> radii_;    // [n_samples]
+  double spacing_ft_ = 50.0;
+  double length_ft_ = 0.0;
+};
+
+}  // namespace f16race::race

@@ -1,0 +1,93 @@
+// Config validation: every bad input is one line naming the file, the key path and the fix.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "io/yaml_config.hpp"
+
+namespace f16race::io {
+namespace {
+
+struct Cfg {
+  double dt = 0.08;
+  int n = 64;
+  bool flag = false;
+  std::string mode = "grace";
+  std::vector<int> hidden{64, 64};
+  int inner = 3;
+};
+
+Cfg read(const std::string& text) {
+  Cfg c;
+  ConfigReader r(YAML::Load(text), "cfg.yaml");
+  r.read("dt", &c.dt, 0.001, 1.0);
+  r.read("n", &c.n, 1, 1024);
+  r.read("flag", &c.flag);
+  r.read("mode", &c.mode, {"grace", "terminate"});
+  r.read("hidden", &c.hidden, 1, 4096);
+  ConfigReader sub = r.child("sub");
+  sub.read("inner", &c.inner, 0, 10);
+  sub.finish();
+  r.finish();
+  return c;
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    read(text);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(YamlConfig, MissingKeysKeepDefaultsAndPresentOnesAreRead) {
+  const Cfg c = read("n: 8\nsub: {inner: 5}\nhidden: [32, 16]\n");
+  EXPECT_EQ(c.n, 8);
+  EXPECT_EQ(c.inner, 5);
+  EXPECT_EQ(c.dt, 0.08);
+  EXPECT_EQ(c.hidden, (std::vector<int>{32, 16}));
+}
+
+TEST(YamlConfig, UnknownKeyNamesItsPath) {
+  const std::string e = error_of("sub: {inner: 1, innr: 2}\n");
+  EXPECT_NE(e.find("cfg.yaml: unknown key 'sub.innr'"), std::string::npos) << e;
+  EXPECT_NE(e.find("inner"), std::string::npos) << e;  // lists what is known
+}
+
+TEST(YamlConfig, WrongTypeAndOutOfRangeNameKeyValueAndRange) {
+  std::string e = error_of("n: lots\n");
+  EXPECT_NE(e.find("cfg.yaml: n: expected an integer, got 'lots'"), std::string::npos) << e;
+  e = error_of("n: 5000\n");
+  EXPECT_NE(e.find("n: value 5000 is out of range; allowed [1, 1024]"), std::string::npos) << e;
+  e = error_of("dt: [1]\n");
+  EXPECT_NE(e.find("dt: expected a number, got a list"), std::string::npos) << e;
+  e = error_of("mode: sometimes\n");
+  EXPECT_NE(e.find("'sometimes' is not one of: grace, terminate"), std::string::npos) << e;
+  e = error_of("flag: maybe\n");
+  EXPECT_NE(e.find("flag: expected true or false"), std::string::npos) << e;
+  e = error_of("sub: 3\n");
+  EXPECT_NE(e.find("'sub' must be a mapping"), std::string::npos) << e;
+}
+
+TEST(YamlConfig, OverridesSetNestedKeysAndTheirErrorsAreCaught) {
+  YAML::Node root = YAML::Load("n: 8\nsub: {inner: 1}\n");
+  apply_override(root, "sub.inner=7");
+  apply_override(root, "n=16");
+  EXPECT_EQ(root["sub"]["inner"].as<int>(), 7);
+  EXPECT_EQ(root["n"].as<int>(), 16);
+  EXPECT_THROW(apply_override(root, "novalue"), ConfigError);
+  EXPECT_THROW(apply_override(root, "n.deeper=1"), ConfigError);  // n is a value, not a section
+}
+
+TEST(YamlConfig, MissingFileAndSyntaxErrorsAreOneLine) {
+  try {
+    load_yaml_file("/nonexistent/x.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/x.yaml: cannot open"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace f16race::io

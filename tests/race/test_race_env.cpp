@@ -1,0 +1,291 @@
+// The race environment: action mapping, each termination cause, observation layout and
+// permutation invariance, determinism across thread counts, a long random soak, and proof that
+// tracks are flyable by the scripted pilot.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include "dynamics/inner_loop.hpp"
+#include "race/race_env.hpp"
+#include "race/random_stream.hpp"
+#include "race/scripted_pilot.hpp"
+
+namespace f16race::race {
+namespace {
+
+using dynamics::kAlt;
+using dynamics::kNumStates;
+
+RaceConfig small_config(int n_env = 4, int team_size = 2) {
+  RaceConfig c;
+  c.n_env = n_env;
+  c.team_size = team_size;
+  c.seed = 42;
+  return c;
+}
+
+// Runs until `pred` holds or `max_steps` pass, with the same action for every aircraft.
+template <typename Pred>
+int run_until(RaceEnv& env, std::vector<float> action, int max_steps, Pred pred) {
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  for (int i = 0; i < env.n_aircraft(); ++i)
+    for (int k = 0; k < kActionDim; ++k) a[i * kActionDim + k] = action[k];
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, 3);
+  for (int s = 0; s < max_steps; ++s) {
+    env.set_hl_actions(bins.data());
+    const StepStats st = env.step(a.data());
+    if (pred(st)) return s;
+  }
+  return -1;
+}
+
+TEST(RaceEnv, ActionsMapOntoAeroBenchReferenceRanges) {
+  RaceConfig c = small_config(1, 1);
+  RaceEnv env(c);
+  const float a[6] = {1.0f, -1.0f, 0.5f, -1.0f, 1.0f, -2.0f};  // the last value is clamped
+  env.step(a);
+  const auto& sim = env.sim();
+  EXPECT_NEAR(sim.ref(dynamics::kThrottleDelta)[0], 1.0 - dynamics::lqr::kThrottleEquil, 1e-12);
+  EXPECT_NEAR(sim.ref(dynamics::kNzRef)[0], c.nz_ref_min_g, 1e-12);
+  EXPECT_NEAR(sim.ref(dynamics::kPsRef)[0], 0.5 * c.ps_ref_max_radps, 1e-6);
+  EXPECT_NEAR(sim.ref(dynamics::kThrottleDelta)[1], -dynamics::lqr::kThrottleEquil, 1e-12);
+  EXPECT_NEAR(sim.ref(dynamics::kNzRef)[1], c.nz_ref_max_g, 1e-12);
+  EXPECT_NEAR(sim.ref(dynamics::kPsRef)[1], -c.ps_ref_max_radps, 1e-6);
+  EXPECT_EQ(sim.ref(dynamics::kNyRRef)[1], 0.0);
+}
+
+TEST(RaceEnv, StartIsTrimmedLevelFlightAtOneForwardDisplacement) {
+  RaceConfig c = small_config(3, 4);
+  RaceEnv env(c);
+  for (int i = 0; i < env.n_aircraft(); ++i) {
+    EXPECT_NEAR(env.progress_ft(i), c.start_s_ft, 60.0);
+    EXPECT_LE(env.lateral_ft(i) * env.lateral_ft(i) + env.vertical_ft(i) * env.vertical_ft(i),
+              std::pow(c.start_offset_frac * c.track.radius_max_ft + 30.0, 2));
+    EXPECT_NEAR(env.sim().state(dynamics::kVt)[i], c.start_speed_ftps, 1e-9);
+  }
+  // Trimmed: a step with the trim's own commands keeps the speed within a fraction of a ft/s.
+  std::vector<float> hold(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  for (int i = 0; i < env.n_aircraft(); ++i) {
+    hold[i * 3 + 0] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kThrottleDelta)[i] + dynamics::lqr::kThrottleEquil) - 1.0);
+    hold[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
+    hold[i * 3 + 2] = 0.0f;
+  }
+  env.step(hold.data());
+  for (int i = 0; i < env.n_aircraft(); ++i) EXPECT_NEAR(env.sim().state(dynamics::kVt)[i], c.start_speed_ftps, 0.05);
+}
+
+TEST(RaceEnv, CollisionTakesBothAircraftOut) {
+  RaceConfig c = small_config(2, 2);
+  c.collision_radius_ft = 3000.0;  // everybody is within 3000 ft at the start
+  RaceEnv env(c);
+  StepStats first;
+  run_until(env, {0.0f, -0.7f, 0.0f}, 1, [&](const StepStats& st) { first = st; return true; });
+  EXPECT_EQ(first.terminations[kCauseCollision], env.n_aircraft());
+  EXPECT_EQ(first.races_finished, 2);              // a whole team is out: the race ends
+  EXPECT_EQ(first.races_by_elimination, 2);
+  for (int i = 0; i < env.n_aircraft(); ++i) EXPECT_TRUE(env.alive(i));  // ...and was reset
+}
+
+TEST(RaceEnv, EachTerminationCauseIsDetectedAndCounted) {
+  struct Case {
+    const char* name;
+    int cause;
+    void (*tweak)(RaceConfig&);
+    std::vector<float> action;
+  };
+  const std::vector<Case> cases = {
+      {"load", kCauseLoad, [](RaceConfig& c) { c.nz_max_g = 2.0; }, {0.5f, 1.0f, 0.0f}},
+      {"turn_rate", kCauseTurnRate, [](RaceConfig& c) { c.turn_rate_max_dps = 3.0; }, {0.5f, 0.2f, 0.3f}},
+      {"tube", kCauseTube, [](RaceConfig& c) { c.tube_exit = TubeExit::kTerminate; }, {0.5f, -0.4f, 0.0f}},
+      {"altitude", kCauseAltitude,
+       [](RaceConfig& c) {
+         c.alt_min_ft = c.track.alt_min_ft - c.track.radius_max_ft - 1.0;
+         c.tube_grace_s = 1000.0;
+         c.nz_min_g = -20.0;
+       },
+       {1.0f, -1.0f, 0.0f}},
+      {"simulator", kCauseSimulator,
+       [](RaceConfig& c) {
+         c.start_speed_ftps = 400.0;
+         c.nz_max_g = 20.0;
+         c.tube_grace_s = 1000.0;
+         c.turn_rate_max_dps = 360.0;
+       },
+       {-1.0f, 1.0f, 0.0f}},
+  };
+  for (const Case& k : cases) {
+    RaceConfig c = small_config(2, 2);
+    k.tweak(c);
+    RaceEnv env(c);
+    int seen = 0, others = 0;
+    const int step = run_until(env, k.action, 2000, [&](const StepStats& st) {
+      seen += st.terminations[k.cause];
+      for (int q = 1; q < kNumCauses; ++q) others += q == k.cause ? 0 : st.terminations[q];
+      return seen > 0;
+    });
+    EXPECT_GE(step, 0) << k.name << " never happened";
+    EXPECT_GT(seen, 0) << k.name;
+    EXPECT_EQ(others, 0) << k.name << ": another cause fired first";
+  }
+}
+
+TEST(RaceEnv, GraceTimeDelaysTheTubeTermination) {
+  RaceConfig c = small_config(1, 1);
+  c.tube_exit = TubeExit::kGrace;
+  c.tube_grace_s = 2.0;
+  RaceEnv env(c);
+  int first_outside[2] = {-1, -1}, out_step = -1, out_aircraft = -1;
+  std::vector<float> a = {0.5f, -0.4f, 0.0f, 0.5f, -0.3f, 0.0f};
+  std::vector<std::int64_t> bins(6, 3);
+  for (int s = 0; s < 2000 && out_step < 0; ++s) {
+    env.set_hl_actions(bins.data());
+    env.step(a.data());
+    for (int i = 0; i < 2; ++i) {
+      const bool outside = std::hypot(env.lateral_ft(i), env.vertical_ft(i)) > env.track(0).radius_at(env.progress_ft(i));
+      if (env.step_cause()[i] == kCauseTube && out_aircraft < 0) {
+        out_step = s;
+        out_aircraft = i;
+      } else if (outside && first_outside[i] < 0 && !env.env_done()[0]) {
+        first_outside[i] = s;
+      }
+    }
+  }
+  ASSERT_GE(out_aircraft, 0);
+  ASSERT_GE(first_outside[out_aircraft], 0);
+  // Terminated on the first step whose accumulated time outside exceeds the grace time.
+  EXPECT_NEAR((out_step - first_outside[out_aircraft]) * c.dt_ll_s, c.tube_grace_s, 1.01 * c.dt_ll_s);
+}
+
+TEST(RaceEnv, ObservationBuffersHaveTheDocumentedShapes) {
+  RaceConfig c = small_config(3, 4);
+  RaceEnv env(c);
+  EXPECT_EQ(env.task_dim(), 5 * c.preview_points + 8);
+  const int n = env.n_aircraft();
+  // Spot checks of scaled entries: vt / 1000, sin^2 + cos^2 = 1 for every angle pair.
+  for (int i = 0; i < n; ++i) {
+    const float* e = env.obs_ego() + static_cast<std::size_t>(i) * kEgoDim;
+    EXPECT_NEAR(e[0], env.sim().state(dynamics::kVt)[i] / 1000.0, 1e-6);
+    for (int k = 1; k < 11; k += 2) EXPECT_NEAR(e[k] * e[k] + e[k + 1] * e[k + 1], 1.0, 1e-6);
+    for (int j = 0; j < env.n_agent() - 1; ++j) EXPECT_EQ(env.obs_ado_alive()[i * (env.n_agent() - 1) + j], 1);
+    const float* g = env.obs_goal() + static_cast<std::size_t>(i) * kGoalDim;
+    EXPECT_GT(g[0], 0.5f);                        // the goal is ~goal_ahead_ft ahead
+    EXPECT_LT(std::fabs(g[1]), 0.25f);            // and roughly in front
+  }
+}
+
+TEST(RaceEnv, PermutingOtherAircraftPermutesAdoRowsOnly) {
+  RaceConfig c = small_config(1, 2);
+  RaceEnv env(c);
+  run_until(env, {0.2f, -0.6f, 0.1f}, 30, [](const StepStats&) { return false; });
+  const int n_other = env.n_agent() - 1;
+  auto snapshot = [&](int i, std::vector<float>* ego, std::vector<float>* ado, std::vector<float>* task) {
+    ego->assign(env.obs_ego() + i * kEgoDim, env.obs_ego() + (i + 1) * kEgoDim);
+    ado->assign(env.obs_ado() + i * n_other * kAdoDim, env.obs_ado() + (i + 1) * n_other * kAdoDim);
+    task->assign(env.obs_task() + i * env.task_dim(), env.obs_task() + (i + 1) * env.task_dim() - 2);  // minus ranks
+  };
+  std::vector<float> ego0, ado0, task0, ego1, ado1, task1;
+  snapshot(0, &ego0, &ado0, &task0);
+  // Swap the full states of aircraft 1 and 2 (blue 1 and red 2, as seen by blue 0).
+  auto& sim = env.mutable_sim();
+  for (int s = 0; s < kNumStates; ++s) std::swap(sim.state(s)[1], sim.state(s)[2]);
+  env.refresh();
+  snapshot(0, &ego1, &ado1, &task1);
+  EXPECT_EQ(ego0, ego1);
+  EXPECT_EQ(task0, task1);
+  // Rows 0 and 1 of aircraft 0's o_ado (others 1 and 2) trade places, except the team flag,
+  // which belongs to the slot (agent 1 is blue, agent 2 red).
+  for (int k = 0; k < kAdoDim; ++k) {
+    if (k == 8) continue;
+    EXPECT_EQ(ado0[0 * kAdoDim + k], ado1[1 * kAdoDim + k]) << k;
+    EXPECT_EQ(ado0[1 * kAdoDim + k], ado1[0 * kAdoDim + k]) << k;
+    EXPECT_EQ(ado0[2 * kAdoDim + k], ado1[2 * kAdoDim + k]) << k;
+  }
+}
+
+std::vector<float> random_run(int threads, int steps) {
+  omp_set_num_threads(threads);
+  RaceConfig c = small_config(6, 4);
+  RaceEnv env(c);
+  RandomStream rng(5, 0);
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims);
+  std::vector<float> trace;
+  for (int s = 0; s < steps; ++s) {
+    for (auto& b : bins) b = rng.below(7);
+    for (auto& x : a) x = static_cast<float>(rng.uniform(-1.0, 1.0));
+    env.set_hl_actions(bins.data());
+    env.step(a.data());
+    trace.insert(trace.end(), env.obs_ego(), env.obs_ego() + env.n_aircraft() * kEgoDim);
+    trace.insert(trace.end(), env.obs_task(), env.obs_task() + env.n_aircraft() * env.task_dim());
+    trace.insert(trace.end(), env.ll_reward(), env.ll_reward() + env.n_aircraft());
+  }
+  omp_set_num_threads(omp_get_num_procs());
+  return trace;
+}
+
+TEST(RaceEnv, SameSeedSameBytesAtOneAndTwoThreads) {
+  const std::vector<float> one = random_run(1, 300), two = random_run(2, 300);
+  ASSERT_EQ(one.size(), two.size());
+  EXPECT_EQ(0, std::memcmp(one.data(), two.data(), one.size() * sizeof(float)));
+}
+
+TEST(RaceEnv, LongRandomSoakKeepsEveryBufferFinite) {
+  RaceConfig c = small_config(64, 4);
+  RaceEnv env(c);
+  RandomStream rng(9, 1);
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims);
+  const int n = env.n_aircraft(), no = n * (env.n_agent() - 1);
+  long races = 0, bad = 0;
+  for (int s = 0; s < 2500; ++s) {
+    for (auto& b : bins) b = rng.below(7);
+    for (auto& x : a) x = static_cast<float>(rng.uniform(-1.0, 1.0));
+    env.set_hl_actions(bins.data());
+    races += env.step(a.data()).races_finished;
+    auto check = [&](const float* p, long count) {
+      for (long k = 0; k < count; ++k) bad += !std::isfinite(p[k]);
+    };
+    check(env.obs_ego(), static_cast<long>(n) * kEgoDim);
+    check(env.obs_goal(), static_cast<long>(n) * kGoalDim);
+    check(env.obs_prev_action(), static_cast<long>(n) * kActionDim);
+    check(env.obs_ado(), static_cast<long>(no) * kAdoDim);
+    check(env.obs_task(), static_cast<long>(n) * env.task_dim());
+    check(env.ll_reward(), n);
+    check(env.hl_reward(), n);
+  }
+  EXPECT_EQ(bad, 0);
+  EXPECT_GT(races, 64);  // random flying ends races quickly: many resets were exercised
+}
+
+TEST(RaceEnv, ScriptedPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
+  RaceConfig c = small_config(8, 4);
+  RaceEnv env(c);
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, 3);
+  std::vector<int> done(c.n_env, 0);
+  int finished = 0, by_finish_line = 0, alive_at_end = 0;
+  for (int s = 0; s < 5000 && finished < c.n_env; ++s) {
+    env.set_hl_actions(bins.data());
+    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    const StepStats st = env.step(a.data());
+    for (int e = 0; e < c.n_env; ++e) {
+      if (!env.env_done()[e] || done[e]) continue;
+      done[e] = 1;
+      ++finished;
+      for (int k = 0; k < env.n_agent(); ++k) {
+        const int i = e * env.n_agent() + k;
+        alive_at_end += env.acted()[i] && env.step_cause()[i] == kCauseNone;
+      }
+    }
+    by_finish_line += st.races_by_finish_line;
+  }
+  EXPECT_EQ(finished, c.n_env);
+  EXPECT_GE(by_finish_line, c.n_env - 1);            // races end at the finish line
+  EXPECT_GE(alive_at_end, 7 * c.n_env * 8 / 8);      // at least 7 of 8 aircraft per race on average
+}
+
+}  // namespace
+}  // namespace f16race::race
