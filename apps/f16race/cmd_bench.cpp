@@ -13,6 +13,8 @@
 #include "commands.hpp"
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
+#include "race/race_env.hpp"
+#include "race/scripted_pilot.hpp"
 
 namespace f16race::app {
 namespace {
@@ -103,6 +105,80 @@ void run_bench_sim(const SimBenchOptions& o) {
   }
 }
 
+struct EnvBenchOptions {
+  int envs = 1024;
+  int team_size = 4;
+  int steps = 50;
+  int repeats = 5;
+  bool json = false;
+  std::vector<int> threads;
+};
+
+// Env LL steps per second with observations, against the bare simulator doing the same RK4
+// substeps for the same aircraft count. The scripted pilot flies (its cost is not timed), so
+// races run their normal course with terminations and resets.
+void run_bench_env(const EnvBenchOptions& o) {
+  std::vector<int> threads = o.threads;
+  if (threads.empty()) {
+    threads.push_back(1);
+    if (omp_get_num_procs() > 1) threads.push_back(omp_get_num_procs());
+  }
+  race::RaceConfig cfg;
+  cfg.n_env = o.envs;
+  cfg.team_size = o.team_size;
+  if (!o.json) {
+    std::printf("f16race bench env: %d envs x %d aircraft, %d RK4 substeps per LL step, %d LL steps per run, median of %d\n",
+                o.envs, 2 * o.team_size, cfg.substeps, o.steps, o.repeats);
+    std::printf("machine: %s, %d cores\n", cpu_model().c_str(), omp_get_num_procs());
+    std::printf("%8s %16s %20s %22s %10s\n", "threads", "env_steps/s", "aircraft_steps/s", "sim_only_aircraft/s", "overhead");
+  }
+  for (int t : threads) {
+    omp_set_num_threads(t);
+    race::RaceEnv env(cfg);
+    const int n = env.n_aircraft();
+    std::vector<float> actions(static_cast<std::size_t>(n) * race::kActionDim);
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * race::kHlDims, cfg.hl_bins / 2);
+    std::vector<double> env_rates, sim_rates;
+    F16BatchConfig bc;
+    bc.n_env = cfg.n_env;
+    bc.n_agent = env.n_agent();
+    bc.model = cfg.model;
+    F16Batch bare(bc);
+    TrimRequest treq;
+    treq.model = cfg.model;
+    treq.vt_ftps = cfg.start_speed_ftps;
+    treq.alt_ft = 10000.0;
+    const TrimResult trim = trim_level_flight(treq);
+    for (int rep = 0; rep < o.repeats + 1; ++rep) {
+      double env_s = 0.0;
+      for (int k = 0; k < o.steps; ++k) {
+        env.set_hl_actions(bins.data());
+        race::scripted_actions(env, race::ScriptedPilotConfig{}, actions.data());
+        const auto t0 = std::chrono::steady_clock::now();
+        env.step(actions.data());
+        env_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      }
+      for (int i = 0; i < n; ++i) bare.reset_aircraft(i, trim.x0, trim.u_ref);
+      const auto t1 = std::chrono::steady_clock::now();
+      for (int k = 0; k < o.steps; ++k) bare.step(cfg.dt_ll_s / cfg.substeps, cfg.substeps);
+      const double sim_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+      if (rep == 0) continue;  // warm-up
+      env_rates.push_back(o.steps / env_s);
+      sim_rates.push_back(o.steps / sim_s);
+    }
+    const double env_steps = median(env_rates), sim_steps = median(sim_rates);
+    const double overhead = sim_steps / env_steps - 1.0;
+    if (o.json) {
+      std::printf("{\"bench\": \"env\", \"envs\": %d, \"aircraft\": %d, \"threads\": %d, \"env_steps_per_s\": %.6g, "
+                  "\"aircraft_steps_per_s\": %.6g, \"sim_only_aircraft_steps_per_s\": %.6g}\n",
+                  o.envs, n, t, env_steps, env_steps * n, sim_steps * n);
+    } else {
+      std::printf("%8d %16.1f %20.4g %22.4g %9.1f%%\n", t, env_steps, env_steps * n, sim_steps * n, 100.0 * overhead);
+    }
+    std::fflush(stdout);
+  }
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app) {
@@ -117,6 +193,16 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   cmd->add_flag("--json", sim->json, "One JSON object per measured case, one per line");
   cmd->callback([sim]() { run_bench_sim(*sim); });
+
+  auto envo = std::make_shared<EnvBenchOptions>();
+  CLI::App* ecmd = bench->add_subcommand("env", "Race env: LL steps per second with observations, vs the bare simulator");
+  ecmd->add_option("--envs", envo->envs, "Parallel races")->check(CLI::Range(1, 1000000));
+  ecmd->add_option("--team-size", envo->team_size, "Aircraft per team")->check(CLI::Range(1, 8));
+  ecmd->add_option("--steps", envo->steps, "LL steps per timed run")->check(CLI::Range(1, 100000));
+  ecmd->add_option("--repeats", envo->repeats, "Timed runs (median reported)")->check(CLI::Range(1, 1000));
+  ecmd->add_option("--threads", envo->threads, "Thread counts to measure (default: 1 and all cores)")->check(CLI::PositiveNumber);
+  ecmd->add_flag("--json", envo->json, "One JSON object per measured case, one per line");
+  ecmd->callback([envo]() { run_bench_env(*envo); });
 }
 
 }  // namespace f16race::app

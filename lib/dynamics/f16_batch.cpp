@@ -57,7 +57,7 @@ T* aligned_array(std::size_t count) {
 // What the kernels read and write: one base pointer and a row stride, so every access is an
 // affine index the vectoriser can see through (an array of row pointers defeats it).
 struct BatchView {
-  double* data;          // rows [16 states | 4 refs | 7 outputs] x [stride]
+  double* data;          // rows [16 states | 4 refs | kNumOutputs outputs] x [stride]
   int stride;            // padded aircraft count (int: keeps index arithmetic affine for GCC)
   std::int32_t* status;  // [stride]
 };
@@ -127,26 +127,34 @@ void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimi
   }
 }
 
+// Outputs of one aircraft; like step_lane, the locals live in an inlined function rather than
+// in the SIMD loop body, where GCC would turn them into per-lane memory arrays.
+template <AeroModel MODEL>
+F16_INLINE void outputs_lane(double* __restrict data, int stride, int i) {
+  double x[kNumStates];
+#pragma GCC unroll 16
+  for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
+  double u[kNumRefs];
+#pragma GCC unroll 4
+  for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
+  const ClosedLoopOutputs o = closed_loop_derivative<MODEL>(x, u);
+  double* out = data + (kNumStates + kNumRefs) * stride + i;
+  out[kOutNz * stride] = o.nz_g;
+  out[kOutPs * stride] = o.ps_radps;
+  out[kOutNyR * stride] = o.ny_r;
+  out[kOutThrottle * stride] = o.surfaces.throttle;
+  out[kOutElevator * stride] = o.surfaces.elevator_deg;
+  out[kOutAileron * stride] = o.surfaces.aileron_deg;
+  out[kOutRudder * stride] = o.surfaces.rudder_deg;
+  out[kOutVn * stride] = o.xdot[kPn];
+  out[kOutVe * stride] = o.xdot[kPe];
+  out[kOutVu * stride] = o.xdot[kAlt];
+}
+
 template <AeroModel MODEL>
 __attribute__((noinline)) void outputs_block(double* __restrict data, int stride, int i0) {
 #pragma omp simd
-  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) {
-    double x[kNumStates];
-#pragma GCC unroll 16
-    for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
-    double u[kNumRefs];
-#pragma GCC unroll 4
-    for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
-    const ClosedLoopOutputs o = closed_loop_derivative<MODEL>(x, u);
-    double* out = data + (kNumStates + kNumRefs) * stride + i;
-    out[kOutNz * stride] = o.nz_g;
-    out[kOutPs * stride] = o.ps_radps;
-    out[kOutNyR * stride] = o.ny_r;
-    out[kOutThrottle * stride] = o.surfaces.throttle;
-    out[kOutElevator * stride] = o.surfaces.elevator_deg;
-    out[kOutAileron * stride] = o.surfaces.aileron_deg;
-    out[kOutRudder * stride] = o.surfaces.rudder_deg;
-  }
+  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) outputs_lane<MODEL>(data, stride, i);
 }
 
 template <AeroModel MODEL>

@@ -26,7 +26,10 @@ enum OutputIndex : int {
   kOutElevator = 4,   // [deg]
   kOutAileron = 5,    // [deg]
   kOutRudder = 6,     // [deg]
-  kNumOutputs = 7
+  kOutVn = 7,         // north velocity [ft/s]
+  kOutVe = 8,         // east velocity [ft/s]
+  kOutVu = 9,         // climb rate [ft/s]
+  kNumOutputs = 10
 };
 
 struct F16BatchConfig {
@@ -86,7 +89,7 @@ class F16Batch {
   struct FreeDeleter {
     void operator()(void* p) const;
   };
-  std::unique_ptr<double[], FreeDeleter> data_;          // [16 + 4 + 7][padded]
+  std::unique_ptr<double[], FreeDeleter> data_;          // [16 + 4 + kNumOutputs][padded]
   std::unique_ptr<std::int32_t[], FreeDeleter> status_;  // [padded]
 };
 

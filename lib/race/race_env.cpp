@@ -6,6 +6,7 @@
 #include <string>
 
 #include "dynamics/inner_loop.hpp"
+#include "dynamics/vector_math.hpp"
 #include "io/yaml_config.hpp"
 #include "race/ranking.hpp"
 
@@ -20,17 +21,18 @@ constexpr double kG = 32.17;
 
 float clampf(double v, double lo, double hi) { return static_cast<float>(std::min(std::max(v, lo), hi)); }
 
-// North-east-up velocity from the body velocities (AeroBench's navigation equations).
-Vec3 velocity_neu(const F16Batch& sim, int i) {
-  const double vt = sim.state(kVt)[i], a = sim.state(kAlpha)[i], b = sim.state(kBeta)[i];
-  const double ph = sim.state(kPhi)[i], th = sim.state(kTheta)[i], ps = sim.state(kPsi)[i];
-  const double u = vt * std::cos(a) * std::cos(b), v = vt * std::sin(b), w = vt * std::sin(a) * std::cos(b);
-  const double sph = std::sin(ph), cph = std::cos(ph), sth = std::sin(th), cth = std::cos(th);
-  const double sps = std::sin(ps), cps = std::cos(ps);
-  const double t1 = sph * cps, t2 = cph * sth, t3 = sph * sps;
-  return {u * cth * cps + v * (t1 * sth - cph * sps) + w * (t2 * cps + t3),
-          u * cth * sps + v * (t3 * sth + cph * cps) + w * (t2 * sps - t1),
-          u * sth - v * sph * cth - w * cph * cth};
+// atan2 to ~1e-5 rad (a minimax polynomial on [0, 1] plus octant logic): observations do not
+// need libm's last bits, and it is several times cheaper than the library call.
+float fast_atan2(float y, float x) {
+  const float ax = std::fabs(x), ay = std::fabs(y);
+  const float mx = std::max(ax, ay), mn = std::min(ax, ay);
+  const float a = mx > 0.0f ? mn / mx : 0.0f;
+  const float s = a * a;
+  float r = ((((-0.0117212f * s + 0.05265332f) * s - 0.11643287f) * s + 0.19354346f) * s - 0.33262347f) * s + 0.99997726f;
+  r *= a;
+  if (ay > ax) r = 1.57079637f - r;
+  if (x < 0.0f) r = 3.14159274f - r;
+  return y < 0.0f ? -r : r;
 }
 
 Vec3 position(const F16Batch& sim, int i) { return {sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]}; }
@@ -44,16 +46,6 @@ struct EgoFrame {
     *z = d.u;
   }
 };
-
-// Range and direction as (range/scale, sin az, cos az, sin el): spherical without atan2/asin.
-void spherical4(double x, double y, double z, double scale, float* out) {
-  const double rh = std::sqrt(x * x + y * y);
-  const double r = std::sqrt(rh * rh + z * z);
-  out[0] = clampf(r / scale, 0.0, 10.0);
-  out[1] = rh > 1e-6 ? static_cast<float>(y / rh) : 0.0f;
-  out[2] = rh > 1e-6 ? static_cast<float>(x / rh) : 1.0f;
-  out[3] = r > 1e-6 ? static_cast<float>(z / r) : 0.0f;
-}
 
 }  // namespace
 
@@ -314,8 +306,10 @@ StepStats RaceEnv::step(const float* actions) {
     for (int a = 0; a < n_agent_; ++a) {
       const int i = base + a;
       if (!alive_[i]) continue;
-      const double phi = sim_.state(kPhi)[i], th = sim_.state(kTheta)[i];
-      const double psi_dot = (sim_.state(kQ)[i] * std::sin(phi) + sim_.state(kR)[i] * std::cos(phi)) / std::cos(th);
+      double sphi, cphi, sth, cth;
+      vmath::sincos(sim_.state(kPhi)[i], &sphi, &cphi);
+      vmath::sincos(sim_.state(kTheta)[i], &sth, &cth);
+      const double psi_dot = (sim_.state(kQ)[i] * sphi + sim_.state(kR)[i] * cphi) / cth;
       const double nz = sim_.output(kOutNz)[i];
       const double alt = sim_.state(kAlt)[i];
       const bool outside = dist_ft_[i] > radius_ft_[i];
@@ -428,38 +422,59 @@ StepStats RaceEnv::step(const float* actions) {
 }
 
 void RaceEnv::write_goal_observation(int i) {
-  const double psi = sim_.state(kPsi)[i];
-  const EgoFrame f{std::cos(psi), std::sin(psi)};
+  double sin_psi, cos_psi;
+  vmath::sincos(sim_.state(kPsi)[i], &sin_psi, &cos_psi);
+  const EgoFrame f{cos_psi, sin_psi};
   double x, y, z;
   f.apply(goal_point_[i] - position(sim_, i), &x, &y, &z);
   const double rh = std::sqrt(x * x + y * y);
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
   g[0] = clampf(std::sqrt(rh * rh + z * z) / config_.goal_ahead_ft, 0.0, 10.0);
-  g[1] = static_cast<float>(std::atan2(y, x) / kPi);
-  g[2] = static_cast<float>(std::atan2(z, rh) / (0.5 * kPi));
+  g[1] = fast_atan2(static_cast<float>(y), static_cast<float>(x)) * static_cast<float>(1.0 / kPi);
+  g[2] = fast_atan2(static_cast<float>(z), static_cast<float>(rh)) * static_cast<float>(2.0 / kPi);
 }
 
 void RaceEnv::write_observations(int env) {
+  // Float arithmetic throughout: the buffers are float, and float sqrt/div are twice as fast.
   const RaceConfig& c = config_;
   const int base = env * n_agent_;
   const Track& tr = tracks_[env];
-  Vec3 vel[16], pos[16];
-  for (int a = 0; a < n_agent_; ++a) {
-    vel[a] = velocity_neu(sim_, base + a);
-    pos[a] = position(sim_, base + a);
-  }
-  for (int a = 0; a < n_agent_; ++a) {
+  const int na = n_agent_;
+  float pos[16][3], vel[16][3], cpsi[16], spsi[16];
+  for (int a = 0; a < na; ++a) {
     const int i = base + a;
-    const double psi = sim_.state(kPsi)[i];
-    const EgoFrame f{std::cos(psi), std::sin(psi)};
-
+    // Positions relative to the first aircraft keep float precision on long tracks.
+    pos[a][0] = static_cast<float>(sim_.state(kPn)[i] - sim_.state(kPn)[base]);
+    pos[a][1] = static_cast<float>(sim_.state(kPe)[i] - sim_.state(kPe)[base]);
+    pos[a][2] = static_cast<float>(sim_.state(kAlt)[i] - sim_.state(kAlt)[base]);
+    vel[a][0] = static_cast<float>(sim_.output(kOutVn)[i]);
+    vel[a][1] = static_cast<float>(sim_.output(kOutVe)[i]);
+    vel[a][2] = static_cast<float>(sim_.output(kOutVu)[i]);
+  }
+  // Pairwise distances are symmetric: one sqrt pair per pair, not per row.
+  float inv_r[16][16], inv_rh[16][16], range[16][16];
+  for (int a = 0; a < na; ++a) {
+    for (int b = a + 1; b < na; ++b) {
+      const float dn = pos[b][0] - pos[a][0], de = pos[b][1] - pos[a][1], du = pos[b][2] - pos[a][2];
+      const float h2 = dn * dn + de * de, rh = std::sqrt(h2), r = std::sqrt(h2 + du * du);
+      range[a][b] = range[b][a] = r;
+      inv_rh[a][b] = inv_rh[b][a] = rh > 1e-3f ? 1.0f / rh : 0.0f;
+      inv_r[a][b] = inv_r[b][a] = r > 1e-3f ? 1.0f / r : 0.0f;
+    }
+  }
+  for (int a = 0; a < na; ++a) {
+    const int i = base + a;
     float* o = &ego_[static_cast<std::size_t>(i) * kEgoDim];
     o[0] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
     int k = 1;
     for (int s : {kAlpha, kBeta, kPhi, kTheta, kPsi}) {
-      o[k++] = static_cast<float>(std::sin(sim_.state(s)[i]));
-      o[k++] = static_cast<float>(std::cos(sim_.state(s)[i]));
+      double sn, cs;
+      vmath::sincos(sim_.state(s)[i], &sn, &cs);
+      o[k++] = static_cast<float>(sn);
+      o[k++] = static_cast<float>(cs);
     }
+    spsi[a] = o[9];
+    cpsi[a] = o[10];
     o[11] = clampf(sim_.state(kP)[i] / 2.0, -10.0, 10.0);
     o[12] = clampf(sim_.state(kQ)[i], -10.0, 10.0);
     o[13] = clampf(sim_.state(kR)[i], -10.0, 10.0);
@@ -469,23 +484,30 @@ void RaceEnv::write_observations(int env) {
     o[17] = clampf(sim_.state(kIntPs)[i] / 2.0, -10.0, 10.0);
     o[18] = clampf(sim_.state(kIntNyR)[i] / 2.0, -10.0, 10.0);
     o[19] = clampf(sim_.output(kOutNz)[i] / 5.0, -10.0, 10.0);
-
+  }
+  for (int a = 0; a < na; ++a) {
+    const int i = base + a;
+    const float ca = cpsi[a], sa = spsi[a];
     // Other aircraft in agent order (self skipped), so permuting them permutes rows only.
     int row = 0;
-    for (int b = 0; b < n_agent_; ++b) {
+    for (int b = 0; b < na; ++b) {
       if (b == a) continue;
       const int j = base + b;
-      const std::size_t r = static_cast<std::size_t>(i) * (n_agent_ - 1) + row;
+      const std::size_t r = static_cast<std::size_t>(i) * (na - 1) + row;
       float* d = &ado_[r * kAdoDim];
       ado_alive_[r] = alive_[j];
       if (alive_[j]) {
-        double x, y, z;
-        f.apply(pos[b] - pos[a], &x, &y, &z);
-        spherical4(x, y, z, 5000.0, d);
-        f.apply(vel[b] - vel[a], &x, &y, &z);
-        d[4] = static_cast<float>(x / 500.0);
-        d[5] = static_cast<float>(y / 500.0);
-        d[6] = static_cast<float>(z / 500.0);
+        // Heading frame of the ego: x forward, y right, z up.
+        const float dn = pos[b][0] - pos[a][0], de = pos[b][1] - pos[a][1], du = pos[b][2] - pos[a][2];
+        const float x = ca * dn + sa * de, y = -sa * dn + ca * de;
+        d[0] = std::min(range[a][b] * (1.0f / 5000.0f), 10.0f);
+        d[1] = inv_rh[a][b] > 0.0f ? y * inv_rh[a][b] : 0.0f;
+        d[2] = inv_rh[a][b] > 0.0f ? x * inv_rh[a][b] : 1.0f;
+        d[3] = du * inv_r[a][b];
+        const float vn = vel[b][0] - vel[a][0], ve = vel[b][1] - vel[a][1];
+        d[4] = (ca * vn + sa * ve) * (1.0f / 500.0f);
+        d[5] = (-sa * vn + ca * ve) * (1.0f / 500.0f);
+        d[6] = (vel[b][2] - vel[a][2]) * (1.0f / 500.0f);
         d[7] = clampf((progress_ft_[j] - progress_ft_[i]) / 5000.0, -10.0, 10.0);
       } else {
         for (int q = 0; q < 8; ++q) d[q] = 0.0f;
@@ -496,12 +518,20 @@ void RaceEnv::write_observations(int env) {
     }
 
     float* t = &task_[static_cast<std::size_t>(i) * task_dim_];
+    const double pn = sim_.state(kPn)[i], pe = sim_.state(kPe)[i], pu = sim_.state(kAlt)[i];
     for (int p = 0; p < c.preview_points; ++p) {
       const double s = progress_ft_[i] + (p + 1) * c.preview_spacing_ft;
-      double x, y, z;
-      f.apply(tr.point_at(s) - pos[a], &x, &y, &z);
-      spherical4(x, y, z, 5000.0, t + 5 * p);
-      t[5 * p + 4] = static_cast<float>(tr.radius_at(s) / 2000.0);
+      double radius;
+      const Vec3 q = tr.sample(s, &radius);
+      const float dn = static_cast<float>(q.n - pn), de = static_cast<float>(q.e - pe), du = static_cast<float>(q.u - pu);
+      const float x = ca * dn + sa * de, y = -sa * dn + ca * de;
+      const float rh = std::sqrt(x * x + y * y), rr = std::sqrt(rh * rh + du * du);
+      float* tp = t + 5 * p;
+      tp[0] = std::min(rr * (1.0f / 5000.0f), 10.0f);
+      tp[1] = rh > 1e-3f ? y / rh : 0.0f;
+      tp[2] = rh > 1e-3f ? x / rh : 1.0f;
+      tp[3] = rr > 1e-3f ? du / rr : 0.0f;
+      tp[4] = static_cast<float>(radius / 2000.0);
     }
     float* u = t + 5 * c.preview_points;
     u[0] = clampf(lateral_ft_[i] / radius_ft_[i], -10.0, 10.0);
@@ -510,7 +540,7 @@ void RaceEnv::write_observations(int env) {
     u[3] = static_cast<float>(progress_ft_[i] / tr.length_ft());
     u[4] = static_cast<float>(1.0 - time_s_[env] / c.time_limit_s);
     u[5] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
-    u[6] = static_cast<float>(ego_rank_[i]) / static_cast<float>(n_agent_ - 1);
+    u[6] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
     u[7] = static_cast<float>(team_rank_[i]);
     write_goal_observation(i);
   }

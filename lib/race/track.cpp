@@ -109,31 +109,45 @@ void Track::build(double spacing_ft) {
   // indexes samples directly (the dropped tail is shorter than one spacing).
   const int m = static_cast<int>(std::floor(dense_s.back() / spacing_ft)) + 1;
   length_ft_ = (m - 1) * spacing_ft;
-  points_.resize(m);
-  radii_.resize(m);
+  samples_.resize(m);
   std::size_t j = 0, wk = 0;
   for (int i = 0; i < m; ++i) {
     const double s = i * spacing_ft;
     while (j + 1 < dense_s.size() - 1 && dense_s[j + 1] < s) ++j;
     const double seg = dense_s[j + 1] - dense_s[j];
     const double f = seg > 0.0 ? (s - dense_s[j]) / seg : 0.0;
-    points_[i] = dense[j] + f * (dense[j + 1] - dense[j]);
+    samples_[i].p = dense[j] + f * (dense[j + 1] - dense[j]);
     while (wk + 2 < waypoint_s.size() && waypoint_s[wk + 1] < s) ++wk;
     const double g = std::clamp((s - waypoint_s[wk]) / (waypoint_s[wk + 1] - waypoint_s[wk]), 0.0, 1.0);
-    radii_[i] = waypoints_[wk].radius_ft + g * (waypoints_[wk + 1].radius_ft - waypoints_[wk].radius_ft);
+    samples_[i].radius_ft = waypoints_[wk].radius_ft + g * (waypoints_[wk + 1].radius_ft - waypoints_[wk].radius_ft);
   }
   tangents_.resize(m);
   for (int i = 0; i < m; ++i) {
     const int a = std::max(i - 1, 0), b = std::min(i + 1, m - 1);
-    tangents_[i] = normalized(points_[b] - points_[a]);
+    tangents_[i] = normalized(samples_[b].p - samples_[a].p);
   }
+}
+
+Vec3 Track::point_at(double s_ft) const {
+  const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
+  const int i = std::min(static_cast<int>(x), n_samples() - 2);
+  const double f = x - i;
+  return samples_[i].p + f * (samples_[i + 1].p - samples_[i].p);
+}
+
+Vec3 Track::sample(double s_ft, double* radius_ft) const {
+  const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
+  const int i = std::min(static_cast<int>(x), n_samples() - 2);
+  const double f = x - i;
+  *radius_ft = samples_[i].radius_ft + f * (samples_[i + 1].radius_ft - samples_[i].radius_ft);
+  return samples_[i].p + f * (samples_[i + 1].p - samples_[i].p);
 }
 
 double Track::radius_at(double s_ft) const {
   const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
   const int i = std::min(static_cast<int>(x), n_samples() - 2);
   const double f = x - i;
-  return radii_[i] + f * (radii_[i + 1] - radii_[i]);
+  return samples_[i].radius_ft + f * (samples_[i + 1].radius_ft - samples_[i].radius_ft);
 }
 
 TrackFrame Track::frame_at(double s_ft) const {
@@ -141,18 +155,18 @@ TrackFrame Track::frame_at(double s_ft) const {
   const int i = std::min(static_cast<int>(x), n_samples() - 2);
   const double f = x - i;
   TrackFrame fr;
-  fr.center = points_[i] + f * (points_[i + 1] - points_[i]);
+  fr.center = samples_[i].p + f * (samples_[i + 1].p - samples_[i].p);
   fr.tangent = normalized(tangents_[i] + f * (tangents_[i + 1] - tangents_[i]));
   fr.right = normalized(cross(Vec3{0.0, 0.0, 1.0}, fr.tangent));
   fr.up = cross(fr.tangent, fr.right);
-  fr.radius_ft = radii_[i] + f * (radii_[i + 1] - radii_[i]);
+  fr.radius_ft = samples_[i].radius_ft + f * (samples_[i + 1].radius_ft - samples_[i].radius_ft);
   return fr;
 }
 
 TrackQuery Track::project(const Vec3& pos, int hint) const {
   const int m = n_samples();
   auto d2 = [&](int i) {
-    const Vec3 d = pos - points_[i];
+    const Vec3 d = pos - samples_[i].p;
     return dot(d, d);
   };
   int i;
@@ -171,21 +185,25 @@ TrackQuery Track::project(const Vec3& pos, int hint) const {
     while (i + 1 < m && d2(i + 1) < cur) cur = d2(++i);
     while (i > 0 && d2(i - 1) < cur) cur = d2(--i);
   }
-  // Refine on the neighbouring segment on whichever side the aircraft lies.
-  const Vec3 d = pos - points_[i];
+  // Refine on the neighbouring segment on whichever side the aircraft lies; the segment's own
+  // direction is the local tangent of the resampled center-line.
   int a = i, b = i + 1;
-  if (i == m - 1 || (i > 0 && dot(d, tangents_[i]) < 0.0)) a = i - 1, b = i;
-  const Vec3 seg = points_[b] - points_[a];
-  const double f = std::clamp(dot(pos - points_[a], seg) / std::max(dot(seg, seg), 1e-12), 0.0, 1.0);
+  if (i == m - 1 || (i > 0 && dot(pos - samples_[i].p, tangents_[i]) < 0.0)) a = i - 1, b = i;
+  const Vec3 seg = samples_[b].p - samples_[a].p;
+  const double seg2 = std::max(dot(seg, seg), 1e-12);
+  const double f = std::clamp(dot(pos - samples_[a].p, seg) / seg2, 0.0, 1.0);
   TrackQuery q;
   q.s_ft = (a + f) * spacing_ft_;
   q.index = i;
-  const TrackFrame fr = frame_at(q.s_ft);
-  const Vec3 off = pos - fr.center;
-  q.lateral_ft = dot(off, fr.right);
-  q.vertical_ft = dot(off, fr.up);
+  const Vec3 t = (1.0 / std::sqrt(seg2)) * seg;
+  const double th = std::sqrt(t.n * t.n + t.e * t.e);
+  const Vec3 right = th > 0.0 ? Vec3{-t.e / th, t.n / th, 0.0} : Vec3{0.0, 1.0, 0.0};
+  const Vec3 up = cross(t, right);
+  const Vec3 off = pos - (samples_[a].p + f * seg);
+  q.lateral_ft = dot(off, right);
+  q.vertical_ft = dot(off, up);
   q.dist_ft = std::sqrt(q.lateral_ft * q.lateral_ft + q.vertical_ft * q.vertical_ft);
-  q.radius_ft = fr.radius_ft;
+  q.radius_ft = samples_[a].radius_ft + f * (samples_[b].radius_ft - samples_[a].radius_ft);
   return q;
 }
 

@@ -35,7 +35,7 @@ struct TrackConfig {
   double alt_max_ft = 15000.0;
   double radius_min_ft = 900.0;
   double radius_max_ft = 1800.0;
-  double spacing_ft = 50.0;            // arc-length resolution of the resampled center-line
+  double spacing_ft = 100.0;           // arc-length resolution of the resampled center-line
 };
 
 // Local tube geometry at arc length s.
@@ -63,20 +63,21 @@ class Track {
   // Random track from `rng`; deterministic for a given stream state on every machine.
   static Track generate(const TrackConfig& config, RandomStream& rng);
   // Center-line through given waypoints (at least 4); throws std::invalid_argument otherwise.
-  static Track from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft = 50.0);
+  static Track from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft = 100.0);
 
   // CSV with columns pn_ft, pe_ft, alt_ft, radius_ft, one waypoint per row.
-  static Track load_csv(const std::string& path, double spacing_ft = 50.0);
+  static Track load_csv(const std::string& path, double spacing_ft = 100.0);
   void save_csv(const std::string& path) const;
 
   const std::vector<Waypoint>& waypoints() const { return waypoints_; }
   double length_ft() const { return length_ft_; }
   double spacing_ft() const { return spacing_ft_; }
-  int n_samples() const { return static_cast<int>(points_.size()); }
+  int n_samples() const { return static_cast<int>(samples_.size()); }
 
   // Geometry at arc length s (clamped to [0, length]).
   TrackFrame frame_at(double s_ft) const;
-  Vec3 point_at(double s_ft) const { return frame_at(s_ft).center; }
+  Vec3 point_at(double s_ft) const;  // center-line point only: cheaper than frame_at
+  Vec3 sample(double s_ft, double* radius_ft) const;  // point and radius in one look-up
   double radius_at(double s_ft) const;
 
   // Closest center-line point to `pos`, searched from `hint` (a previous answer's index, or
@@ -86,10 +87,15 @@ class Track {
  private:
   void build(double spacing_ft);
   std::vector<Waypoint> waypoints_;
-  std::vector<Vec3> points_;     // [n_samples] center-line every spacing_ft of arc length
+  // Center-line point and radius packed together: one cache line serves both, which matters
+  // when a thousand envs each read their own track every step.
+  struct Sample {
+    Vec3 p;
+    double radius_ft;
+  };
+  std::vector<Sample> samples_;  // [n_samples] every spacing_ft of arc length
   std::vector<Vec3> tangents_;   // [n_samples] unit tangents
-  std::vector<double> radii_;    // [n_samples]
-  double spacing_ft_ = 50.0;
+  double spacing_ft_ = 100.0;
   double length_ft_ = 0.0;
 };
 
