@@ -148,6 +148,7 @@ void RaceEnv::reset() {
 }
 
 void RaceEnv::refresh() {
+  sim_.evaluate_outputs();  // velocities and Nz in the observations come from the outputs
   for (int e = 0; e < n_env(); ++e) {
     update_track_geometry(e);
     compute_ranks(e);
