@@ -2,6 +2,8 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <istream>
+#include <ostream>
 #include <new>
 #include <stdexcept>
 #include <string>
@@ -230,6 +232,30 @@ void F16Batch::evaluate_outputs() {
   const BatchView v = make_view(*this, data_.get(), padded_);
   if (config_.model == AeroModel::kMorelli) outputs_kernel<AeroModel::kMorelli>(v);
   else outputs_kernel<AeroModel::kStevens>(v);
+}
+
+}  // namespace f16race::dynamics
+
+namespace f16race::dynamics {
+
+void F16Batch::save_state(std::ostream& out) const {
+  const std::int64_t header[2] = {size_, padded_};
+  out.write(reinterpret_cast<const char*>(header), sizeof header);
+  const std::size_t rows = kNumStates + kNumRefs + kNumOutputs;
+  out.write(reinterpret_cast<const char*>(data_.get()), static_cast<std::streamsize>(rows * padded_ * sizeof(double)));
+  out.write(reinterpret_cast<const char*>(status_.get()), static_cast<std::streamsize>(padded_ * sizeof(std::int32_t)));
+}
+
+void F16Batch::load_state(std::istream& in) {
+  std::int64_t header[2] = {0, 0};
+  in.read(reinterpret_cast<char*>(header), sizeof header);
+  if (!in || header[0] != size_ || header[1] != padded_)
+    throw std::runtime_error("simulator snapshot is for " + std::to_string(header[0]) + " aircraft, this batch has " +
+                             std::to_string(size_));
+  const std::size_t rows = kNumStates + kNumRefs + kNumOutputs;
+  in.read(reinterpret_cast<char*>(data_.get()), static_cast<std::streamsize>(rows * padded_ * sizeof(double)));
+  in.read(reinterpret_cast<char*>(status_.get()), static_cast<std::streamsize>(padded_ * sizeof(std::int32_t)));
+  if (!in) throw std::runtime_error("simulator snapshot is truncated");
 }
 
 }  // namespace f16race::dynamics

@@ -6,6 +6,7 @@
 // Results are bit-identical for any thread count: every aircraft always sits in the same lane
 // of the same fixed-size block, so the same instructions compute it whichever thread runs it.
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 
 #include "dynamics/envelope.hpp"
@@ -81,6 +82,11 @@ class F16Batch {
 
   // Fills output() rows from the current states and references.
   void evaluate_outputs();
+
+  // Exact snapshot of every state, reference, output and status (for checkpoints that resume
+  // bit-identically). load_state throws std::runtime_error on a size mismatch or short read.
+  void save_state(std::ostream& out) const;
+  void load_state(std::istream& in);
 
  private:
   F16BatchConfig config_;

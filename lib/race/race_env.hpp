@@ -7,6 +7,7 @@
 // tensor can wrap without a copy. Every HL interval the caller picks 7-bin goal offsets per
 // aircraft (set_hl_actions). Torch-free; see docs/race.md for every number and formula.
 #include <cstdint>
+#include <iosfwd>
 #include <vector>
 
 #include "dynamics/f16_batch.hpp"
@@ -110,6 +111,12 @@ class RaceEnv {
   // geometry, ranks and observations from the current states without stepping.
   dynamics::F16Batch& mutable_sim() { return sim_; }
   void refresh();
+
+  // Exact snapshot of the whole env (simulator, tracks, random streams, race state, buffers), so
+  // a resumed training run continues bit-identically. load_state checks the shapes and throws
+  // std::runtime_error on a mismatch or a truncated stream.
+  void save_state(std::ostream& out) const;
+  void load_state(std::istream& in);
 
  private:
   void reset_env(int env);

@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstring>
+#include <sstream>
+#include <stdexcept>
 #include <vector>
 
 #include "dynamics/inner_loop.hpp"
@@ -285,6 +287,39 @@ TEST(RaceEnv, ScriptedPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
   EXPECT_EQ(finished, c.n_env);
   EXPECT_GE(by_finish_line, c.n_env - 1);            // races end at the finish line
   EXPECT_GE(alive_at_end, 7 * c.n_env * 8 / 8);      // at least 7 of 8 aircraft per race on average
+}
+
+}  // namespace
+}  // namespace f16race::race
+
+namespace f16race::race {
+namespace {
+
+TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
+  RaceConfig c = small_config(3, 2);
+  RaceEnv a(c), b(c);
+  RandomStream rng(3, 3);
+  std::vector<float> act(static_cast<std::size_t>(a.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(a.n_aircraft()) * kHlDims, 2);
+  auto drive = [&](RaceEnv& env, int steps, RandomStream& r) {
+    for (int s = 0; s < steps; ++s) {
+      for (auto& x : act) x = static_cast<float>(r.uniform(-0.6, 0.6));
+      env.set_hl_actions(bins.data());
+      env.step(act.data());
+    }
+  };
+  drive(a, 150, rng);
+  std::stringstream snap;
+  a.save_state(snap);
+  b.load_state(snap);
+  RandomStream r1 = rng, r2 = rng;
+  drive(a, 400, r1);
+  drive(b, 400, r2);
+  EXPECT_EQ(0, std::memcmp(a.obs_task(), b.obs_task(), sizeof(float) * a.n_aircraft() * a.task_dim()));
+  EXPECT_EQ(0, std::memcmp(a.obs_ado(), b.obs_ado(), sizeof(float) * a.n_aircraft() * (a.n_agent() - 1) * kAdoDim));
+  for (int i = 0; i < a.n_aircraft(); ++i) EXPECT_EQ(a.sim().state(kAlt)[i], b.sim().state(kAlt)[i]);
+  std::stringstream bad("short");
+  EXPECT_THROW(b.load_state(bad), std::runtime_error);
 }
 
 }  // namespace

@@ -1,0 +1,53 @@
+#pragma once
+// Checkpoint helpers shared by the agents: atomic archive writes and generator state.
+#include <torch/torch.h>
+
+#include <cstdio>
+#include <string>
+#include <unistd.h>
+
+namespace f16race::agents {
+
+// Writes `archive` to a temporary file in the same folder, then renames it over `path`: a crash
+// mid-write leaves the old checkpoint (or none), never a truncated one.
+inline void save_archive_atomic(torch::serialize::OutputArchive& archive, const std::string& path) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  archive.save_to(tmp);
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    TORCH_CHECK(false, "cannot rename ", tmp, " to ", path);
+  }
+}
+
+inline void write_module(torch::serialize::OutputArchive& root, const std::string& key, const torch::nn::Module& m) {
+  torch::serialize::OutputArchive sub;
+  m.save(sub);
+  root.write(key, sub);
+}
+
+inline void read_module(torch::serialize::InputArchive& root, const std::string& key, torch::nn::Module& m) {
+  torch::serialize::InputArchive sub;
+  root.read(key, sub);
+  m.load(sub);
+}
+
+inline void write_optimizer(torch::serialize::OutputArchive& root, const std::string& key,
+                            const torch::optim::Optimizer& opt) {
+  torch::serialize::OutputArchive sub;
+  opt.save(sub);
+  root.write(key, sub);
+}
+
+inline void read_optimizer(torch::serialize::InputArchive& root, const std::string& key, torch::optim::Optimizer& opt) {
+  torch::serialize::InputArchive sub;
+  root.read(key, sub);
+  opt.load(sub);
+}
+
+inline int64_t read_int(torch::serialize::InputArchive& root, const std::string& key) {
+  torch::Tensor t;
+  root.read(key, t);
+  return t.item<int64_t>();
+}
+
+}  // namespace f16race::agents

@@ -1,0 +1,334 @@
+#include "agents/expected_sarsa.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "agents/checkpoint.hpp"
+
+namespace f16race::agents {
+
+using models::check_tensor;
+
+EsVariant parse_es_variant(const std::string& name) {
+  if (name == "es") return EsVariant::kEs;
+  if (name == "es_d1") return EsVariant::kEsD1;
+  if (name == "es_d2") return EsVariant::kEsD2;
+  if (name == "es_d3") return EsVariant::kEsD3;
+  throw std::invalid_argument("unknown ES variant '" + name + "' (expected es, es_d1, es_d2 or es_d3)");
+}
+
+const char* es_variant_name(EsVariant v) {
+  switch (v) {
+    case EsVariant::kEs: return "es";
+    case EsVariant::kEsD1: return "es_d1";
+    case EsVariant::kEsD2: return "es_d2";
+    case EsVariant::kEsD3: return "es_d3";
+  }
+  return "?";
+}
+
+models::HlCriticConfig es_critic_config(const EsConfig& cfg) {
+  models::HlCriticConfig c;
+  c.dims = cfg.dims;
+  c.d_model = cfg.d_model;
+  c.n_heads = cfg.n_heads;
+  c.hidden = cfg.hidden;
+  c.decoupled = es_is_decoupled(cfg.variant);
+  c.n_bins = cfg.n_bins;
+  c.n_atoms = cfg.variant == EsVariant::kEsD3 ? cfg.n_atoms : 1;
+  c.v_min = cfg.v_min;
+  c.v_max = cfg.v_max;
+  return c;
+}
+
+torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps) {
+  check_tensor(q, "q", {-1, -1}, torch::kFloat32);
+  const int64_t n = q.size(0);
+  const int64_t nb = static_cast<int64_t>(std::lround(std::cbrt(static_cast<double>(q.size(1)))));
+  TORCH_CHECK(nb * nb * nb == q.size(1), "egreedy_value_joint: q has ", q.size(1), " columns, not n_bins^3");
+  // Per-dimension policy (1 - eps) onehot(greedy_j) + eps / n_bins, greedy from the joint argmax.
+  const auto greedy = decode_joint_index(q.argmax(1), nb);  // [N, 3]
+  const auto pi = (1.0 - eps) * torch::one_hot(greedy, nb).to(torch::kFloat32) + eps / static_cast<double>(nb);
+  return torch::einsum("nabc,na,nb,nc->n", {q.view({n, nb, nb, nb}), pi.select(1, 0), pi.select(1, 1), pi.select(1, 2)});
+}
+
+torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps) {
+  check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
+  return ((1.0 - eps) * std::get<0>(q.max(2)) + eps * q.mean(2)).mean(1);
+}
+
+torch::Tensor egreedy_mixture_decoupled(const torch::Tensor& log_probs, const torch::Tensor& q, double eps) {
+  check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
+  const int64_t n = q.size(0), bins = q.size(2);
+  check_tensor(log_probs, "log_probs", {n, 3, bins, -1}, torch::kFloat32);
+  const auto probs = log_probs.exp();  // [N, 3, bins, K]
+  const auto greedy = q.argmax(2);     // [N, 3], first maximum as in act()
+  const auto index = greedy.view({n, 3, 1, 1}).expand({n, 3, 1, probs.size(3)});
+  const auto p_greedy = probs.gather(2, index).squeeze(2);  // [N, 3, K]
+  return ((1.0 - eps) * p_greedy + eps * probs.mean(2)).mean(1);
+}
+
+torch::Tensor decode_joint_index(const torch::Tensor& index, int64_t n_bins) {
+  return torch::stack({index.div(n_bins * n_bins, "floor"), index.div(n_bins, "floor").remainder(n_bins),
+                       index.remainder(n_bins)},
+                      -1);
+}
+
+torch::Tensor joint_index(const torch::Tensor& bins, int64_t n_bins) {
+  TORCH_CHECK(bins.dim() >= 1 && bins.size(-1) == 3, "joint_index: bins must end in a dimension of 3");
+  return bins.select(-1, 0) * (n_bins * n_bins) + bins.select(-1, 1) * n_bins + bins.select(-1, 2);
+}
+
+namespace {
+
+// Mean over the aircraft axis (1) of x [T, n_a, ...] restricted to mask [T, n_a]; also returns
+// the count of mask entries per team.
+std::pair<torch::Tensor, torch::Tensor> masked_team_mean(const torch::Tensor& x, const torch::Tensor& mask) {
+  auto m = mask.to(torch::kFloat32);
+  const auto count = m.sum(1);
+  while (m.dim() < x.dim()) m = m.unsqueeze(-1);
+  auto denom = count.clamp_min(1.0);
+  while (denom.dim() < x.dim() - 1) denom = denom.unsqueeze(-1);
+  return {(x * m).sum(1) / denom, count};
+}
+
+torch::Tensor masked_mean(const torch::Tensor& x, const torch::Tensor& mask) {
+  const auto m = mask.to(torch::kFloat32);
+  return (x * m).sum() / m.sum().clamp_min(1.0);
+}
+
+}  // namespace
+
+EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
+                   const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
+                   double next_epsilon, double gamma, const C51Support& support) {
+  check_tensor(reward, "reward", {-1, -1}, torch::kFloat32);
+  const int64_t t = reward.size(0), n_a = reward.size(1);
+  check_tensor(done, "done", {t}, torch::kBool);
+  check_tensor(active, "active", {t, n_a}, torch::kBool);
+  check_tensor(next_active, "next_active", {t, n_a}, torch::kBool);
+  TORCH_CHECK(next_out.q.defined() && next_out.q.size(0) == t * n_a, "es_target: next_out.q must have T*n_a = ",
+              t * n_a, " rows");
+  EsTarget target;
+  if (!es_is_team(v)) {
+    const auto next_value = (v == EsVariant::kEs ? egreedy_value_joint(next_out.q, next_epsilon)
+                                                 : egreedy_value_decoupled(next_out.q, next_epsilon))
+                                .view({t, n_a});
+    // An aircraft that is dead at the next decision ends its own episode there.
+    const auto live = next_active.logical_and(done.logical_not().unsqueeze(1)).to(torch::kFloat32);
+    target.value = reward + gamma * live * next_value;
+    return target;
+  }
+  const auto team_reward = masked_team_mean(reward, active).first;
+  const auto team_live = done.logical_not().logical_and(next_active.any(1)).to(torch::kFloat32);
+  if (v == EsVariant::kEsD2) {
+    const auto next_value = egreedy_value_decoupled(next_out.q, next_epsilon).view({t, n_a});
+    const auto team_next = masked_team_mean(next_value, next_active).first;
+    target.value = team_reward + gamma * team_live * team_next;
+    return target;
+  }
+  TORCH_CHECK(next_out.log_probs.defined(), "es_target: es_d3 needs the distributional head (log_probs)");
+  const int64_t k = support.n_atoms;
+  const auto mixture = egreedy_mixture_decoupled(next_out.log_probs, next_out.q, next_epsilon).view({t, n_a, k});
+  auto team_mix = masked_team_mean(mixture, next_active).first;  // [T, K]
+  // With nobody alive next the discount is 0 and any distribution projects to r; use a
+  // normalised one so no mass is lost.
+  team_mix = torch::where(next_active.any(1, true), team_mix, torch::full_like(team_mix, 1.0 / k));
+  target.dist = c51_project(team_mix.contiguous(), team_reward.contiguous(), (gamma * team_live).contiguous(), support);
+  target.value = (target.dist * support.atoms()).sum(1);
+  return target;
+}
+
+EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
+               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight) {
+  check_tensor(actions, "actions", {-1, -1, 3}, torch::kInt64);
+  const int64_t t = actions.size(0), n_a = actions.size(1);
+  check_tensor(active, "active", {t, n_a}, torch::kBool);
+  EsLoss result;
+  const auto huber = [&](const torch::Tensor& pred, const torch::Tensor& y, const torch::Tensor& valid) {
+    return masked_mean(torch::huber_loss(pred, y, at::Reduction::None, huber_delta), valid);
+  };
+  if (v == EsVariant::kEs) {
+    const int64_t n_joint = out.q.size(1);
+    const int64_t n_bins = static_cast<int64_t>(std::lround(std::cbrt(static_cast<double>(n_joint))));
+    const auto idx = joint_index(actions, n_bins).view({t * n_a, 1});
+    result.prediction = out.q.gather(1, idx).view({t, n_a});
+    result.valid = active;
+    result.loss = huber(result.prediction, target.value, result.valid);
+    return result;
+  }
+  const auto idx = actions.reshape({t * n_a, 3, 1});
+  const auto q_taken = out.q.gather(2, idx).squeeze(2).mean(1).view({t, n_a});  // mean_j Q^j(a^j)
+  if (v == EsVariant::kEsD1) {
+    result.prediction = q_taken;
+    result.valid = active;
+    result.loss = huber(result.prediction, target.value, result.valid);
+    return result;
+  }
+  result.valid = active.any(1);
+  if (v == EsVariant::kEsD2) {
+    result.prediction = masked_team_mean(q_taken, active).first;
+    result.loss = huber(result.prediction, target.value, result.valid);
+    return result;
+  }
+  // es_d3: log of the team mixture, log(1/(3 n_active) sum_{i active, j} p^{i,j}), by logsumexp.
+  const int64_t k = support.n_atoms;
+  TORCH_CHECK(out.log_probs.defined() && out.log_probs.size(-1) == k, "es_loss: es_d3 needs log_probs with ", k,
+              " atoms");
+  TORCH_CHECK(target.dist.defined(), "es_loss: es_d3 needs a target distribution");
+  const auto lp_idx = actions.reshape({t * n_a, 3, 1, 1}).expand({t * n_a, 3, 1, k});
+  const auto lp_taken = out.log_probs.gather(2, lp_idx).squeeze(2).view({t, n_a, 3, k});
+  // Finite fill (not -inf) so teams without any active aircraft stay free of NaN; they are
+  // excluded from the loss by `valid`.
+  const auto lp = lp_taken.masked_fill(active.logical_not().view({t, n_a, 1, 1}), -1e4);
+  const auto n_terms = (3.0 * active.to(torch::kFloat32).sum(1)).clamp_min(1.0);
+  const auto log_team = torch::logsumexp(lp.view({t, n_a * 3, k}), 1) - n_terms.log().unsqueeze(1);  // [T, K]
+  const auto cross_entropy = -(target.dist * log_team).sum(1);
+  result.prediction = (log_team.exp() * support.atoms()).sum(1);
+  result.loss = masked_mean(cross_entropy, result.valid);
+  if (component_ce_weight > 0.0) {
+    // Each active component's own cross-entropy to the team target (an upper bound of the
+    // mixture's, by Jensen) keeps components that explain none of the target trainable.
+    const auto component_ce = -(target.dist.view({t, 1, 1, k}) * lp_taken).sum(3).mean(2);  // [T, n_a]
+    result.loss = result.loss + component_ce_weight * masked_mean(component_ce, active);
+  }
+  return result;
+}
+
+EsAgent::EsAgent(const EsConfig& cfg)
+    : cfg_(cfg),
+      support_{cfg.v_min, cfg.v_max, cfg.n_atoms},
+      generator_(models::make_generator(cfg.seed)) {
+  TORCH_CHECK(cfg.epsilon >= 0.0 && cfg.epsilon <= 1.0, "EsConfig.epsilon must be in [0, 1]");
+  TORCH_CHECK(cfg.target_update_interval > 0 && cfg.n_epochs > 0 && cfg.n_minibatches > 0,
+              "EsConfig: target_update_interval, n_epochs, n_minibatches must be > 0");
+  const auto critic_cfg = es_critic_config(cfg);
+  critic_ = models::HlCritic(critic_cfg);
+  target_ = models::HlCritic(critic_cfg);
+  normalizer_ = models::ObsNormalizer(cfg.dims, cfg.obs_clip);
+  for (auto& p : target_->parameters()) p.set_requires_grad(false);
+  sync_target();
+  optimizer_ = std::make_unique<torch::optim::Adam>(
+      critic_->parameters(), torch::optim::AdamOptions(cfg.learning_rate).eps(cfg.adam_eps));
+}
+
+void EsAgent::sync_target() {
+  torch::NoGradGuard no_grad;
+  const auto src = critic_->named_parameters();
+  for (auto& item : target_->named_parameters()) item.value().copy_(src[item.key()]);
+  const auto src_buf = critic_->named_buffers();
+  for (auto& item : target_->named_buffers()) item.value().copy_(src_buf[item.key()]);
+}
+
+models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats) {
+  return cfg_.normalize_obs ? normalizer_->normalize(flat_obs, update_stats) : flat_obs;
+}
+
+EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& generator) {
+  torch::NoGradGuard no_grad;
+  const int64_t b = models::check_obs(obs, cfg_.dims);
+  const auto out = critic_(prepare(obs, false));
+  EsAction a;
+  a.q = out.q;
+  a.greedy_bins = es_is_decoupled(cfg_.variant) ? out.q.argmax(2) : decode_joint_index(out.q.argmax(1), cfg_.n_bins);
+  // One coin per action dimension (see the header: keeps the other dimensions greedy while one
+  // explores, so a dimension's value is not confounded by the others' exploration).
+  const auto explore = torch::rand({b, 3}, generator) < epsilon;
+  const auto random_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
+  a.bins = torch::where(explore, random_bins, a.greedy_bins);
+  return a;
+}
+
+EsStats EsAgent::update(const EsBatch& batch) {
+  check_tensor(batch.actions, "actions", {-1, -1, 3}, torch::kInt64);
+  const int64_t t = batch.actions.size(0), n_a = batch.actions.size(1);
+  check_tensor(batch.reward, "reward", {t, n_a}, torch::kFloat32);
+  check_tensor(batch.done, "done", {t}, torch::kBool);
+  const auto all = torch::ones({t, n_a}, torch::kBool);
+  const auto active = batch.active.defined() ? batch.active : all;
+  const auto next_active = batch.next_active.defined() ? batch.next_active : all;
+  check_tensor(active, "active", {t, n_a}, torch::kBool);
+  check_tensor(next_active, "next_active", {t, n_a}, torch::kBool);
+  TORCH_CHECK(batch.obs.ego.dim() == 3 && batch.obs.ego.size(0) == t && batch.obs.ego.size(1) == n_a,
+              "EsBatch.obs.ego must be [T, n_a, d_ego] with T, n_a of actions");
+  TORCH_CHECK(batch.next_obs.ego.dim() == 3 && batch.next_obs.ego.size(0) == t && batch.next_obs.ego.size(1) == n_a,
+              "EsBatch.next_obs.ego must be [T, n_a, d_ego]");
+
+  const auto obs = prepare(models::flatten2(batch.obs), true);
+  EsTarget target;
+  {
+    torch::NoGradGuard no_grad;
+    const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
+    target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
+                       cfg_.gamma, support_);
+  }
+
+  EsStats stats;
+  double loss_sum = 0.0, q_sum = 0.0, td_sum = 0.0;
+  int64_t n_steps = 0;
+  const auto aircraft = torch::arange(n_a, torch::kInt64);
+  for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
+    const auto perm = torch::randperm(t, generator_, torch::kInt64);
+    for (const auto& teams : perm.tensor_split(cfg_.n_minibatches)) {
+      if (teams.numel() == 0) continue;
+      const auto rows = (teams.unsqueeze(1) * n_a + aircraft).reshape({-1});
+      EsTarget mb_target{target.value.index_select(0, teams),
+                         target.dist.defined() ? target.dist.index_select(0, teams) : torch::Tensor()};
+      const auto out = critic_(models::index_rows(obs, rows));
+      const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams), active.index_select(0, teams),
+                             mb_target, cfg_.huber_delta, support_, cfg_.component_ce_weight);
+      optimizer_->zero_grad();
+      l.loss.backward();
+      stats.grad_norm = torch::nn::utils::clip_grad_norm_(critic_->parameters(), cfg_.max_grad_norm);
+      optimizer_->step();
+      torch::NoGradGuard no_grad;
+      loss_sum += l.loss.item<double>();
+      q_sum += masked_mean(l.prediction, l.valid).item<double>();
+      td_sum += masked_mean((l.prediction - mb_target.value).abs(), l.valid).item<double>();
+      ++n_steps;
+    }
+  }
+  ++update_count_;
+  stats.update_index = update_count_;
+  if (update_count_ % cfg_.target_update_interval == 0) {
+    sync_target();
+    stats.target_synced = true;
+  }
+  const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
+  stats.loss = loss_sum / n;
+  stats.q_mean = q_sum / n;
+  stats.td_abs_mean = td_sum / n;
+  const auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
+  stats.target_mean = masked_mean(target.value, valid).item<double>();
+  return stats;
+}
+
+void EsAgent::save(const std::string& path) const {
+  torch::serialize::OutputArchive root;
+  write_module(root, "critic", *critic_);
+  write_module(root, "target", *target_);
+  write_module(root, "normalizer", *normalizer_);
+  write_optimizer(root, "optimizer", *optimizer_);
+  root.write("variant", torch::tensor(static_cast<int64_t>(cfg_.variant)));
+  root.write("update_count", torch::tensor(update_count_));
+  root.write("generator_state", generator_.get_state());
+  save_archive_atomic(root, path);
+}
+
+void EsAgent::load(const std::string& path) {
+  torch::serialize::InputArchive root;
+  root.load_from(path);
+  const auto variant = static_cast<EsVariant>(read_int(root, "variant"));
+  TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: ", path, " holds variant ", es_variant_name(variant),
+              ", this agent is ", es_variant_name(cfg_.variant));
+  read_module(root, "critic", *critic_);
+  read_module(root, "target", *target_);
+  read_module(root, "normalizer", *normalizer_);
+  read_optimizer(root, "optimizer", *optimizer_);
+  update_count_ = read_int(root, "update_count");
+  torch::Tensor state;
+  root.read("generator_state", state);
+  generator_.set_state(state);
+}
+
+}  // namespace f16race::agents

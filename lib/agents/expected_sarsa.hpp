@@ -1,0 +1,169 @@
+#pragma once
+// High-level learner: Expected SARSA over 3 action dimensions x n_bins bins (paper III-C a),
+// in four variants. Execution is decentralised: each aircraft acts epsilon-greedily on its own
+// utilities, with one coin per action dimension: with probability epsilon that dimension's bin
+// is uniform, otherwise greedy. (One coin per aircraft, re-drawing all three bins together, was
+// measured to stall es_d3 on the coordination toy: a dimension's explored bins are then only
+// ever seen with the other dimensions random too, which biases their value down; see
+// docs/learning.md.) Training of es_d2 / es_d3 is centralised over a team.
+//
+//   es     per aircraft, one Q over the n_bins^3 joint actions; each aircraft its own TD error.
+//   es_d1  per aircraft, Q(o, a) = mean_j Q^j(o, a^j); each aircraft its own TD error.
+//   es_d2  per team, Q = 1/(3 n_a) sum_i sum_j Q^{i,j}(o^i, a^{i,j})  (paper Eq. 1); one TD
+//          error per team, the reward is the team mean.
+//   es_d3  per team, p = 1/(3 n_a) sum_i sum_j p^{i,j}(o^i, a^{i,j}) over K atoms (Eq. 2-3);
+//          cross-entropy to the C51 projection of r + gamma z under the next-state mixture.
+//
+// Target: y = r + gamma (1 - done) E_{a' ~ eps-greedy}[Q_target(o', a')], where r is the HL
+// reward accumulated over the HL interval and the eps-greedy policy and values both come from
+// the target network. With pi_j = (1 - eps) onehot(greedy_j) + eps / n_bins per dimension:
+//   joint:      sum_a pi_0(a_0) pi_1(a_1) pi_2(a_2) Q(a), greedy from the joint argmax
+//   decoupled:  mean_j [(1 - eps) max_b Q^j(b) + eps mean_b Q^j(b)]
+//   d3:         mean_{i,j} [(1 - eps) p^{i,j}(greedy_j) + eps mean_b p^{i,j}(b)]  (a mixture)
+// Value variants use the Huber loss.
+//
+// n_ES,step (paper Table I: 10) is not defined in the paper. Reading used here: the number of
+// high-level transitions each environment contributes to one ES update, i.e. the trainer
+// collects n_steps_per_update HL decisions per env (from all teams) and then calls update()
+// once on that batch (n_epochs passes of n_minibatches gradient steps), the HL analogue of
+// n_PPO,step = 32 LL steps per env per PPO update.
+#include <torch/torch.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "agents/c51.hpp"
+#include "models/hl_critic.hpp"
+#include "models/obs.hpp"
+#include "models/running_norm.hpp"
+
+namespace f16race::agents {
+
+enum class EsVariant { kEs, kEsD1, kEsD2, kEsD3 };
+
+// "es", "es_d1", "es_d2", "es_d3"; throws std::invalid_argument naming the bad value.
+EsVariant parse_es_variant(const std::string& name);
+const char* es_variant_name(EsVariant v);
+inline bool es_is_team(EsVariant v) { return v == EsVariant::kEsD2 || v == EsVariant::kEsD3; }
+inline bool es_is_decoupled(EsVariant v) { return v != EsVariant::kEs; }
+
+struct EsConfig {
+  EsVariant variant = EsVariant::kEsD3;
+  models::ObsDims dims;  // from the environment
+  int64_t d_model = 64;
+  int64_t n_heads = 4;
+  std::vector<int64_t> hidden{64, 64};
+  int64_t n_bins = 7;     // paper Table I n_ES,bin
+  int64_t n_atoms = 51;   // es_d3 only (C51)
+  double v_min = -10.0;   // es_d3 atom support [v_min, v_max]
+  double v_max = 10.0;
+  double gamma = 0.99;    // per HL decision
+  double epsilon = 0.1;   // paper Table I eps_ES
+  int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
+  int64_t target_update_interval = 10;  // updates between hard target-network syncs
+  int64_t n_epochs = 1;       // passes over each batch
+  int64_t n_minibatches = 1;  // gradient steps per pass (team samples split evenly)
+  double learning_rate = 3e-4;
+  double adam_eps = 1e-5;
+  double max_grad_norm = 10.0;
+  double huber_delta = 1.0;
+  double component_ce_weight = 0.0;  // es_d3 only
+  bool normalize_obs = true;
+  double obs_clip = 10.0;
+  uint64_t seed = 1;  // minibatch order
+};
+
+models::HlCriticConfig es_critic_config(const EsConfig& cfg);
+
+struct EsAction {
+  torch::Tensor bins;         // [B, 3] int64, the eps-greedy choice
+  torch::Tensor greedy_bins;  // [B, 3] int64
+  torch::Tensor q;            // decoupled [B, 3, n_bins]; es [B, n_bins^3]
+};
+
+// One batch of HL transitions grouped by team: T team samples of n_a aircraft.
+struct EsBatch {
+  models::HlObs obs;       // every field [T, n_a, ...] (raw, unnormalised)
+  torch::Tensor actions;   // [T, n_a, 3] int64 bins taken
+  torch::Tensor reward;    // [T, n_a] float32, HL reward accumulated over the interval, per aircraft
+  models::HlObs next_obs;  // [T, n_a, ...] at the next HL decision (final obs on truncation)
+  torch::Tensor done;      // [T] bool: episode terminated (not a time-limit truncation)
+  torch::Tensor active;       // optional [T, n_a] bool: the aircraft took this decision (default all)
+  torch::Tensor next_active;  // optional [T, n_a] bool: alive at the next decision (default all)
+  double next_epsilon = 0.1;  // eps of the policy at the next decision
+};
+
+struct EsStats {
+  double loss = 0.0;
+  double q_mean = 0.0;       // mean predicted value of the taken actions
+  double target_mean = 0.0;  // mean TD target (expected value of the target distribution for es_d3)
+  double td_abs_mean = 0.0;
+  double grad_norm = 0.0;    // before clipping, last gradient step
+  int64_t update_index = 0;  // updates done, including this one
+  bool target_synced = false;
+};
+
+// --- pure pieces of the update, exposed for tests -------------------------------------------
+// Expectation of q [N, n_bins^3] under the per-dimension eps-greedy policy of its joint argmax -> [N].
+torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps);
+// mean_j [(1 - eps) max_b + eps mean_b]: q [N, 3, n_bins] -> [N].
+torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps);
+// mean_j [(1 - eps) p_j(argmax_b q_j) + eps mean_b p_j(b)]: log_probs [N, 3, n_bins, K],
+// q [N, 3, n_bins] -> [N, K] probabilities.
+torch::Tensor egreedy_mixture_decoupled(const torch::Tensor& log_probs, const torch::Tensor& q, double eps);
+// Joint index b_0 n_bins^2 + b_1 n_bins + b_2 of bins [..., 3] -> [...], and back.
+torch::Tensor joint_index(const torch::Tensor& bins, int64_t n_bins);
+torch::Tensor decode_joint_index(const torch::Tensor& index, int64_t n_bins);
+
+struct EsTarget {
+  torch::Tensor value;  // es, es_d1: [T, n_a]; es_d2: [T]; es_d3: [T] expected value of `dist`
+  torch::Tensor dist;   // es_d3: [T, K] projected target distribution
+};
+
+// Targets from the target network's output on the next observations (fields over T*n_a rows,
+// aircraft-major within a team). reward [T, n_a]; done [T]; active, next_active [T, n_a] bool.
+EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
+                   const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
+                   double next_epsilon, double gamma, const C51Support& support);
+
+struct EsLoss {
+  torch::Tensor loss;        // scalar
+  torch::Tensor prediction;  // same shape as EsTarget::value
+  torch::Tensor valid;       // bool, same shape: samples that count in the loss
+};
+
+// Loss of the online output (over T*n_a rows) for the taken actions [T, n_a, 3].
+EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
+               const EsTarget& target, double huber_delta, const C51Support& support,
+               double component_ce_weight = 0.0);
+
+class EsAgent {
+ public:
+  explicit EsAgent(const EsConfig& cfg);
+  // Decentralised eps-greedy action of each aircraft; obs fields have batch B. No gradients.
+  EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator);
+  EsStats update(const EsBatch& batch);
+  void sync_target();
+  void save(const std::string& path) const;
+  void load(const std::string& path);
+
+  const EsConfig& config() const { return cfg_; }
+  models::HlCritic& critic() { return critic_; }
+  models::HlCritic& target_critic() { return target_; }
+  models::ObsNormalizer& normalizer() { return normalizer_; }
+  torch::optim::Adam& optimizer() { return *optimizer_; }
+  int64_t update_count() const { return update_count_; }
+
+ private:
+  models::HlObs prepare(const models::HlObs& flat_obs, bool update_stats);
+  EsConfig cfg_;
+  C51Support support_;
+  models::HlCritic critic_{nullptr}, target_{nullptr};
+  models::ObsNormalizer normalizer_{nullptr};
+  std::unique_ptr<torch::optim::Adam> optimizer_;
+  at::Generator generator_;
+  int64_t update_count_ = 0;
+};
+
+}  // namespace f16race::agents

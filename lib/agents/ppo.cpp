@@ -1,0 +1,161 @@
+#include "agents/ppo.hpp"
+
+#include <algorithm>
+
+#include "agents/checkpoint.hpp"
+
+namespace f16race::agents {
+
+PpoLossTerms ppo_loss(const torch::Tensor& new_log_prob, const torch::Tensor& old_log_prob,
+                      const torch::Tensor& advantages, const torch::Tensor& new_value, const torch::Tensor& old_value,
+                      const torch::Tensor& returns, const torch::Tensor& entropy, const PpoConfig& cfg) {
+  models::check_tensor(new_log_prob, "new_log_prob", {-1}, torch::kFloat32);
+  const int64_t m = new_log_prob.size(0);
+  for (const auto& [t, name] : {std::pair{&old_log_prob, "old_log_prob"}, {&advantages, "advantages"},
+                                {&new_value, "new_value"}, {&old_value, "old_value"}, {&returns, "returns"},
+                                {&entropy, "entropy"}}) {
+    models::check_tensor(*t, name, {m}, torch::kFloat32);
+  }
+  PpoLossTerms out;
+  const auto log_ratio = new_log_prob - old_log_prob;
+  const auto ratio = log_ratio.exp();
+  {
+    torch::NoGradGuard no_grad;
+    out.approx_kl = ((ratio - 1.0) - log_ratio).mean();
+    out.clip_fraction = ((ratio - 1.0).abs() > cfg.clip_coef).to(torch::kFloat32).mean();
+  }
+  auto adv = advantages;
+  if (cfg.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
+  const auto pg1 = -adv * ratio;
+  const auto pg2 = -adv * torch::clamp(ratio, 1.0 - cfg.clip_coef, 1.0 + cfg.clip_coef);
+  out.policy_loss = torch::max(pg1, pg2).mean();
+  const auto v_unclipped = (new_value - returns).pow(2);
+  if (cfg.clip_value_loss) {
+    const auto v_clipped = old_value + torch::clamp(new_value - old_value, -cfg.clip_coef, cfg.clip_coef);
+    out.value_loss = 0.5 * torch::max(v_unclipped, (v_clipped - returns).pow(2)).mean();
+  } else {
+    out.value_loss = 0.5 * v_unclipped.mean();
+  }
+  out.entropy = entropy.mean();
+  out.total = out.policy_loss - cfg.ent_coef * out.entropy + cfg.vf_coef * out.value_loss;
+  return out;
+}
+
+PpoAgent::PpoAgent(const PpoConfig& cfg) : cfg_(cfg), generator_(models::make_generator(cfg.seed)) {
+  TORCH_CHECK(cfg.n_minibatches > 0 && cfg.n_epochs > 0 && cfg.n_steps > 0,
+              "PpoConfig: n_steps, n_minibatches, n_epochs must be > 0");
+  TORCH_CHECK(!cfg.anneal_lr || cfg.total_updates > 0, "PpoConfig: anneal_lr needs total_updates > 0");
+  net_ = models::LlActorCritic(cfg.net);
+  normalizer_ = models::ObsNormalizer(cfg.net.dims, cfg.obs_clip);
+  optimizer_ = std::make_unique<torch::optim::Adam>(net_->parameters(),
+                                                    torch::optim::AdamOptions(cfg.learning_rate).eps(cfg.adam_eps));
+}
+
+models::LlObs PpoAgent::normalize(const models::LlObs& raw, bool update_stats) {
+  if (!cfg_.normalize_obs) {
+    models::check_obs(raw, cfg_.net.dims);
+    return raw;
+  }
+  return normalizer_->normalize(raw, update_stats);
+}
+
+PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool update_stats) {
+  torch::NoGradGuard no_grad;
+  PpoAction a;
+  a.obs = normalize(raw, update_stats);
+  const auto out = net_(a.obs);
+  const auto noise = torch::randn(out.mean.sizes(), generator, torch::kFloat32);
+  a.action = out.mean + noise * out.log_std.exp();
+  a.log_prob = models::gaussian_log_prob(out.mean, out.log_std, a.action);
+  a.value = out.value;
+  a.mean = out.mean;
+  return a;
+}
+
+torch::Tensor PpoAgent::value(const models::LlObs& raw) {
+  torch::NoGradGuard no_grad;
+  return net_(normalize(raw, false)).value;
+}
+
+double PpoAgent::learning_rate_for_update(int64_t update_index) const {
+  if (!cfg_.anneal_lr) return cfg_.learning_rate;
+  // CleanRL: frac = 1 - (iteration - 1) / num_iterations, so update 0 uses the full rate and the
+  // last planned update 1/total_updates of it.
+  const double frac = 1.0 - static_cast<double>(update_index) / static_cast<double>(cfg_.total_updates);
+  return cfg_.learning_rate * std::max(frac, 0.0);
+}
+
+PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
+  TORCH_CHECK(buffer.finished(), "PpoAgent::update: call RolloutBuffer::finish first");
+  PpoStats stats;
+  stats.learning_rate = learning_rate_for_update(update_count_);
+  for (auto& group : optimizer_->param_groups()) {
+    static_cast<torch::optim::AdamOptions&>(group.options()).lr(stats.learning_rate);
+  }
+  const auto obs = models::flatten2(buffer.obs);
+  const auto actions = buffer.actions.flatten(0, 1);
+  const auto old_log_probs = buffer.log_probs.flatten(0, 1);
+  const auto old_values = buffer.values.flatten(0, 1);
+  const auto advantages = buffer.advantages.flatten(0, 1);
+  const auto returns = buffer.returns.flatten(0, 1);
+  const int64_t batch = actions.size(0);
+
+  int64_t n_steps = 0;
+  for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
+    const auto perm = torch::randperm(batch, generator_, torch::kInt64);
+    for (const auto& mb : perm.tensor_split(cfg_.n_minibatches)) {
+      if (mb.numel() == 0) continue;
+      const auto out = net_(models::index_rows(obs, mb));
+      const auto new_log_prob = models::gaussian_log_prob(out.mean, out.log_std, actions.index_select(0, mb));
+      const auto entropy = models::gaussian_entropy(out.log_std);
+      const auto loss = ppo_loss(new_log_prob, old_log_probs.index_select(0, mb), advantages.index_select(0, mb),
+                                 out.value, old_values.index_select(0, mb), returns.index_select(0, mb), entropy, cfg_);
+      optimizer_->zero_grad();
+      loss.total.backward();
+      torch::nn::utils::clip_grad_norm_(net_->parameters(), cfg_.max_grad_norm);
+      optimizer_->step();
+      stats.policy_loss += loss.policy_loss.item<double>();
+      stats.value_loss += loss.value_loss.item<double>();
+      stats.entropy += loss.entropy.item<double>();
+      stats.approx_kl += loss.approx_kl.item<double>();
+      stats.clip_fraction += loss.clip_fraction.item<double>();
+      ++n_steps;
+    }
+  }
+  const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
+  stats.policy_loss /= n;
+  stats.value_loss /= n;
+  stats.entropy /= n;
+  stats.approx_kl /= n;
+  stats.clip_fraction /= n;
+  const double var_returns = returns.var(/*unbiased=*/false).item<double>();
+  stats.explained_variance =
+      var_returns > 0.0 ? 1.0 - (returns - old_values).var(/*unbiased=*/false).item<double>() / var_returns : 0.0;
+  ++update_count_;
+  stats.update_index = update_count_;
+  return stats;
+}
+
+void PpoAgent::save(const std::string& path) const {
+  torch::serialize::OutputArchive root;
+  write_module(root, "net", *net_);
+  write_module(root, "normalizer", *normalizer_);
+  write_optimizer(root, "optimizer", *optimizer_);
+  root.write("update_count", torch::tensor(update_count_));
+  root.write("generator_state", generator_.get_state());
+  save_archive_atomic(root, path);
+}
+
+void PpoAgent::load(const std::string& path) {
+  torch::serialize::InputArchive root;
+  root.load_from(path);
+  read_module(root, "net", *net_);
+  read_module(root, "normalizer", *normalizer_);
+  read_optimizer(root, "optimizer", *optimizer_);
+  update_count_ = read_int(root, "update_count");
+  torch::Tensor state;
+  root.read("generator_state", state);
+  generator_.set_state(state);
+}
+
+}  // namespace f16race::agents

@@ -1,0 +1,111 @@
+#pragma once
+// Low-level learner: PPO with a clipped objective (paper Eq. 4), transcribed from CleanRL's
+// ppo_continuous_action.py (Huang et al., https://github.com/vwxyzjn/cleanrl): per-minibatch
+// advantage normalisation, clipped value loss, global gradient-norm clipping, Adam with eps
+// 1e-5 and a learning rate annealed linearly to 0 over the planned number of updates, running
+// observation normalisation. Decentralised: every aircraft is one sample.
+//
+// Trainer loop (per update):
+//   for n_steps: a = act(raw_obs, gen)            // normalises (and updates the statistics)
+//                env.step(a.action) -> r, terminated, truncated, final obs of ended episodes
+//                bootstrap = value(final_obs)     // only needed where truncated
+//                buffer.add(a.obs, a.action, a.log_prob, a.value, r, terminated, truncated, bootstrap)
+//   buffer.finish(value(raw_obs_after_last_step), gamma, gae_lambda); update(buffer); buffer.clear()
+#include <torch/torch.h>
+
+#include <memory>
+#include <string>
+
+#include "agents/rollout_buffer.hpp"
+#include "models/ll_actor_critic.hpp"
+#include "models/obs.hpp"
+#include "models/running_norm.hpp"
+
+namespace f16race::agents {
+
+struct PpoConfig {
+  models::LlActorCriticConfig net;  // net.dims from the environment
+  double gamma = 0.99;              // paper Table I
+  double gae_lambda = 0.95;         // paper Table I
+  int64_t n_steps = 32;             // n_PPO,step: steps per env (per aircraft) per update
+  int64_t n_minibatches = 4;        // n_PPO,mini
+  int64_t n_epochs = 4;             // n_PPO,epoch
+  double clip_coef = 0.2;
+  bool clip_value_loss = true;
+  double vf_coef = 0.5;
+  double ent_coef = 0.0;
+  double max_grad_norm = 0.5;
+  double learning_rate = 3e-4;
+  double adam_eps = 1e-5;
+  bool anneal_lr = true;
+  int64_t total_updates = 0;  // planned updates; the lr reaches 0 after this many (needed if anneal_lr)
+  bool normalize_advantages = true;
+  bool normalize_obs = true;
+  double obs_clip = 10.0;
+  uint64_t seed = 1;  // minibatch order
+};
+
+struct PpoAction {
+  torch::Tensor action;    // [B, A] sampled, unclipped
+  torch::Tensor log_prob;  // [B]
+  torch::Tensor value;     // [B]
+  torch::Tensor mean;      // [B, A] deterministic action
+  models::LlObs obs;       // the normalised observation (what the buffer stores)
+};
+
+struct PpoLossTerms {
+  torch::Tensor total;          // policy - ent_coef entropy + vf_coef value
+  torch::Tensor policy_loss;    // mean max(-A r, -A clip(r, 1 - c, 1 + c))
+  torch::Tensor value_loss;     // 0.5 mean max((V - R)^2, (V_old + clip(V - V_old, -c, c) - R)^2)
+  torch::Tensor entropy;        // mean
+  torch::Tensor approx_kl;      // mean (r - 1) - log r  (no gradient)
+  torch::Tensor clip_fraction;  // fraction with |r - 1| > c  (no gradient)
+};
+
+// One minibatch's loss; all inputs [M]. Advantages are normalised inside when
+// cfg.normalize_advantages (with the unbiased std + 1e-8, as CleanRL).
+PpoLossTerms ppo_loss(const torch::Tensor& new_log_prob, const torch::Tensor& old_log_prob,
+                      const torch::Tensor& advantages, const torch::Tensor& new_value, const torch::Tensor& old_value,
+                      const torch::Tensor& returns, const torch::Tensor& entropy, const PpoConfig& cfg);
+
+struct PpoStats {
+  double policy_loss = 0.0;  // means over all minibatch steps of the update
+  double value_loss = 0.0;
+  double entropy = 0.0;
+  double approx_kl = 0.0;
+  double clip_fraction = 0.0;
+  double learning_rate = 0.0;  // used in this update
+  double explained_variance = 0.0;
+  int64_t update_index = 0;  // updates done, including this one
+};
+
+class PpoAgent {
+ public:
+  explicit PpoAgent(const PpoConfig& cfg);
+  // Normalised observation (statistics updated first when update_stats and cfg.normalize_obs).
+  models::LlObs normalize(const models::LlObs& raw, bool update_stats);
+  // Samples a ~ N(mean, exp(log_std)) with `generator`. No gradients.
+  PpoAction act(const models::LlObs& raw, at::Generator& generator, bool update_stats = true);
+  // V(raw obs) with the current statistics, not updating them: last_value and bootstrap values.
+  torch::Tensor value(const models::LlObs& raw);
+  PpoStats update(const RolloutBuffer& buffer);
+  void save(const std::string& path) const;
+  void load(const std::string& path);
+
+  double learning_rate_for_update(int64_t update_index) const;
+  const PpoConfig& config() const { return cfg_; }
+  models::LlActorCritic& net() { return net_; }
+  models::ObsNormalizer& normalizer() { return normalizer_; }
+  torch::optim::Adam& optimizer() { return *optimizer_; }
+  int64_t update_count() const { return update_count_; }
+
+ private:
+  PpoConfig cfg_;
+  models::LlActorCritic net_{nullptr};
+  models::ObsNormalizer normalizer_{nullptr};
+  std::unique_ptr<torch::optim::Adam> optimizer_;
+  at::Generator generator_;
+  int64_t update_count_ = 0;
+};
+
+}  // namespace f16race::agents
