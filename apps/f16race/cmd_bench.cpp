@@ -203,6 +203,8 @@ void add_bench_command(CLI::App& app) {
   ecmd->add_option("--threads", envo->threads, "Thread counts to measure (default: 1 and all cores)")->check(CLI::PositiveNumber);
   ecmd->add_flag("--json", envo->json, "One JSON object per measured case, one per line");
   ecmd->callback([envo]() { run_bench_env(*envo); });
+
+  add_bench_nets_command(*bench);
 }
 
 }  // namespace f16race::app

@@ -53,8 +53,6 @@ void plot_race(const RaceEnv& env, const RaceRecord& rec, int race_id, const std
   double s_max = 0.0;
   for (const auto& rows : rec.by_agent)
     for (const auto& r : rows) s_max = std::max(s_max, r[1]);
-  const Track& tr = env.track(0);  // unused: radius comes from the records below
-  (void)tr;
   for (const auto& rows : rec.by_agent) {
     for (const auto& r : rows) {
       tube[0].push_back(r[1]);
@@ -157,6 +155,9 @@ void run_race(const RaceOptions& o) {
           r.causes.push_back(last_cause[i]);
         }
         r.alive_at_end = alive;
+        r.winner = env.race_winner()[e];
+        const int end = env.race_end()[e];
+        r.end_reason = end == RaceEnv::kEndFinishLine ? "finish line" : (end == RaceEnv::kEndElimination ? "elimination" : "time limit");
         continue;
       }
       record(e);
@@ -165,32 +166,27 @@ void run_race(const RaceOptions& o) {
     for (int k = 0; k < kNumCauses; ++k) totals.terminations[k] += st.terminations[k];
     (void)step;
   }
-  // Per-race summary. Winner: read from the recorded last ranks (the leader's team).
+  // Per-race summary (winner and end reason as the env decided them).
   std::vector<std::vector<double>> cols(5);
+  std::vector<std::string> reasons;
   std::vector<std::vector<std::string>> scols(1);
   int alive_total = 0;
   for (int e = 0; e < cfg.n_env; ++e) {
     RaceRecord& r = recs[e];
-    double best = -1.0;
-    int best_agent = -1;
-    for (int a = 0; a < n_agent; ++a) {
-      const auto& rows = r.by_agent[a];
-      if (!rows.empty() && r.causes[a] == 0 && rows.back()[1] > best) best = rows.back()[1], best_agent = a;
-    }
-    r.winner = best_agent < 0 ? -1 : RaceEnv::team_of(best_agent, cfg.team_size);
-    r.end_reason = r.duration_s >= cfg.time_limit_s - 1e-6 ? "time limit" : "finish line or elimination";
     alive_total += r.alive_at_end;
     cols[0].push_back(e);
     cols[1].push_back(r.duration_s);
     cols[2].push_back(r.winner);
     cols[3].push_back(r.alive_at_end);
     cols[4].push_back(env.track(e).length_ft());
+    reasons.push_back(r.end_reason);
     std::string causes;
     for (int a = 0; a < n_agent; ++a) causes += (a ? ";" : "") + std::string(cause_name(r.causes[a]));
     scols[0].push_back(causes);
   }
+  scols.push_back(reasons);
   io::write_csv(o.out + "/races.csv", {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft"}, cols,
-                {"terminations"}, scols);
+                {"terminations", "end"}, scols);
   std::printf("%d races (%d vs %d, %s pilot, seed %llu): %d of %d aircraft alive at the end\n", cfg.n_env,
               cfg.team_size, cfg.team_size, o.policy.c_str(), static_cast<unsigned long long>(cfg.seed), alive_total,
               cfg.n_env * n_agent);

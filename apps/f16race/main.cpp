@@ -22,12 +22,15 @@ int main(int argc, char** argv) {
     if (threads > 0) omp_set_num_threads(threads);
   });
   f16race::app::add_simulate_command(app);
+  f16race::app::add_train_command(app);
   f16race::app::add_race_command(app);
   f16race::app::add_bench_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version are "errors" with code 0; real parse errors exit 2 like bad input.
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;
   } catch (const f16race::app::UserError& e) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;

@@ -254,7 +254,12 @@ EsStats EsAgent::update(const EsBatch& batch) {
   TORCH_CHECK(batch.next_obs.ego.dim() == 3 && batch.next_obs.ego.size(0) == t && batch.next_obs.ego.size(1) == n_a,
               "EsBatch.next_obs.ego must be [T, n_a, d_ego]");
 
-  const auto obs = prepare(models::flatten2(batch.obs), true);
+  const auto flat_obs = models::flatten2(batch.obs);
+  if (cfg_.normalize_obs) {
+    // Statistics from the aircraft that took the decision only (dead ones hold stale states).
+    normalizer_->normalize(models::index_rows(flat_obs, active.reshape({-1}).nonzero().squeeze(1)), true);
+  }
+  const auto obs = prepare(flat_obs, false);
   EsTarget target;
   {
     torch::NoGradGuard no_grad;

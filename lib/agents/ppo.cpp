@@ -92,13 +92,16 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   for (auto& group : optimizer_->param_groups()) {
     static_cast<torch::optim::AdamOptions&>(group.options()).lr(stats.learning_rate);
   }
-  const auto obs = models::flatten2(buffer.obs);
-  const auto actions = buffer.actions.flatten(0, 1);
-  const auto old_log_probs = buffer.log_probs.flatten(0, 1);
-  const auto old_values = buffer.values.flatten(0, 1);
-  const auto advantages = buffer.advantages.flatten(0, 1);
-  const auto returns = buffer.returns.flatten(0, 1);
-  const int64_t batch = actions.size(0);
+  // Only valid samples (aircraft that acted) enter the update.
+  const auto rows = buffer.valid.flatten().nonzero().squeeze(1);
+  TORCH_CHECK(rows.numel() > 0, "PpoAgent::update: the buffer holds no valid sample");
+  const auto obs = models::index_rows(models::flatten2(buffer.obs), rows);
+  const auto actions = buffer.actions.flatten(0, 1).index_select(0, rows);
+  const auto old_log_probs = buffer.log_probs.flatten().index_select(0, rows);
+  const auto old_values = buffer.values.flatten().index_select(0, rows);
+  const auto advantages = buffer.advantages.flatten().index_select(0, rows);
+  const auto returns = buffer.returns.flatten().index_select(0, rows);
+  const int64_t batch = rows.numel();
 
   int64_t n_steps = 0;
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {

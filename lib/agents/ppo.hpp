@@ -9,7 +9,8 @@
 //   for n_steps: a = act(raw_obs, gen)            // normalises (and updates the statistics)
 //                env.step(a.action) -> r, terminated, truncated, final obs of ended episodes
 //                bootstrap = value(final_obs)     // only needed where truncated
-//                buffer.add(a.obs, a.action, a.log_prob, a.value, r, terminated, truncated, bootstrap)
+//                buffer.add(a.obs, a.action, a.log_prob, a.value, r, terminated, truncated, bootstrap,
+//                           alive)          // dead aircraft are stored but left out of the update
 //   buffer.finish(value(raw_obs_after_last_step), gamma, gae_lambda); update(buffer); buffer.clear()
 #include <torch/torch.h>
 

@@ -47,11 +47,13 @@ RolloutBuffer::RolloutBuffer(int64_t n_steps, int64_t n_samples, const models::O
   terminated = torch::zeros({t, n}, torch::kBool);
   truncated = torch::zeros({t, n}, torch::kBool);
   bootstrap_values = torch::zeros({t, n});
+  valid = torch::ones({t, n}, torch::kBool);
 }
 
 void RolloutBuffer::add(const models::LlObs& o, const torch::Tensor& action, const torch::Tensor& log_prob,
                         const torch::Tensor& value, const torch::Tensor& reward, const torch::Tensor& term,
-                        const torch::Tensor& trunc, const torch::Tensor& bootstrap_value) {
+                        const torch::Tensor& trunc, const torch::Tensor& bootstrap_value,
+                        const torch::Tensor& valid_mask) {
   TORCH_CHECK(size_ < n_steps_, "RolloutBuffer::add: buffer is full (", n_steps_, " steps)");
   const int64_t n = n_samples_;
   TORCH_CHECK(models::check_obs(o, dims_) == n, "RolloutBuffer::add: obs batch must be n_samples = ", n);
@@ -80,6 +82,12 @@ void RolloutBuffer::add(const models::LlObs& o, const torch::Tensor& action, con
   } else {
     TORCH_CHECK(!trunc.any().item<bool>(), "RolloutBuffer::add: truncated samples need a bootstrap_value");
     bootstrap_values[t].zero_();
+  }
+  if (valid_mask.defined()) {
+    check_tensor(valid_mask, "valid", {n}, torch::kBool);
+    valid[t].copy_(valid_mask);
+  } else {
+    valid[t].fill_(true);
   }
   ++size_;
   finished_ = false;

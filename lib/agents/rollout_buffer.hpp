@@ -35,10 +35,12 @@ class RolloutBuffer {
 
   // Stores step `size()`. obs: normalised observation fields with batch n_samples; action
   // [N, A]; log_prob, value, reward [N]; terminated, truncated [N] bool; bootstrap_value [N]
-  // (read where truncated; may be undefined when nothing was truncated).
+  // (read where truncated; may be undefined when nothing was truncated); valid [N] bool
+  // (optional, default all): false for aircraft that did not act (dead), left out of the loss.
   void add(const models::LlObs& obs, const torch::Tensor& action, const torch::Tensor& log_prob,
            const torch::Tensor& value, const torch::Tensor& reward, const torch::Tensor& terminated,
-           const torch::Tensor& truncated, const torch::Tensor& bootstrap_value);
+           const torch::Tensor& truncated, const torch::Tensor& bootstrap_value,
+           const torch::Tensor& valid = torch::Tensor());
   // Runs GAE once the buffer is full; last_value [N] = V(o_T), the value after the last step.
   void finish(const torch::Tensor& last_value, double gamma, double gae_lambda);
   void clear() { size_ = 0; finished_ = false; }
@@ -51,7 +53,7 @@ class RolloutBuffer {
 
   // Storage, [n_steps, n_samples, ...] each (observation fields likewise).
   models::LlObs obs;
-  torch::Tensor actions, log_probs, values, rewards, terminated, truncated, bootstrap_values;
+  torch::Tensor actions, log_probs, values, rewards, terminated, truncated, bootstrap_values, valid;
   torch::Tensor advantages, returns;  // filled by finish()
 
  private:

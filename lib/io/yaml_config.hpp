@@ -54,4 +54,29 @@ class ConfigReader {
   std::set<std::string> used_;
 };
 
+// The mirror of ConfigReader with the same calls: writes the current values into a YAML tree,
+// so one bind function both reads a config and emits the resolved one (no key listed twice).
+class ConfigWriter {
+ public:
+  explicit ConfigWriter(YAML::Node node) : node_(std::move(node)) {}
+  void read(const char* key, double* value, double, double) { node_[key] = *value; }
+  void read(const char* key, int* value, int, int) { node_[key] = *value; }
+  void read(const char* key, std::uint64_t* value) { node_[key] = *value; }
+  void read(const char* key, bool* value) { node_[key] = *value; }
+  void read(const char* key, std::string* value, const std::vector<std::string>&) { node_[key] = *value; }
+  void read(const char* key, std::vector<int>* value, int, int) {
+    YAML::Node seq(YAML::NodeType::Sequence);
+    seq.SetStyle(YAML::EmitterStyle::Flow);
+    for (int v : *value) seq.push_back(v);
+    node_[key] = seq;
+  }
+  ConfigWriter child(const char* key) { return ConfigWriter(node_[key]); }
+  void finish() const {}
+  const std::string& source() const { return source_; }
+
+ private:
+  YAML::Node node_;
+  std::string source_ = "(resolved config)";
+};
+
 }  // namespace f16race::io

@@ -4,7 +4,10 @@
 
 namespace f16race::race {
 
-void read_race_config(io::ConfigReader& r, RaceConfig* c) {
+namespace {
+// One list of keys for reading and writing: R is io::ConfigReader or io::ConfigWriter.
+template <class R>
+void bind_race_config(R& r, RaceConfig* c) {
   r.read("n_env", &c->n_env, 1, 1 << 20);
   r.read("team_size", &c->team_size, 1, 8);
   std::string model = dynamics::aero_model_name(c->model);
@@ -16,7 +19,7 @@ void read_race_config(io::ConfigReader& r, RaceConfig* c) {
   r.read("dt_hl_s", &c->dt_hl_s, 0.08, 600.0);
   r.read("time_limit_s", &c->time_limit_s, 1.0, 3600.0);
 
-  io::ConfigReader t = r.child("track");
+  auto t = r.child("track");
   t.read("n_waypoints", &c->track.n_waypoints, 4, 1000);
   t.read("leg_min_ft", &c->track.leg_min_ft, 500.0, 1e6);
   t.read("leg_max_ft", &c->track.leg_max_ft, 500.0, 1e6);
@@ -63,11 +66,20 @@ void read_race_config(io::ConfigReader& r, RaceConfig* c) {
   r.read("w_action_change", &c->w_action_change, -1e6, 1e6);
   r.read("w_rates", &c->w_rates, -1e6, 1e6);
   r.finish();
+}
+}  // namespace
+
+void read_race_config(io::ConfigReader& r, RaceConfig* c) {
+  bind_race_config(r, c);
   validate_race_config(*c, r.source());
 }
 
+void write_race_config(io::ConfigWriter& w, RaceConfig c) { bind_race_config(w, &c); }
+
 void validate_race_config(const RaceConfig& c, const std::string& source) {
   auto fail = [&](const std::string& what) { throw io::ConfigError(source + ": race: " + what); };
+  if (c.team_size < 1 || c.team_size > 8) fail("team_size must be in [1, 8] (1 vs 1 up to 8 vs 8)");
+  if (c.n_env < 1) fail("n_env must be >= 1");
   if (c.track.leg_min_ft > c.track.leg_max_ft) fail("track.leg_min_ft must be <= track.leg_max_ft");
   if (c.track.alt_min_ft >= c.track.alt_max_ft) fail("track.alt_min_ft must be < track.alt_max_ft");
   if (c.track.radius_min_ft > c.track.radius_max_ft) fail("track.radius_min_ft must be <= track.radius_max_ft");

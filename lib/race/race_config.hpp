@@ -9,6 +9,7 @@
 
 namespace f16race::io {
 class ConfigReader;
+class ConfigWriter;
 }
 
 namespace f16race::race {
@@ -78,6 +79,8 @@ struct RaceConfig {
 // Reads the `race:` section (absent keys keep defaults) and checks cross-field consistency.
 // Throws io::ConfigError naming the file and key.
 void read_race_config(io::ConfigReader& reader, RaceConfig* config);
+// Writes every field (the resolved config of a run).
+void write_race_config(io::ConfigWriter& writer, RaceConfig config);
 
 // Checks the relations between fields that a single range cannot (e.g. nz_ref_min < nz_ref_max);
 // throws io::ConfigError naming `source`.

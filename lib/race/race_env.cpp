@@ -107,6 +107,8 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   hl_time_left_s_.assign(n_env(), 0.0);
   hl_due_.assign(n_env(), 1);
   env_done_.assign(n_env(), 0);
+  race_winner_.assign(n_env(), -1);
+  race_end_.assign(n_env(), 0);
   alive_.assign(n, 0);
   acted_.assign(n, 0);
   terminated_.assign(n, 0);
@@ -137,6 +139,12 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   ll_reward_.assign(n, 0.0f);
   hl_reward_.assign(n, 0.0f);
   step_stats_.assign(n_env(), StepStats{});
+  final_ego_ = ego_;
+  final_goal_ = goal_obs_;
+  final_prev_action_ = prev_action_;
+  final_ado_ = ado_;
+  final_ado_alive_ = ado_alive_;
+  final_task_ = task_;
   reset();
 }
 
@@ -147,6 +155,19 @@ void RaceEnv::reset() {
     env_done_[e] = 0;
     write_observations(e);
   }
+}
+
+void RaceEnv::copy_final_observations(int env) {
+  const std::size_t a0 = static_cast<std::size_t>(env) * n_agent_, a1 = a0 + n_agent_;
+  auto copy = [&](const auto& src, auto& dst, std::size_t width) {
+    std::copy(src.begin() + a0 * width, src.begin() + a1 * width, dst.begin() + a0 * width);
+  };
+  copy(ego_, final_ego_, kEgoDim);
+  copy(goal_obs_, final_goal_, kGoalDim);
+  copy(prev_action_, final_prev_action_, kActionDim);
+  copy(ado_, final_ado_, static_cast<std::size_t>(n_agent_ - 1) * kAdoDim);
+  copy(ado_alive_, final_ado_alive_, static_cast<std::size_t>(n_agent_ - 1));
+  copy(task_, final_task_, static_cast<std::size_t>(task_dim_));
 }
 
 void RaceEnv::refresh() {
@@ -205,6 +226,7 @@ void RaceEnv::reset_env(int env) {
     la[1] = static_cast<float>(2.0 * (trim.u_ref[kNzRef] - config_.nz_ref_min_g) /
                                    (config_.nz_ref_max_g - config_.nz_ref_min_g) - 1.0);
     la[2] = 0.0f;
+    for (int q = 0; q < kActionDim; ++q) prev_action_[static_cast<std::size_t>(i) * kActionDim + q] = la[q];
   }
   update_track_geometry(env);
   compute_ranks(env);
@@ -263,6 +285,8 @@ void RaceEnv::set_hl_actions(const std::int64_t* bins) {
     }
     hl_due_[e] = 0;
     hl_time_left_s_[e] = config_.dt_hl_s;
+    for (int a = 0; a < n_agent_; ++a)  // the task entry "time to the next HL decision"
+      task_[static_cast<std::size_t>(e * n_agent_ + a) * task_dim_ + 5 * config_.preview_points + 5] = 1.0f;
   }
 }
 
@@ -280,7 +304,8 @@ StepStats RaceEnv::step(const float* actions) {
     float* la = &last_action_[static_cast<std::size_t>(i) * kActionDim];
     double da2 = 0.0;
     for (int k = 0; k < kActionDim; ++k) {
-      const float v = std::min(std::max(a[k], -1.0f), 1.0f);
+      // NaN from a broken policy counts as 0 (neutral) rather than reaching the flight model.
+      const float v = std::isnan(a[k]) ? 0.0f : std::min(std::max(a[k], -1.0f), 1.0f);
       da2 += (v - la[k]) * (v - la[k]);
       prev_action_[static_cast<std::size_t>(i) * kActionDim + k] = v;
       la[k] = v;
@@ -395,12 +420,18 @@ StepStats RaceEnv::step(const float* actions) {
       st.races_by_finish_line = finished;
       st.races_by_elimination = !finished && eliminated;
       st.races_by_time_limit = !finished && !eliminated;
+      race_winner_[e] = static_cast<std::int8_t>(tr_blue == 0.0 ? 0 : (tr_blue == 1.0 ? 1 : -1));
+      race_end_[e] = finished ? kEndFinishLine : (eliminated ? kEndElimination : kEndTimeLimit);
       for (int a = 0; a < n_agent_; ++a) {
         const int i = base + a;
         if (!alive_[i]) continue;
         st.aircraft_alive_at_end += 1;
         if (finished || eliminated) terminated_[i] = 1;
         else truncated_[i] = 1;
+      }
+      if (st.races_by_time_limit) {
+        write_observations(e);
+        copy_final_observations(e);
       }
       reset_env(e);
     } else {
@@ -593,7 +624,7 @@ void RaceEnv::save_state(std::ostream& out) const {
   put_vec(out, goal_dist_ft_); put_vec(out, start_lateral_ft_); put_vec(out, start_vertical_ft_);
   put_vec(out, goal_point_); put_vec(out, last_action_); put_vec(out, ego_); put_vec(out, prev_action_);
   put_vec(out, goal_obs_); put_vec(out, ado_); put_vec(out, task_); put_vec(out, ado_alive_);
-  put_vec(out, ll_reward_); put_vec(out, hl_reward_);
+  put_vec(out, ll_reward_); put_vec(out, hl_reward_); put_vec(out, race_winner_); put_vec(out, race_end_);
 }
 
 void RaceEnv::load_state(std::istream& in) {
@@ -624,6 +655,7 @@ void RaceEnv::load_state(std::istream& in) {
   get_vec(in, &last_action_, "last action"); get_vec(in, &ego_, "ego obs"); get_vec(in, &prev_action_, "prev action obs");
   get_vec(in, &goal_obs_, "goal obs"); get_vec(in, &ado_, "ado obs"); get_vec(in, &task_, "task obs");
   get_vec(in, &ado_alive_, "ado alive"); get_vec(in, &ll_reward_, "ll reward"); get_vec(in, &hl_reward_, "hl reward");
+  get_vec(in, &race_winner_, "race winner"); get_vec(in, &race_end_, "race end");
 }
 
 }  // namespace f16race::race

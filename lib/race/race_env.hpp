@@ -89,6 +89,19 @@ class RaceEnv {
   const std::int8_t* step_cause() const { return step_cause_.data(); }  // [n_env, n_agent]
   const std::uint8_t* hl_due() const { return hl_due_.data(); }   // [n_env]: call set_hl_actions
   const std::uint8_t* env_done() const { return env_done_.data(); }  // [n_env]: race ended (and was reset)
+  // Where env_done: the winning team (0 blue, 1 red, -1 draw) and why the race ended.
+  enum EndReason : std::int8_t { kEndNone = 0, kEndFinishLine = 1, kEndElimination = 2, kEndTimeLimit = 3 };
+  const std::int8_t* race_winner() const { return race_winner_.data(); }  // [n_env]
+  const std::int8_t* race_end() const { return race_end_.data(); }        // [n_env]
+  double goal_distance_ft(int i) const { return goal_dist_ft_[i]; }
+  // Observations of the final state of races that hit the time limit this step (rows of other
+  // envs are stale): what a learner bootstraps a truncated episode from. Same shapes as obs_*.
+  const float* final_ego() const { return final_ego_.data(); }
+  const float* final_goal() const { return final_goal_.data(); }
+  const float* final_prev_action() const { return final_prev_action_.data(); }
+  const float* final_ado() const { return final_ado_.data(); }
+  const std::uint8_t* final_ado_alive() const { return final_ado_alive_.data(); }
+  const float* final_task() const { return final_task_.data(); }
 
   // --- state for tools, scripted pilots and tests ---
   const dynamics::F16Batch& sim() const { return sim_; }
@@ -138,6 +151,7 @@ class RaceEnv {
   std::vector<RandomStream> rng_;
   std::vector<double> time_s_, hl_time_left_s_;
   std::vector<std::uint8_t> hl_due_, env_done_;
+  std::vector<std::int8_t> race_winner_, race_end_;
 
   // Per aircraft [n_env * n_agent].
   std::vector<std::uint8_t> alive_, acted_, terminated_, truncated_;
@@ -154,6 +168,9 @@ class RaceEnv {
   std::vector<std::uint8_t> ado_alive_;
   std::vector<float> ll_reward_, hl_reward_;
   std::vector<StepStats> step_stats_;  // [n_env], reused every step
+  std::vector<float> final_ego_, final_goal_, final_prev_action_, final_ado_, final_task_;
+  std::vector<std::uint8_t> final_ado_alive_;
+  void copy_final_observations(int env);
 };
 
 }  // namespace f16race::race

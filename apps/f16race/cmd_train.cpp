@@ -1,0 +1,160 @@
+// `f16race train`: bilevel self-play training on a YAML config, resumable, with a progress line.
+#include <omp.h>
+#include <spdlog/spdlog.h>
+#include <torch/torch.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "io/yaml_config.hpp"
+#include "train/trainer.hpp"
+
+namespace f16race::app {
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_sigint(int) { g_stop.store(true); }
+
+struct TrainOptions {
+  std::string config = "configs/default.yaml";
+  std::vector<std::string> overrides;
+  std::string run;
+  std::string resume;
+  std::string agent;
+  long long seed = -1;
+  long long max_updates = -1;
+  bool quiet = false;
+  std::string log_level = "info";
+};
+
+std::string fmt_time(double s) {
+  if (!std::isfinite(s) || s < 0) return "--:--";
+  char b[32];
+  std::snprintf(b, sizeof b, "%d:%02d", static_cast<int>(s) / 60, static_cast<int>(s) % 60);
+  return b;
+}
+
+// Change of a metric between the first and last tenth of the rows (NaN rows skipped).
+struct Trend {
+  double first = NAN, last = NAN;
+};
+Trend trend(const std::vector<train::MetricsRow>& rows, double train::MetricsRow::*field) {
+  Trend t;
+  const std::size_t n = rows.size(), k = std::max<std::size_t>(1, n / 10);
+  auto mean = [&](std::size_t a, std::size_t b) {
+    double s = 0, c = 0;
+    for (std::size_t i = a; i < b; ++i)
+      if (std::isfinite(rows[i].*field)) s += rows[i].*field, c += 1;
+    return c > 0 ? s / c : NAN;
+  };
+  if (n == 0) return t;
+  t.first = mean(0, k);
+  t.last = mean(n - k, n);
+  return t;
+}
+
+void run_train(const TrainOptions& o) {
+  spdlog::set_level(spdlog::level::from_str(o.log_level));
+  // Torch's intra-op pool and the simulator's OpenMP never run at the same time; one count.
+  const int threads = omp_get_max_threads();
+  torch::set_num_threads(threads);
+  std::unique_ptr<train::Trainer> trainer;
+  try {
+    if (!o.resume.empty()) {
+      if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0)
+        throw UserError("--resume continues a run exactly as configured: drop --set/--agent/--seed");
+      trainer = train::Trainer::resume(o.resume);
+      spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
+    } else {
+      YAML::Node root = io::load_yaml_file(o.config);
+      for (const std::string& s : o.overrides) io::apply_override(root, s);
+      if (!o.agent.empty()) io::apply_override(root, "hl.agent=" + o.agent);
+      if (o.seed >= 0) io::apply_override(root, "seed=" + std::to_string(o.seed));
+      const train::TrainConfig cfg = train::read_train_config(root, o.config);
+      std::string run = o.run;
+      if (run.empty()) {
+        run = "runs/" + std::string(agents::es_variant_name(cfg.hl.variant)) + "_seed" + std::to_string(cfg.seed);
+      }
+      trainer = std::make_unique<train::Trainer>(cfg, run);
+      spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads", run, cfg.race.n_env,
+                   cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
+                   cfg.loop.total_env_steps, threads);
+    }
+  } catch (const io::ConfigError&) {
+    throw;
+  } catch (const UserError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw UserError(e.what());
+  }
+  const auto& cfg = trainer->config();
+  const bool tty = isatty(STDOUT_FILENO) != 0 && !o.quiet;
+  std::signal(SIGINT, on_sigint);
+  std::signal(SIGTERM, on_sigint);
+  auto on_row = [&](const train::MetricsRow& r) {
+    if (o.quiet) return;
+    const double frac = static_cast<double>(r.env_steps) / static_cast<double>(cfg.loop.total_env_steps);
+    const double eta = frac > 0 ? r.wall_s * (1.0 - frac) / frac : NAN;
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | win %.2f | finish %.2f | "
+                  "LL ret %6.2f | HL ret %6.2f",
+                  100.0 * frac, fmt_time(r.wall_s).c_str(), fmt_time(eta).c_str(), static_cast<long long>(r.update),
+                  r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.winrate, r.finish_rate, r.ll_return,
+                  r.hl_return);
+    if (tty) {
+      const int width = 28, filled = static_cast<int>(frac * width);
+      std::printf("\r[%s%s] %s\x1b[K", std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), line);
+      std::fflush(stdout);
+    } else if (r.update % cfg.loop.log_every_updates == 0) {
+      std::printf("%s\n", line);
+      std::fflush(stdout);
+    }
+  };
+  const train::TrainSummary sum = trainer->run(&g_stop, o.max_updates, on_row);
+  if (tty) std::printf("\n");
+  if (sum.interrupted) {
+    std::printf("interrupted: checkpoint written at update %lld; continue with --resume\n",
+                static_cast<long long>(sum.updates));
+    return;
+  }
+  // What improved, between the first and last tenth of this process's rows.
+  const Trend goal = trend(sum.rows, &train::MetricsRow::goal_dist_ft);
+  const Trend fin = trend(sum.rows, &train::MetricsRow::finish_rate);
+  const Trend hl = trend(sum.rows, &train::MetricsRow::hl_return);
+  const Trend ll = trend(sum.rows, &train::MetricsRow::ll_return);
+  std::printf("done: %lld updates, %lld env steps\n", static_cast<long long>(sum.updates),
+              static_cast<long long>(sum.env_steps));
+  std::printf("first -> last tenth: goal distance %.0f -> %.0f ft, finish rate %.2f -> %.2f, "
+              "LL return %.2f -> %.2f, HL return %.2f -> %.2f\n",
+              goal.first, goal.last, fin.first, fin.last, ll.first, ll.last, hl.first, hl.last);
+}
+
+}  // namespace
+
+void add_train_command(CLI::App& app) {
+  auto o = std::make_shared<TrainOptions>();
+  CLI::App* cmd = app.add_subcommand("train", "Bilevel self-play training (PPO low level, Expected SARSA high level)");
+  cmd->add_option("--config", o->config, "YAML config");
+  cmd->add_option("--set", o->overrides, "Override a key, e.g. --set race.n_env=128 (repeatable)");
+  cmd->add_option("--run", o->run, "Run folder (default runs/AGENT_seedN)");
+  cmd->add_option("--resume", o->resume, "Continue the run in this folder from its latest checkpoint");
+  cmd->add_option("--agent", o->agent, "High-level agent: es, es_d1, es_d2, es_d3")
+      ->check(CLI::IsMember({"es", "es_d1", "es_d2", "es_d3"}));
+  cmd->add_option("--seed", o->seed, "Seed (overrides the config's)");
+  cmd->add_option("--max-updates", o->max_updates, "Stop (with a checkpoint) after this many updates");
+  cmd->add_flag("--quiet", o->quiet, "No progress output");
+  cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  cmd->callback([o]() { run_train(*o); });
+}
+
+}  // namespace f16race::app

@@ -1,0 +1,151 @@
+#include "train/train_config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <sstream>
+
+#include "io/yaml_config.hpp"
+
+namespace f16race::train {
+namespace {
+
+// int64 fields through the int-based reader/writer.
+template <class R>
+void read_i64(R& r, const char* key, std::int64_t* v, int lo, int hi) {
+  int t = static_cast<int>(*v);
+  r.read(key, &t, lo, hi);
+  *v = t;
+}
+
+template <class R>
+void read_hidden(R& r, std::vector<std::int64_t>* v) {
+  std::vector<int> t(v->begin(), v->end());
+  r.read("hidden", &t, 1, 4096);
+  v->assign(t.begin(), t.end());
+}
+
+template <class R>
+void bind_ll(R& r, agents::PpoConfig* c) {
+  read_hidden(r, &c->net.hidden);
+  read_i64(r, "d_model", &c->net.d_model, 4, 1024);
+  read_i64(r, "n_heads", &c->net.n_heads, 1, 64);
+  r.read("init_log_std", &c->net.init_log_std, -5.0, 2.0);
+  r.read("gamma", &c->gamma, 0.0, 1.0);
+  r.read("gae_lambda", &c->gae_lambda, 0.0, 1.0);
+  read_i64(r, "n_steps", &c->n_steps, 1, 100000);
+  read_i64(r, "n_minibatches", &c->n_minibatches, 1, 100000);
+  read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
+  r.read("clip_coef", &c->clip_coef, 0.0, 10.0);
+  r.read("clip_value_loss", &c->clip_value_loss);
+  r.read("vf_coef", &c->vf_coef, 0.0, 100.0);
+  r.read("ent_coef", &c->ent_coef, 0.0, 10.0);
+  r.read("max_grad_norm", &c->max_grad_norm, 0.0, 1e6);
+  r.read("learning_rate", &c->learning_rate, 0.0, 1.0);
+  r.read("anneal_lr", &c->anneal_lr);
+  r.read("normalize_advantages", &c->normalize_advantages);
+  r.read("normalize_obs", &c->normalize_obs);
+  r.finish();
+}
+
+template <class R>
+void bind_hl(R& r, agents::EsConfig* c) {
+  std::string variant = agents::es_variant_name(c->variant);
+  r.read("agent", &variant, {"es", "es_d1", "es_d2", "es_d3"});
+  c->variant = agents::parse_es_variant(variant);
+  read_hidden(r, &c->hidden);
+  read_i64(r, "d_model", &c->d_model, 4, 1024);
+  read_i64(r, "n_heads", &c->n_heads, 1, 64);
+  read_i64(r, "n_atoms", &c->n_atoms, 2, 1001);
+  r.read("v_min", &c->v_min, -1e6, 1e6);
+  r.read("v_max", &c->v_max, -1e6, 1e6);
+  r.read("gamma", &c->gamma, 0.0, 1.0);
+  r.read("epsilon", &c->epsilon, 0.0, 1.0);
+  read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
+  read_i64(r, "target_update_interval", &c->target_update_interval, 1, 1000000);
+  read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
+  read_i64(r, "n_minibatches", &c->n_minibatches, 1, 100000);
+  r.read("learning_rate", &c->learning_rate, 0.0, 1.0);
+  r.read("max_grad_norm", &c->max_grad_norm, 0.0, 1e6);
+  r.read("huber_delta", &c->huber_delta, 1e-6, 1e6);
+  r.finish();
+}
+
+template <class R>
+void bind_loop(R& r, LoopConfig* c) {
+  std::uint64_t steps = static_cast<std::uint64_t>(c->total_env_steps);
+  r.read("total_env_steps", &steps);
+  c->total_env_steps = static_cast<std::int64_t>(steps);
+  r.read("ll_phase_updates", &c->ll_phase_updates, 1, 1000000);
+  r.read("hl_phase_updates", &c->hl_phase_updates, 0, 1000000);
+  r.read("checkpoint_every_updates", &c->checkpoint_every_updates, 1, 1000000);
+  r.read("hl_epsilon_eval", &c->hl_epsilon_eval, 0.0, 1.0);
+  r.read("log_every_updates", &c->log_every_updates, 1, 1000000);
+  r.finish();
+}
+
+template <class R>
+void bind_pool(R& r, PoolConfig* c) {
+  r.read("p_self_play", &c->p_self_play, 0.0, 1.0);
+  r.read("snapshot_every_updates", &c->snapshot_every_updates, 1, 1000000);
+  r.read("max_snapshots", &c->max_snapshots, 1, 100000);
+  r.read("randomize_sides", &c->randomize_sides);
+  r.finish();
+}
+
+}  // namespace
+
+TrainConfig read_train_config(const YAML::Node& root, const std::string& source) {
+  TrainConfig c;
+  io::ConfigReader top(root, source);
+  top.read("seed", &c.seed);
+  io::ConfigReader race = top.child("race");
+  race::read_race_config(race, &c.race);
+  io::ConfigReader ll = top.child("ll");
+  bind_ll(ll, &c.ll);
+  io::ConfigReader hl = top.child("hl");
+  bind_hl(hl, &c.hl);
+  io::ConfigReader loop = top.child("train");
+  bind_loop(loop, &c.loop);
+  io::ConfigReader pool = top.child("pool");
+  bind_pool(pool, &c.pool);
+  top.finish();
+  if (c.loop.total_env_steps <= 0) throw io::ConfigError(source + ": train.total_env_steps must be > 0");
+  if (c.hl.v_min >= c.hl.v_max) throw io::ConfigError(source + ": hl.v_min must be < hl.v_max");
+  if (c.ll.n_steps * c.race.n_env * c.race.team_size % c.ll.n_minibatches != 0)
+    throw io::ConfigError(source + ": ll.n_minibatches must divide ll.n_steps x race.n_env x race.team_size");
+  // One seed drives everything; the race and both learners get their own streams from it.
+  c.race.seed = c.seed;
+  c.ll.seed = c.seed * 2 + 11;
+  c.hl.seed = c.seed * 2 + 12;
+  return c;
+}
+
+std::string train_config_yaml(const TrainConfig& config) {
+  TrainConfig c = config;
+  YAML::Node root;
+  root["seed"] = c.seed;
+  io::ConfigWriter race(root["race"]);
+  race::write_race_config(race, c.race);
+  io::ConfigWriter ll(root["ll"]);
+  bind_ll(ll, &c.ll);
+  io::ConfigWriter hl(root["hl"]);
+  bind_hl(hl, &c.hl);
+  io::ConfigWriter loop(root["train"]);
+  bind_loop(loop, &c.loop);
+  io::ConfigWriter pool(root["pool"]);
+  bind_pool(pool, &c.pool);
+  YAML::Emitter out;
+  out << root;
+  return std::string(out.c_str()) + "\n";
+}
+
+std::uint64_t config_hash(const std::string& text) {
+  std::uint64_t h = 1469598103934665603ULL;  // FNV-1a: stable across machines and compilers
+  for (unsigned char ch : text) {
+    h ^= ch;
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+}  // namespace f16race::train

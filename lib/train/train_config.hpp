@@ -1,0 +1,52 @@
+#pragma once
+// Everything `f16race train` needs, as plain structs with defaults, read from one YAML file
+// (sections race, ll, hl, train, pool) and validated with the file and key path in every error.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "agents/expected_sarsa.hpp"
+#include "agents/ppo.hpp"
+#include "race/race_config.hpp"
+
+namespace YAML {
+class Node;
+}
+
+namespace f16race::train {
+
+struct LoopConfig {
+  std::int64_t total_env_steps = 200000;  // LL steps summed over envs (paper: 1 M per env x 1024 envs)
+  int ll_phase_updates = 8;               // PPO updates per low-level phase (HL frozen)
+  int hl_phase_updates = 2;               // ES updates per high-level phase (LL frozen)
+  int checkpoint_every_updates = 20;      // also at the end and on Ctrl-C
+  double hl_epsilon_eval = 0.0;           // eps of the opponent's HL when it is a pool snapshot
+  int log_every_updates = 1;              // plain log line cadence when stdout is not a terminal
+};
+
+struct PoolConfig {
+  double p_self_play = 0.5;        // paper: current policy or a past checkpoint with equal odds
+  int snapshot_every_updates = 40; // PPO+ES updates between pool snapshots
+  int max_snapshots = 20;          // oldest snapshots are removed beyond this
+  bool randomize_sides = true;     // learner plays blue or red at random per race
+};
+
+struct TrainConfig {
+  race::RaceConfig race;
+  agents::PpoConfig ll;
+  agents::EsConfig hl;
+  LoopConfig loop;
+  PoolConfig pool;
+  std::uint64_t seed = 1;
+};
+
+// Reads `root` (already loaded, --set overrides applied). Unknown top-level sections or keys,
+// wrong types and out-of-range values throw io::ConfigError naming `source` and the key.
+TrainConfig read_train_config(const YAML::Node& root, const std::string& source);
+
+// The resolved configuration as YAML (every key, defaults included): written to the run folder,
+// and hashed to refuse a checkpoint from a different configuration.
+std::string train_config_yaml(const TrainConfig& config);
+std::uint64_t config_hash(const std::string& resolved_yaml);
+
+}  // namespace f16race::train

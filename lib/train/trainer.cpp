@@ -1,0 +1,730 @@
+#include "train/trainer.hpp"
+
+#include <torch/torch.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "agents/checkpoint.hpp"
+#include "io/csv_table.hpp"
+#include "io/yaml_config.hpp"
+#include "race/race_env.hpp"
+#include "race/random_stream.hpp"
+
+namespace f16race::train {
+
+namespace fs = std::filesystem;
+using models::HlObs;
+using models::LlObs;
+
+namespace {
+
+std::string step_name(std::int64_t steps) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "step_%010lld", static_cast<long long>(steps));
+  return buf;
+}
+
+// Writes text to PATH atomically (temporary file in the same folder, fsync via close, rename).
+void write_text_atomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) throw std::runtime_error(path + ": cannot write (check permissions and free space)");
+    f << text;
+    f.flush();
+    if (!f) throw std::runtime_error(path + ": write failed (disk full?)");
+  }
+  fs::rename(tmp, path);
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw std::runtime_error(path + ": cannot read");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+torch::Tensor bytes_tensor(const std::string& bytes) {
+  auto t = torch::empty({static_cast<std::int64_t>(bytes.size())}, torch::kUInt8);
+  std::memcpy(t.data_ptr(), bytes.data(), bytes.size());
+  return t;
+}
+
+std::string tensor_bytes(const torch::Tensor& t) {
+  const auto c = t.contiguous();
+  return std::string(static_cast<const char*>(c.data_ptr()), static_cast<std::size_t>(c.numel()));
+}
+
+std::vector<float> flat_parameters(const torch::nn::Module& m) {
+  std::vector<float> out;
+  for (const auto& p : m.parameters()) {
+    const auto c = p.detach().contiguous().to(torch::kFloat32);
+    out.insert(out.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
+  }
+  return out;
+}
+
+}  // namespace
+
+// Open high-level decisions of the learner team, one slot per env.
+struct OpenHl {
+  HlObs obs;                  // fields [n_env, team_size, ...]
+  torch::Tensor actions;      // [n_env, ts, 3] int64
+  torch::Tensor reward;       // [n_env, ts] float32, accumulated since the decision
+  torch::Tensor active;       // [n_env, ts] bool
+  std::vector<std::uint8_t> open;  // [n_env]
+};
+
+struct Trainer::State {
+  TrainConfig cfg;
+  std::string run_dir;
+  std::string resolved_yaml;
+  std::uint64_t hash = 0;
+  std::unique_ptr<race::RaceEnv> env;
+  std::unique_ptr<agents::PpoAgent> ppo, opp_ppo;
+  std::unique_ptr<agents::EsAgent> es, opp_es;
+  std::unique_ptr<agents::RolloutBuffer> buffer;
+  at::Generator gen;
+  race::RandomStream stream{1, 0xC0FFEE};
+  int n_env = 0, n_agent = 0, ts = 0;
+  models::ObsDims dims;
+
+  // Counters.
+  std::int64_t env_steps = 0, ppo_updates = 0, es_updates = 0;
+  int phase = 0;               // 0: low level learns, 1: high level learns
+  int phase_updates = 0;       // updates done in the current phase
+  std::int64_t opponent = -1;  // pool snapshot (its env_steps) the pool envs play, -1: none
+  std::vector<std::int64_t> pool;
+  std::vector<int> side;       // [n_env] learner team
+  std::vector<std::uint8_t> vs_pool;  // [n_env] opponent is the pool snapshot
+
+  // HL transitions.
+  OpenHl open;
+  std::vector<HlObs> done_obs, done_next;
+  std::vector<torch::Tensor> done_actions, done_reward, done_flag, done_active, done_next_active;
+
+  // Metrics accumulators since the last row.
+  std::vector<double> ll_ret, hl_ret;  // [n_env * ts] running returns of learner aircraft
+  double sum_ll_ret = 0, sum_hl_ret = 0, n_ret = 0, sum_goal = 0, n_goal = 0;
+  double races = 0, wins = 0, finishes = 0, term[race::kNumCauses] = {};
+  std::int64_t steps_at_row = 0;
+  double wall_at_row = 0.0, wall_offset = 0.0;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  agents::PpoStats last_ppo;
+  agents::EsStats last_es;
+
+  double wall() const {
+    return wall_offset + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  int learner_agent(int e, int j) const { return e * n_agent + side[e] * ts + j; }
+  bool is_learner(int e, int agent) const { return agent / ts == side[e]; }
+
+  void build(bool fresh);
+  torch::Tensor learner_index() const;
+  LlObs ll_view(bool final_obs) const;
+  HlObs hl_view(bool final_obs) const;
+  void draw_matchup(int env);
+  void hl_decisions();
+  void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
+  void ll_step(bool learn);
+  void ppo_update();
+  void es_update();
+  MetricsRow make_row(const char* phase_name);
+  void write_row(const MetricsRow& r);
+  void snapshot_pool();
+  void load_opponent();
+  void save_checkpoint();
+  void load_checkpoint();
+};
+
+Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
+Trainer::~Trainer() = default;
+
+Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std::make_unique<State>()) {
+  s_->cfg = config;
+  s_->run_dir = run_dir;
+  if (fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST"))
+    throw std::runtime_error(run_dir + " already holds a training run: continue it with --resume " + run_dir +
+                             ", or choose another --run folder");
+  fs::create_directories(fs::path(run_dir) / "checkpoint");
+  fs::create_directories(fs::path(run_dir) / "pool");
+  s_->resolved_yaml = train_config_yaml(config);
+  s_->hash = config_hash(s_->resolved_yaml);
+  write_text_atomic(run_dir + "/config.yaml", s_->resolved_yaml);
+  s_->build(true);
+  fs::remove(fs::path(run_dir) / "metrics.csv");  // a run folder without checkpoint restarts clean
+  // The untrained policy is the first pool snapshot, so pool matches exist from the start.
+  s_->snapshot_pool();
+  s_->load_opponent();
+}
+
+std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir) {
+  const std::string cfg_path = run_dir + "/config.yaml";
+  if (!fs::exists(cfg_path)) throw std::runtime_error(run_dir + ": no config.yaml, so not a training run folder");
+  auto st = std::make_unique<State>();
+  st->cfg = read_train_config(io::load_yaml_file(cfg_path), cfg_path);
+  st->run_dir = run_dir;
+  st->resolved_yaml = read_text(cfg_path);
+  st->hash = config_hash(st->resolved_yaml);
+  st->build(false);
+  st->load_checkpoint();
+  return std::unique_ptr<Trainer>(new Trainer(std::move(st)));
+}
+
+const TrainConfig& Trainer::config() const { return s_->cfg; }
+std::int64_t Trainer::updates() const { return s_->ppo_updates + s_->es_updates; }
+std::vector<float> Trainer::ll_parameters() const { return flat_parameters(*s_->ppo->net()); }
+std::vector<float> Trainer::hl_parameters() const { return flat_parameters(*s_->es->critic()); }
+
+void Trainer::State::build(bool fresh) {
+  env = std::make_unique<race::RaceEnv>(cfg.race);
+  n_env = env->n_env();
+  n_agent = env->n_agent();
+  ts = cfg.race.team_size;
+  dims.d_ego = race::kEgoDim;
+  dims.d_ado = race::kAdoDim;
+  dims.d_task = env->task_dim();
+  dims.n_other = n_agent - 1;
+  cfg.ll.net.dims = dims;
+  cfg.hl.dims = dims;
+  // Planned PPO updates for the learning-rate schedule: the LL share of the step budget.
+  const double ll_share = static_cast<double>(cfg.loop.ll_phase_updates) /
+                          (cfg.loop.ll_phase_updates + cfg.loop.hl_phase_updates * cfg.hl.n_steps_per_update *
+                                                           std::max(1.0, cfg.race.dt_hl_s / cfg.race.dt_ll_s) /
+                                                           static_cast<double>(cfg.ll.n_steps));
+  cfg.ll.total_updates = std::max<std::int64_t>(
+      1, static_cast<std::int64_t>(ll_share * cfg.loop.total_env_steps / (cfg.ll.n_steps * n_env)) + 1);
+  ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
+  es = std::make_unique<agents::EsAgent>(cfg.hl);
+  opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
+  opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
+  buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
+                                                   race::kActionDim);
+  gen = models::make_generator(cfg.seed * 7919 + 3);
+  stream = race::RandomStream(cfg.seed, 0xC0FFEE);
+  side.assign(n_env, 0);
+  vs_pool.assign(n_env, 0);
+  ll_ret.assign(static_cast<std::size_t>(n_env) * ts, 0.0);
+  hl_ret.assign(static_cast<std::size_t>(n_env) * ts, 0.0);
+  open.open.assign(n_env, 0);
+  open.obs = HlObs{torch::zeros({n_env, ts, dims.d_ego}), torch::zeros({n_env, ts, 3}),
+                   torch::zeros({n_env, ts, dims.n_other, dims.d_ado}), torch::zeros({n_env, ts, dims.n_other}, torch::kBool),
+                   torch::zeros({n_env, ts, dims.d_task})};
+  open.actions = torch::zeros({n_env, ts, 3}, torch::kInt64);
+  open.reward = torch::zeros({n_env, ts});
+  open.active = torch::zeros({n_env, ts}, torch::kBool);
+  if (fresh)
+    for (int e = 0; e < n_env; ++e) draw_matchup(e);
+}
+
+void Trainer::State::draw_matchup(int e) {
+  side[e] = cfg.pool.randomize_sides ? (stream.uniform() < 0.5 ? 0 : 1) : 0;
+  vs_pool[e] = (opponent >= 0 && stream.uniform() >= cfg.pool.p_self_play) ? 1 : 0;
+}
+
+torch::Tensor Trainer::State::learner_index() const {
+  auto idx = torch::empty({static_cast<std::int64_t>(n_env) * ts}, torch::kInt64);
+  auto* p = idx.data_ptr<std::int64_t>();
+  for (int e = 0; e < n_env; ++e)
+    for (int j = 0; j < ts; ++j) p[e * ts + j] = learner_agent(e, j);
+  return idx;
+}
+
+// Tensors over the env's buffers without a copy ([N, ...] with N = n_env * n_agent).
+LlObs Trainer::State::ll_view(bool final_obs) const {
+  const std::int64_t n = static_cast<std::int64_t>(n_env) * n_agent;
+  auto f = [](const float* p) { return const_cast<float*>(p); };
+  const auto& E = *env;
+  return LlObs{torch::from_blob(f(final_obs ? E.final_ego() : E.obs_ego()), {n, dims.d_ego}),
+               torch::from_blob(f(final_obs ? E.final_goal() : E.obs_goal()), {n, race::kGoalDim}),
+               torch::from_blob(f(final_obs ? E.final_ado() : E.obs_ado()), {n, dims.n_other, dims.d_ado}),
+               torch::from_blob(const_cast<std::uint8_t*>(final_obs ? E.final_ado_alive() : E.obs_ado_alive()),
+                                {n, dims.n_other}, torch::kBool),
+               torch::from_blob(f(final_obs ? E.final_task() : E.obs_task()), {n, dims.d_task})};
+}
+
+HlObs Trainer::State::hl_view(bool final_obs) const {
+  const std::int64_t n = static_cast<std::int64_t>(n_env) * n_agent;
+  const LlObs l = ll_view(final_obs);
+  const float* pa = final_obs ? env->final_prev_action() : env->obs_prev_action();
+  return HlObs{l.ego, torch::from_blob(const_cast<float*>(pa), {n, race::kActionDim}), l.ado, l.ado_alive, l.task};
+}
+
+void Trainer::State::close_open(int e, bool done, const HlObs& next_rows, const torch::Tensor& next_active) {
+  if (!open.open[e]) return;
+  done_obs.push_back(HlObs{open.obs.ego[e].clone(), open.obs.prev_action[e].clone(), open.obs.ado[e].clone(),
+                           open.obs.ado_alive[e].clone(), open.obs.task[e].clone()});
+  done_next.push_back(next_rows);
+  done_actions.push_back(open.actions[e].clone());
+  done_reward.push_back(open.reward[e].clone());
+  done_flag.push_back(torch::tensor(done));
+  done_active.push_back(open.active[e].clone());
+  done_next_active.push_back(next_active);
+  open.open[e] = 0;
+}
+
+void Trainer::State::hl_decisions() {
+  const std::uint8_t* due = env->hl_due();
+  bool any = false;
+  for (int e = 0; e < n_env; ++e) any = any || due[e];
+  if (!any) return;
+  const HlObs obs = hl_view(false);
+  const bool learn = phase == 1;
+  const auto act = es->act(obs, cfg.hl.epsilon, gen);
+  torch::Tensor bins = act.bins.contiguous().clone();
+  const auto learner = learner_index();
+  bool any_pool = false;
+  for (int e = 0; e < n_env; ++e) any_pool = any_pool || (due[e] && vs_pool[e]);
+  if (any_pool) {
+    const auto opp = opp_es->act(obs, cfg.loop.hl_epsilon_eval, gen).bins;
+    auto* b = bins.data_ptr<std::int64_t>();
+    const auto* o = opp.data_ptr<std::int64_t>();
+    for (int e = 0; e < n_env; ++e) {
+      if (!due[e] || !vs_pool[e]) continue;
+      for (int a = 0; a < n_agent; ++a) {
+        if (is_learner(e, a)) continue;
+        const int i = e * n_agent + a;
+        for (int k = 0; k < 3; ++k) b[i * 3 + k] = o[i * 3 + k];
+      }
+    }
+  }
+  // Distance left to the old goals: how well the low level reached them.
+  for (int e = 0; e < n_env; ++e) {
+    if (!due[e] || env->race_time_s(e) <= 0.0) continue;
+    for (int j = 0; j < ts; ++j) {
+      const int i = learner_agent(e, j);
+      if (!env->alive(i)) continue;
+      sum_goal += env->goal_distance_ft(i);
+      n_goal += 1;
+    }
+  }
+  if (learn) {
+    for (int e = 0; e < n_env; ++e) {
+      if (!due[e]) continue;
+      auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
+      const auto idx = learner.index_select(0, rows);
+      auto alive = torch::empty({ts}, torch::kBool);
+      for (int j = 0; j < ts; ++j) alive[j] = env->alive(learner_agent(e, j));
+      const HlObs next = models::index_rows(obs, idx);
+      close_open(e, false, HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
+                                 next.task.clone()},
+                 alive);
+      open.obs.ego[e].copy_(next.ego);
+      open.obs.prev_action[e].copy_(next.prev_action);
+      open.obs.ado[e].copy_(next.ado);
+      open.obs.ado_alive[e].copy_(next.ado_alive);
+      open.obs.task[e].copy_(next.task);
+      open.actions[e].copy_(bins.index_select(0, idx));
+      open.reward[e].zero_();
+      open.active[e].copy_(alive);
+      open.open[e] = 1;
+    }
+  }
+  env->set_hl_actions(bins.data_ptr<std::int64_t>());
+}
+
+void Trainer::State::ll_step(bool learn) {
+  torch::NoGradGuard no_grad;
+  hl_decisions();
+  const LlObs obs = ll_view(false);
+  const auto act = ppo->act(obs, gen, /*update_stats=*/learn);
+  torch::Tensor actions = act.action.contiguous().clone();
+  bool any_pool = false;
+  for (int e = 0; e < n_env; ++e) any_pool = any_pool || vs_pool[e];
+  if (any_pool) {
+    const auto opp = opp_ppo->act(obs, gen, false).action.contiguous();
+    auto* a = actions.data_ptr<float>();
+    const auto* o = opp.data_ptr<float>();
+    for (int e = 0; e < n_env; ++e) {
+      if (!vs_pool[e]) continue;
+      for (int k = 0; k < n_agent; ++k) {
+        if (is_learner(e, k)) continue;
+        const int i = e * n_agent + k;
+        for (int q = 0; q < 3; ++q) a[i * 3 + q] = o[i * 3 + q];
+      }
+    }
+  }
+  const auto learner = learner_index();  // before the step: sides change at resets
+  // Samples of the learner team, taken before the env overwrites its buffers.
+  LlObs sample_obs;
+  torch::Tensor sample_action, sample_logp, sample_value;
+  if (learn) {
+    sample_obs = models::index_rows(act.obs, learner);
+    sample_action = act.action.index_select(0, learner);
+    sample_logp = act.log_prob.index_select(0, learner);
+    sample_value = act.value.index_select(0, learner);
+  }
+  env->step(actions.data_ptr<float>());
+  env_steps += n_env;
+
+  const std::int64_t nl = static_cast<std::int64_t>(n_env) * ts;
+  auto reward = torch::empty({nl});
+  auto terminated = torch::empty({nl}, torch::kBool), truncated = torch::empty({nl}, torch::kBool);
+  auto valid = torch::empty({nl}, torch::kBool);
+  bool any_trunc = false;
+  for (int e = 0; e < n_env; ++e) {
+    for (int j = 0; j < ts; ++j) {
+      const std::int64_t k = e * ts + j;
+      const int i = static_cast<int>(learner[k].item<std::int64_t>());
+      reward[k] = env->ll_reward()[i];
+      terminated[k] = env->terminated()[i] != 0;
+      truncated[k] = env->truncated()[i] != 0;
+      valid[k] = env->acted()[i] != 0;
+      any_trunc = any_trunc || env->truncated()[i];
+      if (env->acted()[i]) {
+        ll_ret[k] += env->ll_reward()[i];
+        hl_ret[k] += env->hl_reward()[i];
+        if (phase == 1 && open.open[e]) open.reward[e][j] += env->hl_reward()[i];
+      }
+      if (env->step_cause()[i] != race::kCauseNone) term[env->step_cause()[i]] += 1;
+      if (env->terminated()[i] || env->truncated()[i]) {
+        sum_ll_ret += ll_ret[k];
+        sum_hl_ret += hl_ret[k];
+        n_ret += 1;
+        ll_ret[k] = 0.0;
+        hl_ret[k] = 0.0;
+      }
+    }
+  }
+  torch::Tensor bootstrap;
+  if (learn && any_trunc) bootstrap = ppo->value(models::index_rows(ll_view(true), learner));
+  if (learn) {
+    buffer->add(sample_obs, sample_action, sample_logp, sample_value, reward, terminated, truncated, bootstrap, valid);
+  }
+  // Races that ended: results, closing HL transitions, a fresh matchup for the next race.
+  const std::uint8_t* done = env->env_done();
+  for (int e = 0; e < n_env; ++e) {
+    if (!done[e]) continue;
+    races += 1;
+    const int winner = env->race_winner()[e];
+    wins += winner < 0 ? 0.5 : (winner == side[e] ? 1.0 : 0.0);
+    finishes += env->race_end()[e] == race::RaceEnv::kEndFinishLine;
+    if (phase == 1 && open.open[e]) {
+      const bool time_limit = env->race_end()[e] == race::RaceEnv::kEndTimeLimit;
+      auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
+      const auto idx = learner.index_select(0, rows);
+      const HlObs src = hl_view(time_limit);
+      const HlObs next = models::index_rows(src, idx);
+      auto alive = torch::zeros({ts}, torch::kBool);
+      for (int j = 0; j < ts; ++j) alive[j] = time_limit && env->truncated()[learner_agent(e, j)] != 0;
+      close_open(e, !time_limit,
+                 HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
+                       next.task.clone()},
+                 alive);
+    }
+    draw_matchup(e);
+  }
+}
+
+void Trainer::State::ppo_update() {
+  buffer->finish(ppo->value(models::index_rows(ll_view(false), learner_index())), cfg.ll.gamma, cfg.ll.gae_lambda);
+  last_ppo = ppo->update(*buffer);
+  buffer->clear();
+  ++ppo_updates;
+}
+
+void Trainer::State::es_update() {
+  const std::size_t t = done_obs.size();
+  auto stack_obs = [](const std::vector<HlObs>& v) {
+    std::vector<torch::Tensor> a, b, c, d, e;
+    for (const HlObs& o : v) {
+      a.push_back(o.ego);
+      b.push_back(o.prev_action);
+      c.push_back(o.ado);
+      d.push_back(o.ado_alive);
+      e.push_back(o.task);
+    }
+    return HlObs{torch::stack(a), torch::stack(b), torch::stack(c), torch::stack(d), torch::stack(e)};
+  };
+  agents::EsBatch batch;
+  batch.obs = stack_obs(done_obs);
+  batch.next_obs = stack_obs(done_next);
+  batch.actions = torch::stack(done_actions);
+  batch.reward = torch::stack(done_reward);
+  batch.done = torch::stack(done_flag);
+  batch.active = torch::stack(done_active);
+  batch.next_active = torch::stack(done_next_active);
+  batch.next_epsilon = cfg.hl.epsilon;
+  last_es = es->update(batch);
+  (void)t;
+  done_obs.clear();
+  done_next.clear();
+  done_actions.clear();
+  done_reward.clear();
+  done_flag.clear();
+  done_active.clear();
+  done_next_active.clear();
+  ++es_updates;
+}
+
+MetricsRow Trainer::State::make_row(const char* phase_name) {
+  MetricsRow r;
+  r.update = ppo_updates + es_updates;
+  r.phase = phase_name;
+  r.env_steps = env_steps;
+  r.wall_s = wall();
+  const double dt = std::max(r.wall_s - wall_at_row, 1e-9);
+  r.samples_per_s = static_cast<double>(env_steps - steps_at_row) * n_agent / dt;
+  r.ll_return = n_ret > 0 ? sum_ll_ret / n_ret : std::nan("");
+  r.hl_return = n_ret > 0 ? sum_hl_ret / n_ret : std::nan("");
+  r.goal_dist_ft = n_goal > 0 ? sum_goal / n_goal : std::nan("");
+  r.races = races;
+  r.winrate = races > 0 ? wins / races : std::nan("");
+  r.finish_rate = races > 0 ? finishes / races : std::nan("");
+  for (int k = 1; k < race::kNumCauses; ++k) r.term[k] = races > 0 ? term[k] / races : std::nan("");
+  r.policy_loss = last_ppo.policy_loss;
+  r.value_loss = last_ppo.value_loss;
+  r.entropy = last_ppo.entropy;
+  r.approx_kl = last_ppo.approx_kl;
+  r.lr = last_ppo.learning_rate;
+  r.es_loss = last_es.loss;
+  r.q_mean = last_es.q_mean;
+  r.epsilon = cfg.hl.epsilon;
+  sum_ll_ret = sum_hl_ret = n_ret = sum_goal = n_goal = races = wins = finishes = 0;
+  std::fill(std::begin(term), std::end(term), 0.0);
+  steps_at_row = env_steps;
+  wall_at_row = r.wall_s;
+  return r;
+}
+
+namespace {
+const std::vector<std::string>& metrics_header() {
+  static const std::vector<std::string> h = {
+      "update", "phase_hl", "env_steps", "wall_s", "samples_per_s", "ll_return", "hl_return", "goal_dist_ft",
+      "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
+      "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
+      "q_mean", "epsilon"};
+  return h;
+}
+std::vector<double> metrics_values(const MetricsRow& r) {
+  return {static_cast<double>(r.update), r.phase == "hl" ? 1.0 : 0.0, static_cast<double>(r.env_steps), r.wall_s,
+          r.samples_per_s, r.ll_return, r.hl_return, r.goal_dist_ft, r.winrate, r.finish_rate, r.races, r.term[1],
+          r.term[2], r.term[3], r.term[4], r.term[5], r.term[6], r.policy_loss, r.value_loss, r.entropy, r.approx_kl,
+          r.lr, r.es_loss, r.q_mean, r.epsilon};
+}
+}  // namespace
+
+void Trainer::State::write_row(const MetricsRow& r) {
+  // Appended line by line: a crash loses at most the row being written, and resume drops rows
+  // past the checkpoint it continues from.
+  const std::string path = run_dir + "/metrics.csv";
+  const bool fresh = !fs::exists(path);
+  std::ofstream f(path, std::ios::app);
+  if (!f) throw std::runtime_error(path + ": cannot append (check permissions and free space)");
+  if (fresh) {
+    const auto& h = metrics_header();
+    for (std::size_t k = 0; k < h.size(); ++k) f << (k ? "," : "") << h[k];
+    f << "\n";
+  }
+  const auto v = metrics_values(r);
+  for (std::size_t k = 0; k < v.size(); ++k) f << (k ? "," : "") << io::format_double(v[k]);
+  f << "\n";
+}
+
+void Trainer::State::snapshot_pool() {
+  const fs::path dir = fs::path(run_dir) / "pool" / step_name(env_steps);
+  fs::create_directories(dir);
+  ppo->save((dir / "ll.pt").string());
+  es->save((dir / "hl.pt").string());
+  pool.push_back(env_steps);
+  while (static_cast<int>(pool.size()) > cfg.pool.max_snapshots) {
+    fs::remove_all(fs::path(run_dir) / "pool" / step_name(pool.front()));
+    pool.erase(pool.begin());
+  }
+}
+
+void Trainer::State::load_opponent() {
+  if (pool.empty()) {
+    opponent = -1;
+    return;
+  }
+  opponent = pool[static_cast<std::size_t>(stream.below(static_cast<int>(pool.size())))];
+  const fs::path dir = fs::path(run_dir) / "pool" / step_name(opponent);
+  opp_ppo->load((dir / "ll.pt").string());
+  opp_es->load((dir / "hl.pt").string());
+}
+
+void Trainer::State::save_checkpoint() {
+  const std::string name = step_name(env_steps) + "_u" + std::to_string(ppo_updates + es_updates);
+  const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
+  fs::create_directories(dir);
+  ppo->save((dir / "ll.pt").string());
+  es->save((dir / "hl.pt").string());
+  torch::serialize::OutputArchive a;
+  std::ostringstream env_bytes;
+  env->save_state(env_bytes);
+  a.write("env", bytes_tensor(env_bytes.str()));
+  a.write("counters", torch::tensor({env_steps, ppo_updates, es_updates, static_cast<std::int64_t>(phase),
+                                     static_cast<std::int64_t>(phase_updates), opponent}));
+  a.write("pool", torch::tensor(pool.empty() ? std::vector<std::int64_t>{-1} : pool));
+  std::vector<std::int64_t> sides(side.begin(), side.end()), vp(vs_pool.begin(), vs_pool.end());
+  a.write("side", torch::tensor(sides));
+  a.write("vs_pool", torch::tensor(vp));
+  a.write("stream", torch::tensor({static_cast<std::int64_t>(stream.state())}));
+  a.write("generator", gen.get_state());
+  a.write("open_ego", open.obs.ego);
+  a.write("open_prev_action", open.obs.prev_action);
+  a.write("open_ado", open.obs.ado);
+  a.write("open_alive", open.obs.ado_alive);
+  a.write("open_task", open.obs.task);
+  a.write("open_actions", open.actions);
+  a.write("open_reward", open.reward);
+  a.write("open_active", open.active);
+  a.write("open_flag", torch::tensor(std::vector<std::int64_t>(open.open.begin(), open.open.end())));
+  a.write("returns", torch::tensor(std::vector<double>(ll_ret.begin(), ll_ret.end())));
+  a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end())));
+  a.write("wall", torch::tensor({wall()}, torch::kFloat64));
+  agents::save_archive_atomic(a, (dir / "trainer.pt").string());
+  std::ostringstream meta;
+  meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
+       << "\nupdates: " << ppo_updates + es_updates << "\n";
+  write_text_atomic((dir / "meta.yaml").string(), meta.str());
+  // The pointer flips only once the folder is complete; then older checkpoints go.
+  const std::string previous =
+      fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST") ? read_text(run_dir + "/checkpoint/LATEST") : "";
+  write_text_atomic(run_dir + "/checkpoint/LATEST", name);
+  if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
+}
+
+void Trainer::State::load_checkpoint() {
+  const std::string latest = run_dir + "/checkpoint/LATEST";
+  if (!fs::exists(latest)) throw std::runtime_error(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing)");
+  const std::string name = read_text(latest);
+  const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
+  const std::string where = dir.string();
+  try {
+    const YAML::Node meta = YAML::LoadFile((dir / "meta.yaml").string());
+    if (meta["format"].as<int>() != kCheckpointFormat)
+      throw std::runtime_error("checkpoint format " + meta["format"].as<std::string>() + ", this build reads " +
+                               std::to_string(kCheckpointFormat));
+    if (meta["config_hash"].as<std::uint64_t>() != hash)
+      throw std::runtime_error("it was written with a different config.yaml (hash mismatch); restore that file");
+    ppo->load((dir / "ll.pt").string());
+    es->load((dir / "hl.pt").string());
+    torch::serialize::InputArchive a;
+    a.load_from((dir / "trainer.pt").string());
+    torch::Tensor t;
+    a.read("env", t);
+    std::istringstream env_bytes(tensor_bytes(t));
+    env->load_state(env_bytes);
+    a.read("counters", t);
+    env_steps = t[0].item<std::int64_t>();
+    ppo_updates = t[1].item<std::int64_t>();
+    es_updates = t[2].item<std::int64_t>();
+    phase = static_cast<int>(t[3].item<std::int64_t>());
+    phase_updates = static_cast<int>(t[4].item<std::int64_t>());
+    opponent = t[5].item<std::int64_t>();
+    a.read("pool", t);
+    pool.clear();
+    for (std::int64_t k = 0; k < t.numel(); ++k)
+      if (t[k].item<std::int64_t>() >= 0) pool.push_back(t[k].item<std::int64_t>());
+    a.read("side", t);
+    TORCH_CHECK(t.numel() == n_env, "env count differs");
+    for (int e = 0; e < n_env; ++e) side[e] = static_cast<int>(t[e].item<std::int64_t>());
+    a.read("vs_pool", t);
+    for (int e = 0; e < n_env; ++e) vs_pool[e] = static_cast<std::uint8_t>(t[e].item<std::int64_t>());
+    a.read("stream", t);
+    stream.set_state(static_cast<std::uint64_t>(t[0].item<std::int64_t>()));
+    a.read("generator", t);
+    gen.set_state(t);
+    a.read("open_ego", open.obs.ego);
+    a.read("open_prev_action", open.obs.prev_action);
+    a.read("open_ado", open.obs.ado);
+    a.read("open_alive", open.obs.ado_alive);
+    a.read("open_task", open.obs.task);
+    a.read("open_actions", open.actions);
+    a.read("open_reward", open.reward);
+    a.read("open_active", open.active);
+    a.read("open_flag", t);
+    for (int e = 0; e < n_env; ++e) open.open[e] = static_cast<std::uint8_t>(t[e].item<std::int64_t>());
+    a.read("returns", t);
+    for (std::size_t k = 0; k < ll_ret.size(); ++k) ll_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
+    a.read("hl_returns", t);
+    for (std::size_t k = 0; k < hl_ret.size(); ++k) hl_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
+    a.read("wall", t);
+    wall_offset = t.item<double>();
+    t0 = std::chrono::steady_clock::now();
+    wall_at_row = wall_offset;
+    steps_at_row = env_steps;
+    if (opponent >= 0) {
+      const fs::path pd = fs::path(run_dir) / "pool" / step_name(opponent);
+      opp_ppo->load((pd / "ll.pt").string());
+      opp_es->load((pd / "hl.pt").string());
+    }
+  } catch (const std::exception& e) {
+    throw std::runtime_error(where + ": cannot resume from this checkpoint: " + std::string(e.what()));
+  }
+  // Drop metrics rows written after this checkpoint (the resumed run writes them again).
+  const std::string mpath = run_dir + "/metrics.csv";
+  if (fs::exists(mpath)) {
+    std::istringstream in(read_text(mpath));
+    std::string line, out;
+    bool header = true;
+    const std::int64_t upd = ppo_updates + es_updates;
+    while (std::getline(in, line)) {
+      if (line.empty()) continue;
+      if (header || std::stoll(line.substr(0, line.find(','))) <= upd) out += line + "\n";
+      header = false;
+    }
+    write_text_atomic(mpath, out);
+  }
+}
+
+TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_updates,
+                          const std::function<void(const MetricsRow&)>& on_row) {
+  State& s = *s_;
+  TrainSummary summary;
+  std::int64_t done_here = 0;
+  const std::int64_t hl_batch = static_cast<std::int64_t>(s.n_env) * s.cfg.hl.n_steps_per_update;
+  while (s.env_steps < s.cfg.loop.total_env_steps) {
+    if (max_updates >= 0 && done_here >= max_updates) break;
+    const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
+    if (ll_phase) {
+      for (std::int64_t k = 0; k < s.cfg.ll.n_steps; ++k) s.ll_step(true);
+      s.ppo_update();
+    } else {
+      while (static_cast<std::int64_t>(s.done_obs.size()) < hl_batch) s.ll_step(false);
+      s.es_update();
+    }
+    ++done_here;
+    ++s.phase_updates;
+    const MetricsRow row = s.make_row(ll_phase ? "ll" : "hl");
+    s.write_row(row);
+    summary.rows.push_back(row);
+    if (on_row) on_row(row);
+    const std::int64_t upd = s.ppo_updates + s.es_updates;
+    if (upd % s.cfg.pool.snapshot_every_updates == 0) s.snapshot_pool();
+    // Phase switch: the other level learns next; a new pool opponent for the new phase.
+    const int phase_len = ll_phase ? s.cfg.loop.ll_phase_updates : s.cfg.loop.hl_phase_updates;
+    if (s.phase_updates >= phase_len && s.cfg.loop.hl_phase_updates > 0) {
+      s.phase = 1 - s.phase;
+      s.phase_updates = 0;
+      for (int e = 0; e < s.n_env; ++e) s.open.open[e] = 0;  // decisions of the old phase are not learned from
+      s.load_opponent();
+      for (int e = 0; e < s.n_env; ++e)
+        if (s.opponent < 0) s.vs_pool[e] = 0;
+    }
+    const bool stopping = stop != nullptr && stop->load();
+    if (stopping || upd % s.cfg.loop.checkpoint_every_updates == 0 || s.env_steps >= s.cfg.loop.total_env_steps ||
+        (max_updates >= 0 && done_here >= max_updates))
+      s.save_checkpoint();
+    if (stopping) {
+      summary.interrupted = true;
+      break;
+    }
+  }
+  summary.updates = s.ppo_updates + s.es_updates;
+  summary.env_steps = s.env_steps;
+  return summary;
+}
+
+}  // namespace f16race::train

@@ -1,0 +1,73 @@
+#pragma once
+// Bilevel self-play training (paper Eq. 5): alternating phases of low-level PPO updates under a
+// fixed high-level policy and high-level Expected SARSA updates under a fixed low-level policy,
+// against the current policy or a pool snapshot. Writes the run folder:
+//   RUN/config.yaml          resolved configuration (its hash guards the checkpoints)
+//   RUN/metrics.csv          one row per update
+//   RUN/checkpoint/LATEST    name of the newest complete checkpoint folder
+//   RUN/checkpoint/step_N/   ll.pt, hl.pt, trainer.pt (env, streams, counters), meta.yaml
+//   RUN/pool/step_N/         self-play snapshots (ll.pt, hl.pt)
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "train/train_config.hpp"
+
+namespace f16race::train {
+
+inline constexpr int kCheckpointFormat = 1;
+
+// One metrics row; also what the progress display shows.
+struct MetricsRow {
+  std::int64_t update = 0;        // PPO + ES updates so far
+  std::string phase;              // "ll" or "hl"
+  std::int64_t env_steps = 0;     // LL steps summed over envs
+  double wall_s = 0.0;
+  double samples_per_s = 0.0;     // aircraft LL steps per second since the previous row
+  double ll_return = 0.0;         // mean LL return of learner aircraft over races that ended
+  double hl_return = 0.0;         // mean summed HL reward per learner aircraft and race
+  double goal_dist_ft = 0.0;      // mean distance left to the HL goal when its interval ended
+  double winrate = 0.0;           // learner team wins / races ended (draws count half)
+  double finish_rate = 0.0;       // races ended at the finish line / races ended
+  double races = 0.0;             // races ended since the previous row
+  double term[7] = {};            // per cause, learner aircraft per race
+  double policy_loss = 0.0, value_loss = 0.0, entropy = 0.0, approx_kl = 0.0, lr = 0.0;
+  double es_loss = 0.0, q_mean = 0.0, epsilon = 0.0;
+};
+
+struct TrainSummary {
+  std::int64_t updates = 0;
+  std::int64_t env_steps = 0;
+  bool interrupted = false;
+  std::vector<MetricsRow> rows;  // every row written by this process
+};
+
+class Trainer {
+ public:
+  // Fresh run: creates `run_dir` (refused if it already holds a checkpoint).
+  Trainer(const TrainConfig& config, const std::string& run_dir);
+  // Resume: reads RUN/config.yaml and the LATEST checkpoint; refuses a corrupt or mismatched one.
+  static std::unique_ptr<Trainer> resume(const std::string& run_dir);
+  ~Trainer();
+
+  // Trains until the step budget, `stop` becoming true (checked after every update; then a
+  // checkpoint is written), or `max_updates` more updates (<0: no limit; for tests).
+  TrainSummary run(const std::atomic<bool>* stop = nullptr, std::int64_t max_updates = -1,
+                   const std::function<void(const MetricsRow&)>& on_row = {});
+
+  const TrainConfig& config() const;
+  std::int64_t updates() const;
+  // Learner weights, for tests that compare runs.
+  std::vector<float> ll_parameters() const;
+  std::vector<float> hl_parameters() const;
+
+ private:
+  struct State;
+  explicit Trainer(std::unique_ptr<State> state);
+  std::unique_ptr<State> s_;
+};
+
+}  // namespace f16race::train

@@ -1,0 +1,35 @@
+#pragma once
+// Multi-head cross-attention over the other aircraft (paper IV-B, after [56]): the ego features
+// form the single query, each other aircraft's o_ado row is a key and a value. Dead aircraft
+// are masked out, so the output depends only on the set of alive rows, not their order.
+//
+//   forward(ego [B, d_ego], ado [B, n_other, d_ado], ado_alive [B, n_other] bool)
+//     -> [B, d_model]; exactly 0 for a row with no alive aircraft.
+#include <torch/torch.h>
+
+#include "models/obs.hpp"
+
+namespace f16race::models {
+
+struct AttentionEncoderConfig {
+  int64_t d_ego = 0;
+  int64_t d_ado = 0;
+  int64_t n_other = 0;
+  int64_t d_model = 64;  // embedding width, split over the heads
+  int64_t n_heads = 4;
+};
+
+class AttentionEncoderImpl : public torch::nn::Module {
+ public:
+  explicit AttentionEncoderImpl(const AttentionEncoderConfig& cfg);
+  torch::Tensor forward(const torch::Tensor& ego, const torch::Tensor& ado, const torch::Tensor& ado_alive);
+  int64_t output_dim() const { return cfg_.d_model; }
+  const AttentionEncoderConfig& config() const { return cfg_; }
+
+ private:
+  AttentionEncoderConfig cfg_;
+  torch::nn::Linear q_proj_{nullptr}, k_proj_{nullptr}, v_proj_{nullptr}, out_proj_{nullptr};
+};
+TORCH_MODULE(AttentionEncoder);
+
+}  // namespace f16race::models

@@ -1,0 +1,45 @@
+#include "models/hl_critic.hpp"
+
+namespace f16race::models {
+
+HlCriticImpl::HlCriticImpl(const HlCriticConfig& cfg) : cfg_(cfg) {
+  TORCH_CHECK(cfg.n_bins > 1 && cfg.n_atoms >= 1, "HlCritic: n_bins must be > 1 and n_atoms >= 1");
+  TORCH_CHECK(cfg.n_atoms == 1 || cfg.v_max > cfg.v_min, "HlCritic: v_max must exceed v_min");
+  TORCH_CHECK(!cfg.hidden.empty(), "HlCritic: hidden must list at least one layer");
+  encoder_ = register_module("encoder", AttentionEncoder(AttentionEncoderConfig{cfg.dims.d_ego, cfg.dims.d_ado,
+                                                                                 cfg.dims.n_other, cfg.d_model,
+                                                                                 cfg.n_heads}));
+  trunk_ = torch::nn::Sequential();
+  int64_t in = cfg.dims.d_ego + 3 + cfg.d_model + cfg.dims.d_task;
+  for (int64_t width : cfg.hidden) {
+    trunk_->push_back(torch::nn::Linear(in, width));
+    trunk_->push_back(torch::nn::ReLU());
+    in = width;
+  }
+  register_module("trunk", trunk_);
+  const int64_t n_out = (cfg.decoupled ? 3 * cfg.n_bins : n_joint_actions()) * cfg.n_atoms;
+  head_ = register_module("head", torch::nn::Linear(in, n_out));
+  atoms_ = register_buffer("atoms", cfg.n_atoms > 1 ? torch::linspace(cfg.v_min, cfg.v_max, cfg.n_atoms)
+                                                    : torch::zeros({1}));
+}
+
+HlOutput HlCriticImpl::forward(const HlObs& obs) {
+  const int64_t b = check_obs(obs, cfg_.dims);
+  const auto encoded = encoder_(obs.ego, obs.ado, obs.ado_alive);
+  const auto features = trunk_->forward(torch::cat({obs.ego, obs.prev_action, encoded, obs.task}, 1));
+  auto out = head_(features);
+  const std::vector<int64_t> action_shape =
+      cfg_.decoupled ? std::vector<int64_t>{b, 3, cfg_.n_bins} : std::vector<int64_t>{b, n_joint_actions()};
+  HlOutput result;
+  if (cfg_.n_atoms == 1) {
+    result.q = out.view(action_shape);
+    return result;
+  }
+  auto shape = action_shape;
+  shape.push_back(cfg_.n_atoms);
+  result.log_probs = torch::log_softmax(out.view(shape), -1);
+  result.q = (result.log_probs.exp() * atoms_).sum(-1);
+  return result;
+}
+
+}  // namespace f16race::models

@@ -1,0 +1,46 @@
+#pragma once
+// Running observation normalisation (as gym's NormalizeObservation / RunningMeanStd, which
+// CleanRL's PPO uses): per-feature mean and variance merged batch by batch (Chan et al.),
+// normalised value clamp((x - mean) / sqrt(var + eps), -clip, clip). The statistics are module
+// buffers in float64, so they are saved and loaded with the model.
+//
+//   RunningNorm(dim):  update(x [N, dim]);  normalize(x [..., dim]) -> same shape, float32
+//   ObsNormalizer:     one RunningNorm per observation field; the ado statistics are taken over
+//                      alive rows only and dead rows normalise to 0.
+#include <torch/torch.h>
+
+#include "models/obs.hpp"
+
+namespace f16race::models {
+
+class RunningNormImpl : public torch::nn::Module {
+ public:
+  explicit RunningNormImpl(int64_t dim, double clip = 10.0, double eps = 1e-8);
+  void update(const torch::Tensor& x);
+  torch::Tensor normalize(const torch::Tensor& x) const;
+  const torch::Tensor& mean() const { return mean_; }
+  const torch::Tensor& var() const { return var_; }
+  double count() const { return count_.item<double>(); }
+
+ private:
+  int64_t dim_;
+  double clip_, eps_;
+  torch::Tensor mean_, var_, count_;
+};
+TORCH_MODULE(RunningNorm);
+
+class ObsNormalizerImpl : public torch::nn::Module {
+ public:
+  explicit ObsNormalizerImpl(const ObsDims& dims, double clip = 10.0);
+  // Normalised copy of `obs`; with update_stats the statistics first absorb this batch.
+  HlObs normalize(const HlObs& obs, bool update_stats);
+  LlObs normalize(const LlObs& obs, bool update_stats);
+
+ private:
+  torch::Tensor ado_(const torch::Tensor& ado, const torch::Tensor& alive, bool update_stats);
+  ObsDims dims_;
+  RunningNorm ego_{nullptr}, extra_{nullptr}, ado_norm_{nullptr}, task_{nullptr};
+};
+TORCH_MODULE(ObsNormalizer);
+
+}  // namespace f16race::models

@@ -1,0 +1,165 @@
+// Save / load of both agents: networks, target network, optimiser state, normalisers, update
+// count and minibatch generator. A loaded agent must give identical outputs and make an
+// identical next update.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include "agents/expected_sarsa.hpp"
+#include "agents/ppo.hpp"
+
+namespace f16race::agents {
+namespace {
+
+// Stand-in sizes of the race environment.
+models::ObsDims dims() { return models::ObsDims{22, 8, 24, 7}; }
+
+struct Rng {
+  at::Generator gen;
+  explicit Rng(uint64_t seed) : gen(models::make_generator(seed)) {}
+  torch::Tensor normal(at::IntArrayRef s) { return torch::randn(s, gen, torch::kFloat32); }
+  torch::Tensor alive(at::IntArrayRef s) { return torch::rand(s, gen) < 0.7; }
+};
+
+models::LlObs ll_obs(Rng& r, int64_t n) {
+  const auto d = dims();
+  return {r.normal({n, d.d_ego}), r.normal({n, 3}), r.normal({n, d.n_other, d.d_ado}), r.alive({n, d.n_other}),
+          r.normal({n, d.d_task})};
+}
+
+models::HlObs hl_obs(Rng& r, at::IntArrayRef lead) {
+  const auto d = dims();
+  auto s = [&](std::initializer_list<int64_t> tail) {
+    std::vector<int64_t> v(lead.begin(), lead.end());
+    v.insert(v.end(), tail);
+    return v;
+  };
+  return {r.normal(s({d.d_ego})), r.normal(s({3})), r.normal(s({d.n_other, d.d_ado})), r.alive(s({d.n_other})),
+          r.normal(s({d.d_task}))};
+}
+
+void expect_same_parameters(torch::nn::Module& a, torch::nn::Module& b) {
+  const auto pb = b.named_parameters();
+  for (const auto& item : a.named_parameters()) EXPECT_TRUE(item.value().equal(pb[item.key()])) << item.key();
+  const auto bb = b.named_buffers();
+  for (const auto& item : a.named_buffers()) EXPECT_TRUE(item.value().equal(bb[item.key()])) << item.key();
+}
+
+RolloutBuffer make_buffer(PpoAgent& agent, Rng& r, int64_t n) {
+  RolloutBuffer buffer(agent.config().n_steps, n, dims());
+  auto gen = models::make_generator(42);
+  for (int64_t t = 0; t < agent.config().n_steps; ++t) {
+    const auto a = agent.act(ll_obs(r, n), gen);
+    buffer.add(a.obs, a.action, a.log_prob, a.value, r.normal({n}), torch::rand({n}, r.gen) < 0.05,
+               torch::rand({n}, r.gen) < 0.05, r.normal({n}));
+  }
+  buffer.finish(agent.value(ll_obs(r, n)), agent.config().gamma, agent.config().gae_lambda);
+  return buffer;
+}
+
+TEST(Checkpoint, PpoRoundTripGivesIdenticalOutputsAndNextUpdate) {
+  const std::string dir = ::testing::TempDir() + "/f16race_ckpt_ppo";
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/ppo.pt";
+  PpoConfig cfg;
+  cfg.net.dims = dims();
+  cfg.n_steps = 4;
+  cfg.total_updates = 10;
+  cfg.seed = 3;
+  torch::manual_seed(1);
+  PpoAgent a(cfg);
+  Rng r(5);
+  const auto buffer1 = make_buffer(a, r, 64);
+  a.update(buffer1);
+  a.save(path);
+  // Only the checkpoint in the folder: the temporary file was renamed.
+  int n_files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) n_files += e.path().filename() == "ppo.pt" ? 1 : 100;
+  EXPECT_EQ(n_files, 1);
+
+  auto cfg_b = cfg;
+  cfg_b.seed = 99;  // a different minibatch generator, overwritten by load
+  torch::manual_seed(2);
+  PpoAgent b(cfg_b);
+  b.load(path);
+  expect_same_parameters(*a.net(), *b.net());
+  expect_same_parameters(*a.normalizer(), *b.normalizer());
+  EXPECT_EQ(a.update_count(), b.update_count());
+  const auto obs = ll_obs(r, 32);
+  const auto oa = a.net()(a.normalize(obs, false)), ob = b.net()(b.normalize(obs, false));
+  EXPECT_TRUE(oa.mean.equal(ob.mean));
+  EXPECT_TRUE(oa.value.equal(ob.value));
+
+  const auto buffer2 = make_buffer(a, r, 64);  // stores normalised obs: the update reads no statistics
+  const auto sa = a.update(buffer2);
+  const auto sb = b.update(buffer2);
+  EXPECT_EQ(sa.policy_loss, sb.policy_loss);
+  EXPECT_EQ(sa.learning_rate, sb.learning_rate);
+  expect_same_parameters(*a.net(), *b.net());
+  std::filesystem::remove_all(dir);
+}
+
+EsBatch make_es_batch(EsAgent& agent, Rng& r, int64_t t, int64_t n_a) {
+  EsBatch batch;
+  batch.obs = hl_obs(r, {t, n_a});
+  auto gen = models::make_generator(8);
+  batch.actions = agent.act(models::flatten2(batch.obs), 0.1, gen).bins.view({t, n_a, 3});
+  batch.reward = r.normal({t, n_a});
+  batch.next_obs = hl_obs(r, {t, n_a});
+  batch.done = torch::rand({t}, r.gen) < 0.2;
+  batch.active = torch::rand({t, n_a}, r.gen) < 0.9;
+  batch.next_active = torch::rand({t, n_a}, r.gen) < 0.9;
+  return batch;
+}
+
+TEST(Checkpoint, EsRoundTripEveryVariant) {
+  const std::string path = ::testing::TempDir() + "/f16race_es.pt";
+  for (EsVariant v : {EsVariant::kEs, EsVariant::kEsD1, EsVariant::kEsD2, EsVariant::kEsD3}) {
+    SCOPED_TRACE(es_variant_name(v));
+    EsConfig cfg;
+    cfg.variant = v;
+    cfg.dims = dims();
+    cfg.target_update_interval = 2;
+    cfg.n_minibatches = 2;
+    cfg.seed = 4;
+    torch::manual_seed(1);
+    EsAgent a(cfg);
+    Rng r(6);
+    a.update(make_es_batch(a, r, 16, 4));
+    a.update(make_es_batch(a, r, 16, 4));  // syncs the target
+    a.update(make_es_batch(a, r, 16, 4));  // online and target now differ
+    a.save(path);
+    auto cfg_b = cfg;
+    cfg_b.seed = 77;
+    torch::manual_seed(2);
+    EsAgent b(cfg_b);
+    b.load(path);
+    expect_same_parameters(*a.critic(), *b.critic());
+    expect_same_parameters(*a.target_critic(), *b.target_critic());
+    expect_same_parameters(*a.normalizer(), *b.normalizer());
+    const auto obs = hl_obs(r, {24});
+    auto g1 = models::make_generator(1), g2 = models::make_generator(1);
+    const auto xa = a.act(obs, 0.1, g1), xb = b.act(obs, 0.1, g2);
+    EXPECT_TRUE(xa.q.equal(xb.q));
+    EXPECT_TRUE(xa.bins.equal(xb.bins));
+    const auto batch = make_es_batch(a, r, 16, 4);
+    const auto sa = a.update(batch), sb = b.update(batch);
+    EXPECT_EQ(sa.loss, sb.loss);
+    EXPECT_EQ(sa.target_synced, sb.target_synced);
+    expect_same_parameters(*a.critic(), *b.critic());
+    // A checkpoint of another variant is refused by name.
+    if (v == EsVariant::kEsD3) {
+      auto cfg_c = cfg;
+      cfg_c.variant = EsVariant::kEsD2;
+      EsAgent c(cfg_c);
+      EXPECT_THROW(c.load(path), c10::Error);
+    }
+  }
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace f16race::agents

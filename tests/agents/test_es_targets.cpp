@@ -1,0 +1,199 @@
+// Expected-SARSA targets and losses of every variant against hand-computed cases; the decoupled
+// mean and the probability-space team mixture checked numerically.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <cmath>
+
+#include "agents/expected_sarsa.hpp"
+
+namespace f16race::agents {
+namespace {
+
+const C51Support kUnused{-1.0, 1.0, 3};
+constexpr double kEps = 0.1;
+constexpr double kGamma = 0.5;
+
+torch::Tensor all_true(int64_t t, int64_t n) { return torch::ones({t, n}, torch::kBool); }
+
+// Two aircraft, 2 bins per dimension:
+//   aircraft 0: dims [0, 2], [1, 1], [4, 0] -> 0.9 max + 0.1 mean = 1.9, 1.0, 3.8 -> mean 6.7/3
+//   aircraft 1: dims [1, 0], [0, 0], [0, 3] -> 0.95, 0, 2.85 -> mean 3.8/3
+torch::Tensor decoupled_next_q() {
+  return torch::tensor({0.f, 2.f, 1.f, 1.f, 4.f, 0.f, 1.f, 0.f, 0.f, 0.f, 0.f, 3.f}).view({2, 3, 2});
+}
+
+TEST(EsVariantNames, ParseAndPrintRoundTrip) {
+  for (const char* name : {"es", "es_d1", "es_d2", "es_d3"}) EXPECT_STREQ(es_variant_name(parse_es_variant(name)), name);
+  EXPECT_THROW(parse_es_variant("es_d4"), std::invalid_argument);
+}
+
+TEST(EsTarget, JointVariantPerAircraft) {
+  models::HlOutput next;
+  // Aircraft 0: q = 4 b0 + 2 b1 + b2, greedy (1, 1, 1), each bin kept with probability 0.95:
+  // 7 * 0.95 = 6.65; aircraft 1: all 1 -> 1.
+  next.q = torch::cat({torch::arange(8, torch::kFloat32).view({1, 8}), torch::ones({1, 8})});
+  const auto reward = torch::tensor({{1.f, 2.f}});
+  auto y = es_target(EsVariant::kEs, next, reward, torch::tensor({false}), all_true(1, 2), all_true(1, 2), kEps,
+                     kGamma, kUnused);
+  EXPECT_NEAR(y.value[0][0].item<double>(), 1.0 + 0.5 * 6.65, 1e-5);
+  EXPECT_NEAR(y.value[0][1].item<double>(), 2.0 + 0.5 * 1.0, 1e-5);
+  // Episode over: the reward only. Aircraft 1 dead at the next decision: its own episode ends.
+  y = es_target(EsVariant::kEs, next, reward, torch::tensor({true}), all_true(1, 2), all_true(1, 2), kEps, kGamma,
+                kUnused);
+  EXPECT_NEAR(y.value[0][0].item<double>(), 1.0, 1e-6);
+  y = es_target(EsVariant::kEs, next, reward, torch::tensor({false}), all_true(1, 2), torch::tensor({{true, false}}),
+                kEps, kGamma, kUnused);
+  EXPECT_NEAR(y.value[0][0].item<double>(), 4.325, 1e-5);
+  EXPECT_NEAR(y.value[0][1].item<double>(), 2.0, 1e-6);
+  // Non-additive Q: 1 on the greedy joint action (1, 1, 1) only. Each dimension keeps the greedy
+  // bin with probability 0.9 + 0.1 / 2 = 0.95, so E = 0.95^3 (one coin per aircraft would give
+  // 0.9 + 0.1 / 8 = 0.9125).
+  auto spike = torch::zeros({1, 8});
+  spike[0][7] = 1.0;
+  EXPECT_NEAR(egreedy_value_joint(spike, kEps)[0].item<double>(), 0.857375, 1e-6);
+  EXPECT_EQ(decode_joint_index(torch::tensor({int64_t{5}}), 2)[0][0].item<int64_t>(), 1);  // 5 = 1*4 + 0*2 + 1
+  EXPECT_EQ(decode_joint_index(torch::tensor({int64_t{5}}), 2)[0][1].item<int64_t>(), 0);
+  EXPECT_EQ(joint_index(torch::tensor({6, 3, 5}, torch::kInt64), 7).item<int64_t>(), 6 * 49 + 3 * 7 + 5);
+}
+
+TEST(EsTarget, DecoupledPerAircraft) {
+  models::HlOutput next;
+  next.q = decoupled_next_q();
+  EXPECT_NEAR(egreedy_value_decoupled(next.q, kEps)[0].item<double>(), 6.7 / 3.0, 1e-5);
+  const auto y = es_target(EsVariant::kEsD1, next, torch::tensor({{1.f, 2.f}}), torch::tensor({false}),
+                           all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused);
+  EXPECT_NEAR(y.value[0][0].item<double>(), 1.0 + 0.5 * 6.7 / 3.0, 1e-5);
+  EXPECT_NEAR(y.value[0][1].item<double>(), 2.0 + 0.5 * 3.8 / 3.0, 1e-5);
+}
+
+TEST(EsTarget, TeamValueVariant) {
+  models::HlOutput next;
+  next.q = decoupled_next_q();
+  // Team reward mean(1, 2) = 1.5; team next value mean(6.7/3, 3.8/3) = 1.75.
+  auto y = es_target(EsVariant::kEsD2, next, torch::tensor({{1.f, 2.f}}), torch::tensor({false}), all_true(1, 2),
+                     all_true(1, 2), kEps, kGamma, kUnused);
+  ASSERT_EQ(y.value.sizes(), (std::vector<int64_t>{1}));
+  EXPECT_NEAR(y.value[0].item<double>(), 1.5 + 0.5 * 1.75, 1e-5);
+  // Aircraft 1 dead next: the team continues on aircraft 0 alone.
+  y = es_target(EsVariant::kEsD2, next, torch::tensor({{1.f, 2.f}}), torch::tensor({false}), all_true(1, 2),
+                torch::tensor({{true, false}}), kEps, kGamma, kUnused);
+  EXPECT_NEAR(y.value[0].item<double>(), 1.5 + 0.5 * 6.7 / 3.0, 1e-5);
+}
+
+// Atoms {-1, 0, 1}. Every dimension of aircraft 0: bin 0 p = (1, 0, 0) (Q -1), bin 1 p = (0, 0, 1)
+// (Q 1, greedy); aircraft 1: bin 0 p = (0, 1, 0), bin 1 p = (.5, 0, .5), both Q 0 (tie: bin 0).
+models::HlOutput distributional_next() {
+  const auto p0 = torch::tensor({1.f, 0.f, 0.f, 0.f, 0.f, 1.f}).view({1, 1, 2, 3}).expand({1, 3, 2, 3});
+  const auto p1 = torch::tensor({0.f, 1.f, 0.f, .5f, 0.f, .5f}).view({1, 1, 2, 3}).expand({1, 3, 2, 3});
+  const auto probs = torch::cat({p0, p1}).contiguous();
+  models::HlOutput out;
+  out.log_probs = probs.log();  // log 0 = -inf is fine here: only exp() of it is used
+  out.q = (probs * torch::tensor({-1.f, 0.f, 1.f})).sum(-1);
+  return out;
+}
+
+TEST(EsTarget, DistributionalTeamMixtureAndProjection) {
+  const C51Support support{-1.0, 1.0, 3};
+  const auto next = distributional_next();
+  // Per aircraft: 0.9 p(greedy) + 0.1 mean_b p(b):
+  //   aircraft 0: 0.9 (0, 0, 1) + 0.1 (.5, 0, .5) = (.05, 0, .95)
+  //   aircraft 1: 0.9 (0, 1, 0) + 0.1 (.25, .5, .25) = (.025, .95, .025)
+  const auto mix = egreedy_mixture_decoupled(next.log_probs, next.q, kEps);
+  const double want0[3] = {.05, 0, .95}, want1[3] = {.025, .95, .025};
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(mix[0][k].item<double>(), want0[k], 1e-6);
+    EXPECT_NEAR(mix[1][k].item<double>(), want1[k], 1e-6);
+  }
+  // Team mixture (.0375, .475, .4875); team reward mean(1, 0) = 0.5; Tz = 0.5 + 0.5 z = (0, .5, 1):
+  // atom 0's mass to atom 1, atom 1's split evenly over atoms 1 and 2, atom 2's stays.
+  const auto y = es_target(EsVariant::kEsD3, next, torch::tensor({{1.f, 0.f}}), torch::tensor({false}),
+                           all_true(1, 2), all_true(1, 2), kEps, kGamma, support);
+  ASSERT_EQ(y.dist.sizes(), (std::vector<int64_t>{1, 3}));
+  EXPECT_NEAR(y.dist[0][0].item<double>(), 0.0, 1e-6);
+  EXPECT_NEAR(y.dist[0][1].item<double>(), 0.0375 + 0.2375, 1e-6);
+  EXPECT_NEAR(y.dist[0][2].item<double>(), 0.2375 + 0.4875, 1e-6);
+  EXPECT_NEAR(y.value[0].item<double>(), 0.725, 1e-6);
+  // Terminal: all mass on r = 0.5, half on atom 1 and half on atom 2.
+  const auto y_done = es_target(EsVariant::kEsD3, next, torch::tensor({{1.f, 0.f}}), torch::tensor({true}),
+                                all_true(1, 2), all_true(1, 2), kEps, kGamma, support);
+  EXPECT_NEAR(y_done.dist[0][1].item<double>(), 0.5, 1e-6);
+  EXPECT_NEAR(y_done.dist[0][2].item<double>(), 0.5, 1e-6);
+}
+
+TEST(EsLoss, DecoupledMeanAndTeamValue) {
+  auto gen = models::make_generator(5);
+  const int64_t t = 4, n_a = 3, bins = 7;
+  models::HlOutput out;
+  out.q = torch::randn({t * n_a, 3, bins}, gen, torch::kFloat32);
+  const auto actions = torch::randint(0, bins, {t, n_a, 3}, gen, torch::kInt64);
+  auto active = all_true(t, n_a);
+  active[2][1] = false;
+  // Explicit sum: Q^{i} = 1/3 sum_j Q^{i,j}(a^{i,j}), team = mean over active aircraft.
+  auto per_aircraft = torch::zeros({t, n_a});
+  for (int64_t s = 0; s < t; ++s)
+    for (int64_t i = 0; i < n_a; ++i) {
+      double sum = 0.0;
+      for (int64_t j = 0; j < 3; ++j) sum += out.q[s * n_a + i][j][actions[s][i][j].item<int64_t>()].item<double>();
+      per_aircraft[s][i] = sum / 3.0;
+    }
+  EsTarget y1{torch::zeros({t, n_a}), {}};
+  const auto l1 = es_loss(EsVariant::kEsD1, out, actions, active, y1, 1.0, kUnused);
+  EXPECT_LT((l1.prediction - per_aircraft).abs().max().item<double>(), 1e-5);
+  // Huber with delta 1 against 0, averaged over the 11 active aircraft.
+  const auto h = torch::where(per_aircraft.abs() < 1.0, 0.5 * per_aircraft.pow(2), per_aircraft.abs() - 0.5);
+  EXPECT_NEAR(l1.loss.item<double>(), (h * active).sum().item<double>() / 11.0, 1e-5);
+
+  EsTarget y2{torch::full({t}, 0.25f), {}};
+  const auto l2 = es_loss(EsVariant::kEsD2, out, actions, active, y2, 1.0, kUnused);
+  for (int64_t s = 0; s < t; ++s) {
+    const double team = s == 2 ? (per_aircraft[s][0].item<double>() + per_aircraft[s][2].item<double>()) / 2.0
+                               : per_aircraft[s].mean().item<double>();
+    EXPECT_NEAR(l2.prediction[s].item<double>(), team, 1e-5) << "team sample " << s;
+  }
+
+  // Joint variant: the Q of the joint index b0 * 49 + b1 * 7 + b2.
+  models::HlOutput joint;
+  joint.q = torch::randn({t * n_a, 343}, gen, torch::kFloat32);
+  const auto l0 = es_loss(EsVariant::kEs, joint, actions, active, y1, 1.0, kUnused);
+  const auto a = actions[1][2];
+  const int64_t idx = a[0].item<int64_t>() * 49 + a[1].item<int64_t>() * 7 + a[2].item<int64_t>();
+  EXPECT_FLOAT_EQ(l0.prediction[1][2].item<float>(), joint.q[1 * n_a + 2][idx].item<float>());
+}
+
+TEST(EsLoss, DistributionalTeamMixtureCrossEntropy) {
+  auto gen = models::make_generator(6);
+  const int64_t t = 3, n_a = 2, bins = 7, k = 11;
+  const C51Support support{-2.0, 2.0, k};
+  models::HlOutput out;
+  out.log_probs = torch::log_softmax(torch::randn({t * n_a, 3, bins, k}, gen, torch::kFloat32), -1);
+  out.q = (out.log_probs.exp() * support.atoms()).sum(-1);
+  const auto actions = torch::randint(0, bins, {t, n_a, 3}, gen, torch::kInt64);
+  EsTarget y;
+  y.dist = torch::softmax(torch::randn({t, k}, gen, torch::kFloat32), 1);
+  y.value = (y.dist * support.atoms()).sum(1);
+  const auto l = es_loss(EsVariant::kEsD3, out, actions, all_true(t, n_a), y, 1.0, support);
+  // Explicit mixture: p_team = 1/(3 n_a) sum_{i,j} p^{i,j}(a^{i,j}) (paper Eq. 2); Q = sum_k z_k p_k (Eq. 3).
+  double ce = 0.0;
+  for (int64_t s = 0; s < t; ++s) {
+    auto p_team = torch::zeros({k});
+    for (int64_t i = 0; i < n_a; ++i)
+      for (int64_t j = 0; j < 3; ++j)
+        p_team += out.log_probs[s * n_a + i][j][actions[s][i][j].item<int64_t>()].exp() / (3.0 * n_a);
+    EXPECT_NEAR(p_team.sum().item<double>(), 1.0, 1e-5);
+    EXPECT_NEAR(l.prediction[s].item<double>(), (p_team * support.atoms()).sum().item<double>(), 1e-5);
+    ce -= (y.dist[s] * p_team.log()).sum().item<double>();
+  }
+  EXPECT_NEAR(l.loss.item<double>(), ce / t, 1e-5);
+  // Optional per-component term: + w * mean over (team, aircraft, dimension) of -sum_k m_k log p^{i,j}_k.
+  double component_ce = 0.0;
+  for (int64_t s = 0; s < t; ++s)
+    for (int64_t i = 0; i < n_a; ++i)
+      for (int64_t j = 0; j < 3; ++j)
+        component_ce -= (y.dist[s] * out.log_probs[s * n_a + i][j][actions[s][i][j].item<int64_t>()]).sum().item<double>();
+  const auto lw = es_loss(EsVariant::kEsD3, out, actions, all_true(t, n_a), y, 1.0, support, 0.5);
+  EXPECT_NEAR(lw.loss.item<double>(), ce / t + 0.5 * component_ce / (t * n_a * 3), 1e-5);
+}
+
+}  // namespace
+}  // namespace f16race::agents
