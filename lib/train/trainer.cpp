@@ -186,6 +186,8 @@ std::vector<float> Trainer::ll_parameters() const { return flat_parameters(*s_->
 std::vector<float> Trainer::hl_parameters() const { return flat_parameters(*s_->es->critic()); }
 
 void Trainer::State::build(bool fresh) {
+  // Network initialisation draws from torch's global generator: seed it, once, here.
+  torch::manual_seed(cfg.seed);
   env = std::make_unique<race::RaceEnv>(cfg.race);
   n_env = env->n_env();
   n_agent = env->n_agent();
@@ -226,9 +228,23 @@ void Trainer::State::build(bool fresh) {
     for (int e = 0; e < n_env; ++e) draw_matchup(e);
 }
 
+Matchup draw_matchup(race::RandomStream& stream, const PoolConfig& pool, bool pool_available) {
+  Matchup m;
+  // Both numbers are always drawn, so the stream advances the same way whatever the settings.
+  const double u_side = stream.uniform(), u_pool = stream.uniform();
+  m.learner_side = pool.randomize_sides && u_side < 0.5 ? 1 : 0;
+  m.vs_pool = pool_available && u_pool >= pool.p_self_play;
+  return m;
+}
+
+std::size_t draw_pool_entry(race::RandomStream& stream, std::size_t n) {
+  return std::min(n - 1, static_cast<std::size_t>(stream.uniform() * static_cast<double>(n)));
+}
+
 void Trainer::State::draw_matchup(int e) {
-  side[e] = cfg.pool.randomize_sides ? (stream.uniform() < 0.5 ? 0 : 1) : 0;
-  vs_pool[e] = (opponent >= 0 && stream.uniform() >= cfg.pool.p_self_play) ? 1 : 0;
+  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0);
+  side[e] = m.learner_side;
+  vs_pool[e] = m.vs_pool ? 1 : 0;
 }
 
 torch::Tensor Trainer::State::learner_index() const {
@@ -313,7 +329,7 @@ void Trainer::State::hl_decisions() {
       auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
       const auto idx = learner.index_select(0, rows);
       auto alive = torch::empty({ts}, torch::kBool);
-      for (int j = 0; j < ts; ++j) alive[j] = env->alive(learner_agent(e, j));
+      for (int j = 0; j < ts; ++j) alive.data_ptr<bool>()[j] = env->alive(learner_agent(e, j));
       const HlObs next = models::index_rows(obs, idx);
       close_open(e, false, HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
                                  next.task.clone()},
@@ -366,24 +382,32 @@ void Trainer::State::ll_step(bool learn) {
   env->step(actions.data_ptr<float>());
   env_steps += n_env;
 
+  // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
+  // than the simulator.
   const std::int64_t nl = static_cast<std::int64_t>(n_env) * ts;
   auto reward = torch::empty({nl});
   auto terminated = torch::empty({nl}, torch::kBool), truncated = torch::empty({nl}, torch::kBool);
   auto valid = torch::empty({nl}, torch::kBool);
+  float* rw = reward.data_ptr<float>();
+  bool* te = terminated.data_ptr<bool>();
+  bool* tr = truncated.data_ptr<bool>();
+  bool* va = valid.data_ptr<bool>();
+  const std::int64_t* li = learner.data_ptr<std::int64_t>();
+  float* open_reward = open.reward.data_ptr<float>();
   bool any_trunc = false;
   for (int e = 0; e < n_env; ++e) {
     for (int j = 0; j < ts; ++j) {
       const std::int64_t k = e * ts + j;
-      const int i = static_cast<int>(learner[k].item<std::int64_t>());
-      reward[k] = env->ll_reward()[i];
-      terminated[k] = env->terminated()[i] != 0;
-      truncated[k] = env->truncated()[i] != 0;
-      valid[k] = env->acted()[i] != 0;
+      const int i = static_cast<int>(li[k]);
+      rw[k] = env->ll_reward()[i];
+      te[k] = env->terminated()[i] != 0;
+      tr[k] = env->truncated()[i] != 0;
+      va[k] = env->acted()[i] != 0;
       any_trunc = any_trunc || env->truncated()[i];
       if (env->acted()[i]) {
         ll_ret[k] += env->ll_reward()[i];
         hl_ret[k] += env->hl_reward()[i];
-        if (phase == 1 && open.open[e]) open.reward[e][j] += env->hl_reward()[i];
+        if (phase == 1 && open.open[e]) open_reward[k] += env->hl_reward()[i];
       }
       if (env->step_cause()[i] != race::kCauseNone) term[env->step_cause()[i]] += 1;
       if (env->terminated()[i] || env->truncated()[i]) {
@@ -415,7 +439,7 @@ void Trainer::State::ll_step(bool learn) {
       const HlObs src = hl_view(time_limit);
       const HlObs next = models::index_rows(src, idx);
       auto alive = torch::zeros({ts}, torch::kBool);
-      for (int j = 0; j < ts; ++j) alive[j] = time_limit && env->truncated()[learner_agent(e, j)] != 0;
+      for (int j = 0; j < ts; ++j) alive.data_ptr<bool>()[j] = time_limit && env->truncated()[learner_agent(e, j)] != 0;
       close_open(e, !time_limit,
                  HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
                        next.task.clone()},
@@ -537,8 +561,11 @@ void Trainer::State::snapshot_pool() {
   es->save((dir / "hl.pt").string());
   pool.push_back(env_steps);
   while (static_cast<int>(pool.size()) > cfg.pool.max_snapshots) {
-    fs::remove_all(fs::path(run_dir) / "pool" / step_name(pool.front()));
-    pool.erase(pool.begin());
+    // Oldest first, but never the snapshot the current phase is playing against.
+    auto victim = pool.begin();
+    if (*victim == opponent) ++victim;
+    fs::remove_all(fs::path(run_dir) / "pool" / step_name(*victim));
+    pool.erase(victim);
   }
 }
 
@@ -547,7 +574,7 @@ void Trainer::State::load_opponent() {
     opponent = -1;
     return;
   }
-  opponent = pool[static_cast<std::size_t>(stream.below(static_cast<int>(pool.size())))];
+  opponent = pool[draw_pool_entry(stream, pool.size())];
   const fs::path dir = fs::path(run_dir) / "pool" / step_name(opponent);
   opp_ppo->load((dir / "ll.pt").string());
   opp_es->load((dir / "hl.pt").string());
@@ -612,45 +639,51 @@ void Trainer::State::load_checkpoint() {
     es->load((dir / "hl.pt").string());
     torch::serialize::InputArchive a;
     a.load_from((dir / "trainer.pt").string());
+    // A fresh tensor per key: reading into a defined tensor would reuse (and reinterpret) it.
+    auto get = [&](const char* key) {
+      torch::Tensor x;
+      a.read(key, x);
+      return x;
+    };
     torch::Tensor t;
-    a.read("env", t);
+    t = get("env");
     std::istringstream env_bytes(tensor_bytes(t));
     env->load_state(env_bytes);
-    a.read("counters", t);
+    t = get("counters");
     env_steps = t[0].item<std::int64_t>();
     ppo_updates = t[1].item<std::int64_t>();
     es_updates = t[2].item<std::int64_t>();
     phase = static_cast<int>(t[3].item<std::int64_t>());
     phase_updates = static_cast<int>(t[4].item<std::int64_t>());
     opponent = t[5].item<std::int64_t>();
-    a.read("pool", t);
+    t = get("pool");
     pool.clear();
     for (std::int64_t k = 0; k < t.numel(); ++k)
       if (t[k].item<std::int64_t>() >= 0) pool.push_back(t[k].item<std::int64_t>());
-    a.read("side", t);
+    t = get("side");
     TORCH_CHECK(t.numel() == n_env, "env count differs");
     for (int e = 0; e < n_env; ++e) side[e] = static_cast<int>(t[e].item<std::int64_t>());
-    a.read("vs_pool", t);
+    t = get("vs_pool");
     for (int e = 0; e < n_env; ++e) vs_pool[e] = static_cast<std::uint8_t>(t[e].item<std::int64_t>());
-    a.read("stream", t);
+    t = get("stream");
     stream.set_state(static_cast<std::uint64_t>(t[0].item<std::int64_t>()));
-    a.read("generator", t);
+    t = get("generator");
     gen.set_state(t);
-    a.read("open_ego", open.obs.ego);
-    a.read("open_prev_action", open.obs.prev_action);
-    a.read("open_ado", open.obs.ado);
-    a.read("open_alive", open.obs.ado_alive);
-    a.read("open_task", open.obs.task);
-    a.read("open_actions", open.actions);
-    a.read("open_reward", open.reward);
-    a.read("open_active", open.active);
-    a.read("open_flag", t);
+    open.obs.ego.copy_(get("open_ego"));
+    open.obs.prev_action.copy_(get("open_prev_action"));
+    open.obs.ado.copy_(get("open_ado"));
+    open.obs.ado_alive.copy_(get("open_alive"));
+    open.obs.task.copy_(get("open_task"));
+    open.actions.copy_(get("open_actions"));
+    open.reward.copy_(get("open_reward"));
+    open.active.copy_(get("open_active"));
+    t = get("open_flag");
     for (int e = 0; e < n_env; ++e) open.open[e] = static_cast<std::uint8_t>(t[e].item<std::int64_t>());
-    a.read("returns", t);
+    t = get("returns");
     for (std::size_t k = 0; k < ll_ret.size(); ++k) ll_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
-    a.read("hl_returns", t);
+    t = get("hl_returns");
     for (std::size_t k = 0; k < hl_ret.size(); ++k) hl_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
-    a.read("wall", t);
+    t = get("wall");
     wall_offset = t.item<double>();
     t0 = std::chrono::steady_clock::now();
     wall_at_row = wall_offset;

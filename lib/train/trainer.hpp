@@ -14,11 +14,21 @@
 #include <string>
 #include <vector>
 
+#include "race/random_stream.hpp"
 #include "train/train_config.hpp"
 
 namespace f16race::train {
 
 inline constexpr int kCheckpointFormat = 1;
+
+// Self-play matchups, drawn per race from the trainer's own stream (deterministic per seed).
+struct Matchup {
+  int learner_side = 0;   // 0 blue, 1 red
+  bool vs_pool = false;   // opponent is the current pool snapshot (else the current policy)
+};
+Matchup draw_matchup(race::RandomStream& stream, const PoolConfig& pool, bool pool_available);
+// Which pool snapshot the next phase plays: uniform over the n stored ones.
+std::size_t draw_pool_entry(race::RandomStream& stream, std::size_t n);
 
 // One metrics row; also what the progress display shows.
 struct MetricsRow {

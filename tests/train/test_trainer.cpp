@@ -1,0 +1,179 @@
+// The training loop: config validation, run-folder safety, checkpoints (atomic, refused when
+// corrupt or mismatched), exact resume, determinism, and the self-play pool draws.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "io/yaml_config.hpp"
+#include "train/trainer.hpp"
+
+namespace f16race::train {
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* kSmoke = R"(
+seed: 3
+race: {n_env: 3, team_size: 2, time_limit_s: 12.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
+ll: {n_steps: 8, n_minibatches: 2, n_epochs: 2, hidden: [16, 16], d_model: 8, n_heads: 2}
+hl: {agent: es_d3, hidden: [16, 16], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}
+train: {total_env_steps: 600, ll_phase_updates: 2, hl_phase_updates: 1, checkpoint_every_updates: 3}
+pool: {snapshot_every_updates: 2, max_snapshots: 2}
+)";
+
+TrainConfig smoke(const std::string& extra = "") {
+  YAML::Node root = YAML::Load(kSmoke);
+  if (!extra.empty()) io::apply_override(root, extra);
+  return read_train_config(root, "smoke.yaml");
+}
+
+std::string fresh_dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("f16race_train_test_" + name);
+  fs::remove_all(p);
+  return p.string();
+}
+
+std::string error_of(const std::string& yaml) {
+  try {
+    read_train_config(YAML::Load(yaml), "cfg.yaml");
+  } catch (const io::ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
+  EXPECT_NE(error_of("ll: {n_stepz: 4}").find("cfg.yaml: unknown key 'll.n_stepz'"), std::string::npos);
+  EXPECT_NE(error_of("optimizer: {}").find("unknown key 'optimizer'"), std::string::npos);
+  EXPECT_NE(error_of("hl: {agent: es_d4}").find("hl.agent: 'es_d4' is not one of: es, es_d1, es_d2, es_d3"),
+            std::string::npos);
+  EXPECT_NE(error_of("race: {n_env: many}").find("race.n_env: expected an integer, got 'many'"), std::string::npos);
+  EXPECT_NE(error_of("hl: {epsilon: 1.5}").find("hl.epsilon: value 1.5 is out of range; allowed [0, 1]"),
+            std::string::npos);
+  EXPECT_NE(error_of("race: {team_size: 9}").find("race.team_size"), std::string::npos);
+  EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
+}
+
+TEST(TrainConfig, ResolvedYamlReadsBackToTheSameConfig) {
+  const TrainConfig a = smoke("race.dt_hl_s=20");
+  const std::string y = train_config_yaml(a);
+  const TrainConfig b = read_train_config(YAML::Load(y), "resolved");
+  EXPECT_EQ(train_config_yaml(b), y);
+  EXPECT_EQ(b.race.dt_hl_s, 20.0);
+  EXPECT_EQ(b.hl.variant, agents::EsVariant::kEsD3);
+  EXPECT_NE(config_hash(y), config_hash(train_config_yaml(smoke("seed=4"))));
+}
+
+TEST(Trainer, SameSeedSameWeightsDifferentSeedDifferentWeights) {
+  Trainer a(smoke(), fresh_dir("det_a")), b(smoke(), fresh_dir("det_b")), c(smoke("seed=9"), fresh_dir("det_c"));
+  a.run(nullptr, 5);
+  b.run(nullptr, 5);
+  c.run(nullptr, 5);
+  EXPECT_EQ(a.ll_parameters(), b.ll_parameters());
+  EXPECT_EQ(a.hl_parameters(), b.hl_parameters());
+  EXPECT_NE(a.ll_parameters(), c.ll_parameters());
+}
+
+TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
+  const std::string whole = fresh_dir("whole"), split = fresh_dir("split");
+  Trainer a(smoke(), whole);
+  const TrainSummary full = a.run();
+  ASSERT_GT(full.updates, 6);
+  {
+    Trainer b(smoke(), split);
+    b.run(nullptr, 4);  // stops with a checkpoint after 4 updates: the process "dies" here
+  }
+  auto resumed = Trainer::resume(split);
+  EXPECT_EQ(resumed->updates(), 4);
+  const TrainSummary rest = resumed->run();
+  EXPECT_EQ(rest.updates, full.updates);
+  EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+  // metrics.csv has one row per update, with no duplicates from the interrupted part.
+  std::ifstream m(split + "/metrics.csv");
+  int lines = 0;
+  for (std::string l; std::getline(m, l);) ++lines;
+  EXPECT_EQ(lines, 1 + full.updates);
+}
+
+TEST(Trainer, RefusesToOverwriteARunAndRefusesACorruptCheckpoint) {
+  const std::string dir = fresh_dir("corrupt");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  EXPECT_THROW(Trainer(smoke(), dir), std::runtime_error);
+  std::ifstream latest(dir + "/checkpoint/LATEST");
+  std::string name;
+  latest >> name;
+  const fs::path ck = fs::path(dir) / "checkpoint" / name / "trainer.pt";
+  const auto size = fs::file_size(ck);
+  fs::resize_file(ck, size / 2);  // a torn write that the atomic rename would have prevented
+  try {
+    Trainer::resume(dir);
+    FAIL() << "a truncated checkpoint was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot resume from this checkpoint"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(fs::file_size(ck), size / 2);  // nothing was overwritten by the failed attempt
+}
+
+TEST(Trainer, RefusesACheckpointWrittenWithAnotherConfig) {
+  const std::string dir = fresh_dir("mismatch");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  std::ofstream(dir + "/config.yaml", std::ios::app) << "# edited\n";
+  try {
+    Trainer::resume(dir);
+    FAIL() << "a mismatched config was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("different config.yaml"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Trainer, AtomicCheckpointsLeaveNoTemporaryFilesAndPruneOldOnes) {
+  const std::string dir = fresh_dir("atomic");
+  Trainer t(smoke(), dir);
+  t.run(nullptr, 7);
+  int folders = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(dir) / "checkpoint")) {
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+    folders += e.is_directory();
+  }
+  EXPECT_EQ(folders, 1);
+  int pool = 0;
+  for (const auto& e : fs::directory_iterator(fs::path(dir) / "pool")) pool += e.is_directory();
+  EXPECT_EQ(pool, 2);  // max_snapshots
+}
+
+TEST(SelfPlay, MatchupAndPoolDrawFrequencies) {
+  race::RandomStream s(5, 1);
+  PoolConfig p;
+  p.p_self_play = 0.5;
+  const int n = 40000;
+  int red = 0, pool = 0;
+  for (int k = 0; k < n; ++k) {
+    const Matchup m = draw_matchup(s, p, true);
+    red += m.learner_side;
+    pool += m.vs_pool;
+  }
+  EXPECT_NEAR(red / double(n), 0.5, 0.01);
+  EXPECT_NEAR(pool / double(n), 0.5, 0.01);
+  p.p_self_play = 0.8;
+  pool = 0;
+  for (int k = 0; k < n; ++k) pool += draw_matchup(s, p, true).vs_pool;
+  EXPECT_NEAR(pool / double(n), 0.2, 0.01);
+  for (int k = 0; k < 1000; ++k) EXPECT_FALSE(draw_matchup(s, p, false).vs_pool);
+  int count[5] = {};
+  for (int k = 0; k < 50000; ++k) ++count[draw_pool_entry(s, 5)];
+  for (int c : count) EXPECT_NEAR(c / 50000.0, 0.2, 0.01);
+}
+
+}  // namespace
+}  // namespace f16race::train
