@@ -1,15 +1,10 @@
 #!/usr/bin/env bash
-# The main job on the default configuration: set up, build, fly a scripted manoeuvre on both
-# aero models and benchmark the batched simulator. Outputs go to runs/default/.
+# The main job on the default configuration: set up, build, and train a 4 vs 4 es_d3 agent
+# (about 10 minutes on 2 cores). Progress is shown live; results go to runs/default_<time>/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 scripts/build.sh --target f16race
-out=runs/default
-mkdir -p "$out"
-for model in morelli stevens; do
-  build/f16race simulate --model "$model" --trim-vt 540 --trim-alt 5000 \
-    --commands configs/manoeuvre_commands.csv --duration 20 --sample 0.02 \
-    --out "$out/manoeuvre_$model.csv"
-done
-build/f16race bench sim | tee "$out/bench_sim.txt"
+run="runs/default_$(date +%Y%m%d_%H%M%S)"
+build/f16race train --config configs/default.yaml --run "$run" "$@"
+echo "metrics: $run/metrics.csv   checkpoint: $run/checkpoint/   resume: build/f16race train --resume $run"

@@ -1,6 +1,6 @@
 // `f16race bench nets`: forward and forward+backward time per aircraft sample of each network
 // at a batch of 8192 aircraft (median of repeats). Inputs are random observations with the
-// stand-in sizes below unless overridden; 30% of the other aircraft are masked dead.
+// the default race's sizes unless overridden; 30% of the other aircraft are masked dead.
 #include <torch/torch.h>
 
 #include <CLI/CLI.hpp>
@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "race/race_env.hpp"
 #include "models/attention_encoder.hpp"
 #include "models/hl_critic.hpp"
 #include "models/ll_actor_critic.hpp"
@@ -25,9 +26,10 @@ struct NetsBenchOptions {
   int samples = 8192;
   int repeats = 7;
   bool json = false;
-  int d_ego = 22;  // stand-ins until the race environment fixes its observation sizes
-  int d_ado = 8;
-  int d_task = 24;
+  // The race environment's sizes for the default 4 vs 4 race (6 preview points).
+  int d_ego = race::kEgoDim;
+  int d_ado = race::kAdoDim;
+  int d_task = 5 * 6 + 8;
   int n_other = 7;
 };
 

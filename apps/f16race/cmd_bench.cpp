@@ -205,6 +205,7 @@ void add_bench_command(CLI::App& app) {
   ecmd->callback([envo]() { run_bench_env(*envo); });
 
   add_bench_nets_command(*bench);
+  add_bench_train_command(*bench);
 }
 
 }  // namespace f16race::app

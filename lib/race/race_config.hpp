@@ -57,7 +57,7 @@ struct RaceConfig {
   // sit at goal_bin_scale x the local tube radius.
   int hl_bins = 7;
   double goal_ahead_ft = 6000.0;
-  double goal_bin_scale = 0.9;
+  double goal_bin_scale = 0.8;
 
   // Observations.
   int preview_points = 6;

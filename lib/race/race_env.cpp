@@ -268,8 +268,15 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
     const double bb = std::clamp(static_cast<double>(b), 0.0, static_cast<double>(config_.hl_bins - 1));
     return (bb - half) * step;
   };
-  // Offsets along north, east and up (the paper's d_pn, d_pe, d_pa).
-  goal_point_[i] = fr.center + Vec3{offset(bins[0]), offset(bins[1]), offset(bins[2])};
+  // Offsets along north, east and up (the paper's d_pn, d_pe, d_pa). A corner bin would sit
+  // sqrt(3) x further out than an axis bin, so the cross-track part is clipped to the outer
+  // bin's radius: every goal the HL can choose lies inside the tube.
+  Vec3 off{offset(bins[0]), offset(bins[1]), offset(bins[2])};
+  const Vec3 along = dot(off, fr.tangent) * fr.tangent;
+  const Vec3 cross = off - along;
+  const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
+  if (c > limit) off = along + (limit / c) * cross;
+  goal_point_[i] = fr.center + off;
   const Vec3 d = goal_point_[i] - position(sim_, i);
   goal_dist_ft_[i] = std::sqrt(dot(d, d));
 }

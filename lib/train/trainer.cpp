@@ -121,6 +121,9 @@ struct Trainer::State {
   std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
   agents::PpoStats last_ppo;
   agents::EsStats last_es;
+  TimeBreakdown timing;
+  using Clock = std::chrono::steady_clock;
+  static double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
   double wall() const {
     return wall_offset + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -295,6 +298,7 @@ void Trainer::State::hl_decisions() {
   if (!any) return;
   const HlObs obs = hl_view(false);
   const bool learn = phase == 1;
+  const auto t_act = Clock::now();
   const auto act = es->act(obs, cfg.hl.epsilon, gen);
   torch::Tensor bins = act.bins.contiguous().clone();
   const auto learner = learner_index();
@@ -313,6 +317,7 @@ void Trainer::State::hl_decisions() {
       }
     }
   }
+  timing.inference += since(t_act);
   // Distance left to the old goals: how well the low level reached them.
   for (int e = 0; e < n_env; ++e) {
     if (!due[e] || env->race_time_s(e) <= 0.0) continue;
@@ -352,6 +357,7 @@ void Trainer::State::ll_step(bool learn) {
   torch::NoGradGuard no_grad;
   hl_decisions();
   const LlObs obs = ll_view(false);
+  const auto t_act = Clock::now();
   const auto act = ppo->act(obs, gen, /*update_stats=*/learn);
   torch::Tensor actions = act.action.contiguous().clone();
   bool any_pool = false;
@@ -369,6 +375,7 @@ void Trainer::State::ll_step(bool learn) {
       }
     }
   }
+  timing.inference += since(t_act);
   const auto learner = learner_index();  // before the step: sides change at resets
   // Samples of the learner team, taken before the env overwrites its buffers.
   LlObs sample_obs;
@@ -379,7 +386,9 @@ void Trainer::State::ll_step(bool learn) {
     sample_logp = act.log_prob.index_select(0, learner);
     sample_value = act.value.index_select(0, learner);
   }
+  const auto t_env = Clock::now();
   env->step(actions.data_ptr<float>());
+  timing.env += since(t_env);
   env_steps += n_env;
 
   // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
@@ -450,14 +459,16 @@ void Trainer::State::ll_step(bool learn) {
 }
 
 void Trainer::State::ppo_update() {
+  const auto t = Clock::now();
   buffer->finish(ppo->value(models::index_rows(ll_view(false), learner_index())), cfg.ll.gamma, cfg.ll.gae_lambda);
   last_ppo = ppo->update(*buffer);
   buffer->clear();
   ++ppo_updates;
+  timing.ppo += since(t);
 }
 
 void Trainer::State::es_update() {
-  const std::size_t t = done_obs.size();
+  const auto t_start = Clock::now();
   auto stack_obs = [](const std::vector<HlObs>& v) {
     std::vector<torch::Tensor> a, b, c, d, e;
     for (const HlObs& o : v) {
@@ -479,7 +490,6 @@ void Trainer::State::es_update() {
   batch.next_active = torch::stack(done_next_active);
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
-  (void)t;
   done_obs.clear();
   done_next.clear();
   done_actions.clear();
@@ -488,6 +498,7 @@ void Trainer::State::es_update() {
   done_active.clear();
   done_next_active.clear();
   ++es_updates;
+  timing.es += since(t_start);
 }
 
 MetricsRow Trainer::State::make_row(const char* phase_name) {
@@ -607,8 +618,13 @@ void Trainer::State::save_checkpoint() {
   a.write("open_reward", open.reward);
   a.write("open_active", open.active);
   a.write("open_flag", torch::tensor(std::vector<std::int64_t>(open.open.begin(), open.open.end())));
-  a.write("returns", torch::tensor(std::vector<double>(ll_ret.begin(), ll_ret.end())));
-  a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end())));
+  // Double precision explicitly: torch::tensor of doubles would default to float32.
+  a.write("returns", torch::tensor(std::vector<double>(ll_ret.begin(), ll_ret.end()), torch::kFloat64));
+  a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end()), torch::kFloat64));
+  // The last updates' statistics, so metrics rows after a resume match an unbroken run.
+  a.write("last_stats", torch::tensor({last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
+                                       last_ppo.learning_rate, last_es.loss, last_es.q_mean},
+                                      torch::kFloat64));
   a.write("wall", torch::tensor({wall()}, torch::kFloat64));
   agents::save_archive_atomic(a, (dir / "trainer.pt").string());
   std::ostringstream meta;
@@ -683,6 +699,14 @@ void Trainer::State::load_checkpoint() {
     for (std::size_t k = 0; k < ll_ret.size(); ++k) ll_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
     t = get("hl_returns");
     for (std::size_t k = 0; k < hl_ret.size(); ++k) hl_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
+    t = get("last_stats");
+    last_ppo.policy_loss = t[0].item<double>();
+    last_ppo.value_loss = t[1].item<double>();
+    last_ppo.entropy = t[2].item<double>();
+    last_ppo.approx_kl = t[3].item<double>();
+    last_ppo.learning_rate = t[4].item<double>();
+    last_es.loss = t[5].item<double>();
+    last_es.q_mean = t[6].item<double>();
     t = get("wall");
     wall_offset = t.item<double>();
     t0 = std::chrono::steady_clock::now();
@@ -716,6 +740,8 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
                           const std::function<void(const MetricsRow&)>& on_row) {
   State& s = *s_;
   TrainSummary summary;
+  s.timing = TimeBreakdown{};
+  const auto t_run = State::Clock::now();
   std::int64_t done_here = 0;
   const std::int64_t hl_batch = static_cast<std::int64_t>(s.n_env) * s.cfg.hl.n_steps_per_update;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
@@ -730,12 +756,14 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
     }
     ++done_here;
     ++s.phase_updates;
+    const auto t_io = State::Clock::now();
     const MetricsRow row = s.make_row(ll_phase ? "ll" : "hl");
     s.write_row(row);
     summary.rows.push_back(row);
     if (on_row) on_row(row);
     const std::int64_t upd = s.ppo_updates + s.es_updates;
     if (upd % s.cfg.pool.snapshot_every_updates == 0) s.snapshot_pool();
+    s.timing.io += State::since(t_io);
     // Phase switch: the other level learns next; a new pool opponent for the new phase.
     const int phase_len = ll_phase ? s.cfg.loop.ll_phase_updates : s.cfg.loop.hl_phase_updates;
     if (s.phase_updates >= phase_len && s.cfg.loop.hl_phase_updates > 0) {
@@ -748,8 +776,11 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
     }
     const bool stopping = stop != nullptr && stop->load();
     if (stopping || upd % s.cfg.loop.checkpoint_every_updates == 0 || s.env_steps >= s.cfg.loop.total_env_steps ||
-        (max_updates >= 0 && done_here >= max_updates))
+        (max_updates >= 0 && done_here >= max_updates)) {
+      const auto t_ck = State::Clock::now();
       s.save_checkpoint();
+      s.timing.io += State::since(t_ck);
+    }
     if (stopping) {
       summary.interrupted = true;
       break;
@@ -757,6 +788,9 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   }
   summary.updates = s.ppo_updates + s.es_updates;
   summary.env_steps = s.env_steps;
+  s.timing.total = State::since(t_run);
+  s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io;
+  summary.time = s.timing;
   return summary;
 }
 

@@ -48,7 +48,19 @@ struct MetricsRow {
   double es_loss = 0.0, q_mean = 0.0, epsilon = 0.0;
 };
 
+// Where the wall time of run() went [s].
+struct TimeBreakdown {
+  double env = 0.0;        // race env step: simulator, race logic, observations
+  double inference = 0.0;  // policy forward passes in rollouts (LL and HL, learner and pool)
+  double ppo = 0.0;        // PPO updates (incl. GAE)
+  double es = 0.0;         // Expected SARSA updates
+  double io = 0.0;         // metrics, pool snapshots, checkpoints
+  double other = 0.0;      // bookkeeping between the above
+  double total = 0.0;
+};
+
 struct TrainSummary {
+  TimeBreakdown time;
   std::int64_t updates = 0;
   std::int64_t env_steps = 0;
   bool interrupted = false;
