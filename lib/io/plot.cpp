@@ -36,6 +36,7 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
        << " font 'Sans,10'\n";
     gp << "set output " << quote(base_of(spec.output)) << "\n";
     gp << "set datafile separator ','\n";
+    gp << "set termoption noenhanced\n";  // names like es_d3 are text, not subscripts
     gp << "set grid lc rgb '#dddddd'\n";
     gp << "set key outside right top\n";
     gp << "set multiplot layout " << spec.rows << "," << spec.cols;

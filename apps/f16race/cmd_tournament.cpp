@@ -1,0 +1,58 @@
+// `f16race tournament`: round-robin between trained runs (and the untrained networks), with
+// per-variant mean +- std, IQM with a stratified-bootstrap CI, a pairing table and figures.
+#include <omp.h>
+#include <torch/torch.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "eval/tournament.hpp"
+
+namespace f16race::app {
+namespace {
+
+void run(const eval::TournamentOptions& o) {
+  torch::set_num_threads(omp_get_max_threads());
+  const bool tty = isatty(STDOUT_FILENO) != 0;
+  eval::TournamentResult r;
+  try {
+    r = eval::run_tournament(o, [&](long done, long total) {
+      if (tty) std::printf("\r%ld / %ld races\x1b[K", done, total);
+      else std::printf("%ld / %ld races\n", done, total);
+      std::fflush(stdout);
+    });
+  } catch (const std::runtime_error& e) {
+    throw UserError(e.what());
+  }
+  if (tty) std::printf("\n");
+  eval::write_tournament_report(r, o);
+  std::ifstream md(o.out_dir + "/summary.md");
+  std::printf("%s", std::string(std::istreambuf_iterator<char>(md), {}).c_str());
+  std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json, tournament.png}\n", o.out_dir.c_str());
+}
+
+}  // namespace
+
+void add_tournament_command(CLI::App& app) {
+  auto o = std::make_shared<eval::TournamentOptions>();
+  o->out_dir = "runs/tournament";
+  CLI::App* cmd = app.add_subcommand("tournament", "Round-robin evaluation of trained runs with honest statistics");
+  cmd->add_option("--runs", o->runs, "Run folders (written by f16race train)")->required();
+  cmd->add_option("--races", o->races_per_pair, "Races per pair of entries (sides swapped in half)")
+      ->check(CLI::Range(2, 1000000));
+  cmd->add_option("--seed", o->seed, "Seed of the tracks and starts");
+  cmd->add_option("--epsilon", o->epsilon, "HL exploration while evaluating (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--batch", o->batch_envs, "Races run at once")->check(CLI::Range(1, 100000));
+  cmd->add_option("--bootstrap", o->bootstrap_replicates, "Bootstrap replicates for the IQM CI")->check(CLI::Range(100, 1000000));
+  cmd->add_flag("!--no-untrained", o->include_untrained, "Leave out the built-in untrained entry");
+  cmd->add_option("--out", o->out_dir, "Output folder");
+  cmd->callback([o]() { run(*o); });
+}
+
+}  // namespace f16race::app
