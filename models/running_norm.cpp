@@ -30,9 +30,7 @@ void RunningNormImpl::update(const torch::Tensor& x) {
 torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const {
   TORCH_CHECK(x.dim() >= 1 && x.size(-1) == dim_, "RunningNorm: last dimension of x is ", x.size(-1), ", expected ",
               dim_);
-  const auto mean = mean_.to(torch::kFloat32);
-  const auto inv_std = torch::rsqrt(var_ + eps_).to(torch::kFloat32);
-  return torch::clamp((x - mean) * inv_std, -clip_, clip_);
+  return torch::clamp((x - mean_f32()) * inv_std_f32(), -clip_, clip_);
 }
 
 ObsNormalizerImpl::ObsNormalizerImpl(const ObsDims& dims, double clip) : dims_(dims) {

@@ -19,6 +19,10 @@ class RunningNormImpl : public torch::nn::Module {
   void update(const torch::Tensor& x);
   torch::Tensor normalize(const torch::Tensor& x) const;
   const torch::Tensor& mean() const { return mean_; }
+  // The float32 terms normalize() applies: (x - mean) * inv_std, clamped to +-clip.
+  torch::Tensor mean_f32() const { return mean_.to(torch::kFloat32); }
+  torch::Tensor inv_std_f32() const { return torch::rsqrt(var_ + eps_).to(torch::kFloat32); }
+  double clip() const { return clip_; }
   const torch::Tensor& var() const { return var_; }
   double count() const { return count_.item<double>(); }
 
@@ -35,6 +39,11 @@ class ObsNormalizerImpl : public torch::nn::Module {
   // Normalised copy of `obs`; with update_stats the statistics first absorb this batch.
   HlObs normalize(const HlObs& obs, bool update_stats);
   LlObs normalize(const LlObs& obs, bool update_stats);
+  // Per field: ego, extra (prev_action for the HL, goal for the LL), ado, task.
+  const RunningNorm& ego() const { return ego_; }
+  const RunningNorm& extra() const { return extra_; }
+  const RunningNorm& ado() const { return ado_norm_; }
+  const RunningNorm& task() const { return task_; }
 
  private:
   torch::Tensor ado_(const torch::Tensor& ado, const torch::Tensor& alive, bool update_stats);

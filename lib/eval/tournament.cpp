@@ -18,6 +18,8 @@
 #include "io/plot.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
+#include "train/obs_views.hpp"
+#include "train/run_policy.hpp"
 #include "train/train_config.hpp"
 
 namespace f16race::eval {
@@ -27,56 +29,6 @@ using models::HlObs;
 using models::LlObs;
 
 namespace {
-
-struct Policy {
-  std::unique_ptr<agents::PpoAgent> ll;
-  std::unique_ptr<agents::EsAgent> hl;
-};
-
-models::ObsDims dims_of(const race::RaceConfig& rc) {
-  return models::ObsDims{race::kEgoDim, race::kAdoDim, race::task_dim(rc), rc.n_agent() - 1};
-}
-
-train::TrainConfig read_run_config(const std::string& run) {
-  const std::string path = run + "/config.yaml";
-  if (!fs::exists(path)) throw std::runtime_error(run + ": not a training run (no config.yaml); give folders written by f16race train");
-  return train::read_train_config(io::load_yaml_file(path), path);
-}
-
-Policy load_policy(const std::string& run, const train::TrainConfig& cfg_in, const models::ObsDims& dims) {
-  train::TrainConfig cfg = cfg_in;
-  cfg.ll.net.dims = dims;
-  cfg.hl.dims = dims;
-  cfg.ll.total_updates = 1;
-  Policy p{std::make_unique<agents::PpoAgent>(cfg.ll), std::make_unique<agents::EsAgent>(cfg.hl)};
-  const std::string latest = run + "/checkpoint/LATEST";
-  std::ifstream f(latest);
-  std::string name;
-  if (!(f >> name)) throw std::runtime_error(run + ": no checkpoint (checkpoint/LATEST missing); train it first");
-  const fs::path dir = fs::path(run) / "checkpoint" / name;
-  try {
-    p.ll->load((dir / "ll.pt").string());
-    p.hl->load((dir / "hl.pt").string());
-  } catch (const std::exception& e) {
-    throw std::runtime_error(dir.string() + ": cannot load the policy: " + std::string(e.what()).substr(0, 200));
-  }
-  return p;
-}
-
-LlObs ll_view(const race::RaceEnv& env, const models::ObsDims& d) {
-  const std::int64_t n = env.n_aircraft();
-  auto f = [](const float* p) { return const_cast<float*>(p); };
-  return LlObs{torch::from_blob(f(env.obs_ego()), {n, d.d_ego}), torch::from_blob(f(env.obs_goal()), {n, race::kGoalDim}),
-               torch::from_blob(f(env.obs_ado()), {n, d.n_other, d.d_ado}),
-               torch::from_blob(const_cast<std::uint8_t*>(env.obs_ado_alive()), {n, d.n_other}, torch::kBool),
-               torch::from_blob(f(env.obs_task()), {n, d.d_task})};
-}
-
-HlObs hl_view(const race::RaceEnv& env, const models::ObsDims& d) {
-  const LlObs l = ll_view(env, d);
-  return HlObs{l.ego, torch::from_blob(const_cast<float*>(env.obs_prev_action()), {env.n_aircraft(), race::kActionDim}),
-               l.ado, l.ado_alive, l.task};
-}
 
 struct Game {
   int pair, blue, red;
@@ -90,7 +42,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   TournamentResult res;
   std::vector<train::TrainConfig> cfgs;
   for (const std::string& r : o.runs) {
-    cfgs.push_back(read_run_config(r));
+    cfgs.push_back(train::read_run_config(r));
     Entry e;
     e.path = r;
     e.name = fs::path(r).filename().string();
@@ -101,24 +53,19 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   }
   // Races use the first run's race; every entry must have been trained on the same shapes.
   race::RaceConfig rc = cfgs.front().race;
-  const models::ObsDims dims = dims_of(rc);
+  const models::ObsDims dims = train::obs_dims(rc);
   for (std::size_t k = 1; k < cfgs.size(); ++k) {
-    const models::ObsDims dk = dims_of(cfgs[k].race);
+    const models::ObsDims dk = train::obs_dims(cfgs[k].race);
     if (cfgs[k].race.team_size != rc.team_size || dk.d_task != dims.d_task)
       throw std::runtime_error(o.runs[k] + ": trained on " + std::to_string(cfgs[k].race.team_size) + " vs " +
                                std::to_string(cfgs[k].race.team_size) + " with task size " + std::to_string(dk.d_task) +
                                ", but " + o.runs[0] + " on " + std::to_string(rc.team_size) + " vs " +
                                std::to_string(rc.team_size) + " with " + std::to_string(dims.d_task));
   }
-  std::vector<Policy> pol;
-  for (std::size_t k = 0; k < o.runs.size(); ++k) pol.push_back(load_policy(o.runs[k], cfgs[k], dims));
+  std::vector<train::RunPolicy> pol;
+  for (const std::string& r : o.runs) pol.push_back(train::load_run_policy(r));
   if (o.include_untrained) {
-    torch::manual_seed(o.seed);  // the untrained networks' initial weights
-    train::TrainConfig c = cfgs.front();
-    c.ll.net.dims = dims;
-    c.hl.dims = dims;
-    c.ll.total_updates = 1;
-    pol.push_back(Policy{std::make_unique<agents::PpoAgent>(c.ll), std::make_unique<agents::EsAgent>(c.hl)});
+    pol.push_back(train::untrained_policy(cfgs.front(), o.seed));
     res.entries.push_back(Entry{"untrained", "", "untrained", o.seed});
   }
   const int n_entries = static_cast<int>(res.entries.size());
@@ -158,7 +105,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       bool due = false;
       for (int e = 0; e < n; ++e) due = due || env.hl_due()[e];
       if (due) {
-        const HlObs obs = hl_view(env, dims);
+        const HlObs obs = train::hl_obs_view(env);
         for (int id : present) {
           const auto b = pol[id].hl->act(obs, o.epsilon, gen).bins.contiguous();
           const std::int64_t* p = b.data_ptr<std::int64_t>();
@@ -167,7 +114,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
         }
         env.set_hl_actions(bins.data());
       }
-      const LlObs obs = ll_view(env, dims);
+      const LlObs obs = train::ll_obs_view(env);
       for (int id : present) {
         // Greedy: the Gaussian's mean, not a sample.
         const auto m = pol[id].ll->act(obs, gen, false).mean.contiguous();

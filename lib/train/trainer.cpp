@@ -17,6 +17,7 @@
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "race/random_stream.hpp"
+#include "train/obs_views.hpp"
 
 namespace f16race::train {
 
@@ -133,8 +134,8 @@ struct Trainer::State {
 
   void build(bool fresh);
   torch::Tensor learner_index() const;
-  LlObs ll_view(bool final_obs) const;
-  HlObs hl_view(bool final_obs) const;
+  LlObs ll_view(bool final_obs) const { return ll_obs_view(*env, final_obs); }
+  HlObs hl_view(bool final_obs) const { return hl_obs_view(*env, final_obs); }
   void draw_matchup(int env);
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
@@ -195,10 +196,7 @@ void Trainer::State::build(bool fresh) {
   n_env = env->n_env();
   n_agent = env->n_agent();
   ts = cfg.race.team_size;
-  dims.d_ego = race::kEgoDim;
-  dims.d_ado = race::kAdoDim;
-  dims.d_task = env->task_dim();
-  dims.n_other = n_agent - 1;
+  dims = obs_dims(*env);
   cfg.ll.net.dims = dims;
   cfg.hl.dims = dims;
   // Planned PPO updates for the learning-rate schedule: the LL share of the step budget.
@@ -256,26 +254,6 @@ torch::Tensor Trainer::State::learner_index() const {
   for (int e = 0; e < n_env; ++e)
     for (int j = 0; j < ts; ++j) p[e * ts + j] = learner_agent(e, j);
   return idx;
-}
-
-// Tensors over the env's buffers without a copy ([N, ...] with N = n_env * n_agent).
-LlObs Trainer::State::ll_view(bool final_obs) const {
-  const std::int64_t n = static_cast<std::int64_t>(n_env) * n_agent;
-  auto f = [](const float* p) { return const_cast<float*>(p); };
-  const auto& E = *env;
-  return LlObs{torch::from_blob(f(final_obs ? E.final_ego() : E.obs_ego()), {n, dims.d_ego}),
-               torch::from_blob(f(final_obs ? E.final_goal() : E.obs_goal()), {n, race::kGoalDim}),
-               torch::from_blob(f(final_obs ? E.final_ado() : E.obs_ado()), {n, dims.n_other, dims.d_ado}),
-               torch::from_blob(const_cast<std::uint8_t*>(final_obs ? E.final_ado_alive() : E.obs_ado_alive()),
-                                {n, dims.n_other}, torch::kBool),
-               torch::from_blob(f(final_obs ? E.final_task() : E.obs_task()), {n, dims.d_task})};
-}
-
-HlObs Trainer::State::hl_view(bool final_obs) const {
-  const std::int64_t n = static_cast<std::int64_t>(n_env) * n_agent;
-  const LlObs l = ll_view(final_obs);
-  const float* pa = final_obs ? env->final_prev_action() : env->obs_prev_action();
-  return HlObs{l.ego, torch::from_blob(const_cast<float*>(pa), {n, race::kActionDim}), l.ado, l.ado_alive, l.task};
 }
 
 void Trainer::State::close_open(int e, bool done, const HlObs& next_rows, const torch::Tensor& next_active) {

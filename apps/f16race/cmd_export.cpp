@@ -1,0 +1,45 @@
+// `f16race export`: a trained run's policies as TorchScript modules plain PyTorch can load.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "commands.hpp"
+#include "export/torchscript_export.hpp"
+#include "train/run_policy.hpp"
+
+namespace f16race::app {
+namespace {
+
+struct ExportOptions {
+  std::string run;
+  std::string out;
+};
+
+void run_export(const ExportOptions& o) {
+  train::RunPolicy policy;
+  try {
+    policy = train::load_run_policy(o.run);
+  } catch (const std::runtime_error& e) {
+    throw UserError(e.what());
+  }
+  const std::string out = o.out.empty() ? o.run + "/export" : o.out;
+  const torchscript::ExportReport rep = torchscript::export_policy(policy, out);
+  std::printf("exported %s (%s, %lld env steps) to %s/\n", policy.name.c_str(),
+              agents::es_variant_name(policy.config.hl.variant), static_cast<long long>(policy.env_steps), out.c_str());
+  std::printf("  hl_policy.pt  ll_policy.pt  example_io.pt  README.md\n");
+  std::printf("  check on 256 random observations: max abs diff HL %.2e, LL %.2e, greedy bins %s\n", rep.hl_max_abs_diff,
+              rep.ll_max_abs_diff, rep.bins_equal ? "identical" : "different");
+}
+
+}  // namespace
+
+void add_export_command(CLI::App& app) {
+  auto o = std::make_shared<ExportOptions>();
+  CLI::App* cmd = app.add_subcommand("export", "Write a trained run's policies as TorchScript (torch.jit.load)");
+  cmd->add_option("--run", o->run, "Run folder written by f16race train")->required();
+  cmd->add_option("--out", o->out, "Output folder (default: RUN/export)");
+  cmd->callback([o]() { run_export(*o); });
+}
+
+}  // namespace f16race::app

@@ -1,0 +1,359 @@
+#include "export/torchscript_export.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <unistd.h>
+
+#include "models/running_norm.hpp"
+#include "race/race_env.hpp"
+
+namespace f16race::torchscript {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// A double literal TorchScript reads back to the same value.
+std::string num(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  std::string s = b;
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string ident(const std::string& key) {
+  std::string s = key;
+  std::replace(s.begin(), s.end(), '.', '_');
+  return s;
+}
+
+// Every parameter and buffer of `m` on `out` as "<prefix>_<key with dots as underscores>".
+void copy_weights(torch::jit::Module& out, const torch::nn::Module& m, const std::string& prefix) {
+  for (const auto& kv : m.named_parameters()) out.register_parameter(prefix + "_" + ident(kv.key()), kv.value().detach().clone(), false);
+  for (const auto& kv : m.named_buffers()) out.register_buffer(prefix + "_" + ident(kv.key()), kv.value().detach().clone());
+}
+
+// Source compiled from C++ cannot name torch.float32 / torch.bool (no Python resolver); dtypes
+// are written as their ScalarType numbers, which is how TorchScript represents them anyway.
+std::string dtype_code(torch::ScalarType t) { return std::to_string(static_cast<int>(t)); }
+
+std::string linear(const std::string& x, const std::string& layer) {
+  return "torch.linear(" + x + ", self." + layer + "_weight, self." + layer + "_bias)";
+}
+
+// The normalisation terms, registered as norm_<field>_{mean,inv_std}; identity when off.
+void copy_normalizer(torch::jit::Module& out, const models::ObsNormalizer& norm, bool enabled, const models::ObsDims& d) {
+  const std::pair<const char*, const models::RunningNorm*> fields[] = {
+      {"ego", &norm->ego()}, {"extra", &norm->extra()}, {"ado", &norm->ado()}, {"task", &norm->task()}};
+  const int64_t dims[] = {d.d_ego, 3, d.d_ado, d.d_task};
+  int k = 0;
+  for (const auto& [name, rn] : fields) {
+    const int64_t n = dims[k++];
+    out.register_buffer(std::string("norm_") + name + "_mean", enabled ? (*rn)->mean_f32() : torch::zeros({n}));
+    out.register_buffer(std::string("norm_") + name + "_inv_std", enabled ? (*rn)->inv_std_f32() : torch::ones({n}));
+  }
+}
+
+struct Shape {
+  models::ObsDims dims;
+  int64_t d_model = 0, n_heads = 0;
+  std::vector<int64_t> hidden;
+  bool normalize = true;
+  double clip = 10.0;
+};
+
+// Input checks, normalisation (as models::ObsNormalizer) and the attention encoder (as
+// models::AttentionEncoder), op for op, so the outputs agree to float rounding.
+std::string common_source(const Shape& s, const char* extra_name) {
+  const auto& d = s.dims;
+  const int64_t dh = s.d_model / s.n_heads;
+  std::ostringstream o;
+  const std::string clip = num(s.clip);
+  const std::string f32 = dtype_code(torch::kFloat32), boolean = dtype_code(torch::kBool);
+  o << "def check(self, ego: Tensor, " << extra_name << ": Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> int:\n"
+    << "    assert ego.dim() == 2 and ego.size(1) == " << d.d_ego << " and ego.dtype == " << f32 << ", "
+    << "\"ego must be float32 [B, " << d.d_ego << "]\"\n"
+    << "    b = ego.size(0)\n"
+    << "    assert list(" << extra_name << ".shape) == [b, 3] and " << extra_name << ".dtype == " << f32 << ", \""
+    << extra_name << " must be float32 [B, 3]\"\n"
+    << "    assert list(ado.shape) == [b, " << d.n_other << ", " << d.d_ado << "] and ado.dtype == " << f32 << ", "
+    << "\"ado must be float32 [B, " << d.n_other << ", " << d.d_ado << "]\"\n"
+    << "    assert list(ado_alive.shape) == [b, " << d.n_other << "] and ado_alive.dtype == " << boolean << ", "
+    << "\"ado_alive must be bool [B, " << d.n_other << "]\"\n"
+    << "    assert list(task.shape) == [b, " << d.d_task << "] and task.dtype == " << f32 << ", "
+    << "\"task must be float32 [B, " << d.d_task << "]\"\n"
+    << "    return b\n\n";
+  o << "def norm(self, x: Tensor, mean: Tensor, inv_std: Tensor) -> Tensor:\n"
+    << "    return torch.clamp((x - mean) * inv_std, -" << clip << ", " << clip << ")\n\n";
+  o << "def encode(self, ego: Tensor, ado: Tensor, ado_alive: Tensor) -> Tensor:\n"
+    << "    b = ego.size(0)\n"
+    << "    q = " << linear("ego", "net_encoder_q_proj") << ".view([b, 1, " << s.n_heads << ", " << dh << "])\n"
+    << "    k = " << linear("ado", "net_encoder_k_proj") << ".view([b, " << d.n_other << ", " << s.n_heads << ", " << dh << "])\n"
+    << "    v = " << linear("ado", "net_encoder_v_proj") << ".view([b, " << d.n_other << ", " << s.n_heads << ", " << dh << "])\n"
+    << "    scores = (k * q).sum(-1) / " << num(std::sqrt(static_cast<double>(dh))) << "\n"
+    << "    alive = ado_alive.view([b, " << d.n_other << ", 1])\n"
+    << "    scores = scores.masked_fill(alive.logical_not(), -1000000000.0)\n"
+    << "    weights = torch.softmax(scores, 1) * alive.to(" << f32 << ")\n"
+    << "    attended = (weights.unsqueeze(-1) * v).sum(1).reshape([b, " << s.d_model << "])\n"
+    << "    any_alive = ado_alive.any(1, keepdim=True).to(" << f32 << ")\n"
+    << "    return " << linear("attended", "net_encoder_out_proj") << " * any_alive\n\n";
+  return o.str();
+}
+
+// Shared head of both forwards: checks, normalised fields, encoder, MLP input x.
+std::string forward_prologue(const char* extra_name) {
+  std::ostringstream o;
+  o << "    b = self.check(ego, " << extra_name << ", ado, ado_alive, task)\n"
+    << "    ego_n = self.norm(ego, self.norm_ego_mean, self.norm_ego_inv_std)\n"
+    << "    extra_n = self.norm(" << extra_name << ", self.norm_extra_mean, self.norm_extra_inv_std)\n"
+    << "    ado_n = self.norm(ado, self.norm_ado_mean, self.norm_ado_inv_std) * ado_alive.unsqueeze(-1).to(" << dtype_code(torch::kFloat32) << ")\n"
+    << "    task_n = self.norm(task, self.norm_task_mean, self.norm_task_inv_std)\n"
+    << "    enc = self.encode(ego_n, ado_n, ado_alive)\n"
+    << "    x = torch.cat([ego_n, extra_n, enc, task_n], 1)\n";
+  return o.str();
+}
+
+void save_atomic(const torch::jit::Module& m, const std::string& path) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  m.save(tmp);
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot rename " + tmp + " to " + path);
+  }
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary);
+    f << text;
+    if (!f) throw std::runtime_error("cannot write " + tmp);
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot rename " + tmp + " to " + path);
+  }
+}
+
+double max_abs_diff(const torch::Tensor& a, const torch::Tensor& b) {
+  if (!a.defined() && !b.defined()) return 0.0;
+  if (!a.defined() || !b.defined() || a.sizes() != b.sizes()) return INFINITY;
+  return (a.to(torch::kFloat64) - b.to(torch::kFloat64)).abs().max().item<double>();
+}
+
+std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
+  const auto& d = p.dims;
+  const auto& rc = p.config.race;
+  const auto& hl = p.config.hl;
+  const bool d3 = hl.variant == agents::EsVariant::kEsD3;
+  const bool joint = !agents::es_is_decoupled(hl.variant);
+  const int64_t nb = hl.n_bins;
+  std::ostringstream o;
+  o << "# Exported f16race policy: " << p.name << "\n\n"
+    << "TorchScript modules of the run `" << p.run_dir << "` (checkpoint `" << fs::path(p.checkpoint_dir).filename().string()
+    << "`, " << p.env_steps << " training env steps), high-level agent `" << agents::es_variant_name(hl.variant)
+    << "`, trained for " << rc.team_size << " vs " << rc.team_size << " races. They need only PyTorch:\n\n"
+    << "```python\nimport torch\nhl = torch.jit.load(\"hl_policy.pt\")\nll = torch.jit.load(\"ll_policy.pt\")\n"
+    << "with torch.no_grad():\n    bins = hl(ego, prev_action, ado, ado_alive, task)[\"bins\"]      # every dt_hl_s = "
+    << rc.dt_hl_s << " s\n    action = ll(ego, goal, ado, ado_alive, task)[\"action\"]      # every dt_ll_s = " << rc.dt_ll_s
+    << " s\n```\n\n"
+    << "B is any batch size: one row per aircraft (decentralised execution: each aircraft acts on its own\n"
+    << "observation). Inputs are the raw observations the f16race environment writes (docs/race.md);\n"
+    << "the running observation normalisation of training is inside the modules (clip ±" << p.config.ll.obs_clip
+    << "). The two modules have their own cross-attention encoders (the HL critic and the LL actor-critic\n"
+    << "were trained with separate ones), so there is no separate encoder file.\n\n"
+    << "At export the modules were run on " << 256 << " random observations and compared with the in-process\n"
+    << "networks: max abs difference " << rep.hl_max_abs_diff << " (HL), " << rep.ll_max_abs_diff
+    << " (LL), greedy bins " << (rep.bins_equal ? "identical" : "DIFFERENT") << ". `example_io.pt` holds those\n"
+    << "inputs and the in-process outputs as buffers (`hl_*`, `ll_*`), to check a loader:\n\n"
+    << "```python\nio = dict(torch.jit.load(\"example_io.pt\").named_buffers())\n"
+    << "out = ll(io[\"ego\"], io[\"goal\"], io[\"ado\"], io[\"ado_alive\"], io[\"task\"])\n"
+    << "assert (out[\"mean\"] - io[\"ll_mean\"]).abs().max() < 1e-5\n```\n\n";
+  o << "## Inputs\n\n| name | shape | dtype | meaning |\n|---|---|---|---|\n"
+    << "| ego | [B, " << d.d_ego << "] | float32 | own state s̄, angles as sin/cos (table below) |\n"
+    << "| prev_action | [B, 3] | float32 | HL only: the aircraft's last LL action in [-1, 1] |\n"
+    << "| goal | [B, 3] | float32 | LL only: the HL goal point in spherical heading-frame coordinates |\n"
+    << "| ado | [B, " << d.n_other << ", " << d.d_ado
+    << "] | float32 | one row per other aircraft, in agent order with self skipped (teammates first for blue) |\n"
+    << "| ado_alive | [B, " << d.n_other << "] | bool | false = that aircraft is out (its row is ignored) |\n"
+    << "| task | [B, " << d.d_task << "] | float32 | track preview and tube offsets |\n\n";
+  o << "ego: 0 vt/1000 ft/s; 1-10 sin, cos of α, β, φ, θ, ψ; 11-13 p/2, q, r [rad/s] (±10); 14 altitude/10 000 ft;\n"
+    << "15 engine power/100; 16-18 inner-loop integrators ∫(Nz−Nz_ref)/5, ∫(ps−ps_ref)/2, ∫(Ny+r)/2 (±10);\n"
+    << "19 Nz/5 g.\n\n"
+    << "goal: 0 distance/" << rc.goal_ahead_ft << " ft (≤ 10); 1 azimuth/π (+ right); 2 elevation/(π/2).\n\n"
+    << "ado row: 0 range/5 000 ft (≤ 10); 1, 2 sin, cos of azimuth; 3 sin of elevation; 4-6 relative velocity\n"
+    << "x, y, up / 500 ft/s; 7 progress difference/5 000 ft; 8 same team (1/0); 9 alive (1/0).\n\n"
+    << "task: for p = 0.." << rc.preview_points - 1 << ", entries 5p..5p+4 describe the center-line point "
+    << "(p+1)·" << rc.preview_spacing_ft << " ft ahead: range/5 000 ft, sin az, cos az, sin el, tube radius/2 000 ft; then "
+    << 5 * rc.preview_points << "-" << 5 * rc.preview_points + 1 << " lateral, vertical offset / radius; "
+    << 5 * rc.preview_points + 2 << " distance from the center-line / radius; " << 5 * rc.preview_points + 3
+    << " progress/track length; " << 5 * rc.preview_points + 4 << " 1 − race time/time limit; "
+    << 5 * rc.preview_points + 5 << " HL time left/dt_hl; " << 5 * rc.preview_points + 6 << " ego rank/(n_agent−1); "
+    << 5 * rc.preview_points + 7 << " team rank (0, 0.5, 1).\n\n";
+  o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
+    << "| key | shape | meaning |\n|---|---|---|\n"
+    << "| bins | [B, 3] int64 | greedy goal bin per axis (north, east, up), each in [0, " << nb << ") |\n";
+  if (joint)
+    o << "| q | [B, " << nb * nb * nb << "] | utility of each joint action b_n·" << nb * nb << " + b_e·" << nb
+      << " + b_u (bins = its argmax, decoded) |\n";
+  else
+    o << "| q | [B, 3, " << nb << "] | utility of each bin per axis" << (d3 ? " (expected value of the atoms)" : "")
+      << " |\n";
+  if (d3)
+    o << "| probs | [B, 3, " << nb << ", " << hl.n_atoms << "] | C51 return distribution per axis and bin over "
+      << hl.n_atoms << " atoms evenly spaced in [" << hl.v_min << ", " << hl.v_max << "] |\n";
+  const double half = 0.5 * (nb - 1);
+  o << "\nThe goal point is the center-line point " << rc.goal_ahead_ft << " ft ahead of the aircraft, offset along world\n"
+    << "north, east and up by (b − " << half << ") · " << rc.goal_bin_scale << " R / " << half
+    << " for the local tube radius R, with the cross-track part clipped to " << rc.goal_bin_scale << " R.\n\n";
+  o << "## ll_policy.pt: forward(ego, goal, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
+    << "| key | shape | meaning |\n|---|---|---|\n"
+    << "| mean | [B, 3] | Gaussian policy mean (the greedy action), normalised units |\n"
+    << "| log_std | [B, 3] | log standard deviation (state independent) |\n"
+    << "| value | [B] | critic's value estimate |\n"
+    << "| action | [B, 3] | mean clipped to [-1, 1], what the environment applies |\n\n"
+    << "Action to AeroBench commands: throttle = (a0 + 1)/2; Nz_ref = " << rc.nz_ref_min_g << " + (a1 + 1)/2 · "
+    << rc.nz_ref_max_g - rc.nz_ref_min_g << " g; ps_ref = a2 · " << rc.ps_ref_max_radps << " rad/s; Ny_r_ref = 0.\n";
+  return o.str();
+}
+
+}  // namespace
+
+torch::jit::Module make_hl_module(const train::RunPolicy& p) {
+  const auto& critic = p.hl->critic();
+  const auto& cc = critic->config();
+  torch::jit::Module m("f16race.HlPolicy");
+  copy_weights(m, *critic, "net");
+  copy_normalizer(m, p.hl->normalizer(), p.config.hl.normalize_obs, p.dims);
+  const Shape s{p.dims, cc.d_model, cc.n_heads, cc.hidden, p.config.hl.normalize_obs, p.config.hl.obs_clip};
+  std::ostringstream o;
+  o << common_source(s, "prev_action");
+  o << "def forward(self, ego: Tensor, prev_action: Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> Dict[str, Tensor]:\n"
+    << forward_prologue("prev_action");
+  for (std::size_t l = 0; l < cc.hidden.size(); ++l)
+    o << "    x = torch.relu(" << linear("x", "net_trunk_" + std::to_string(2 * l)) << ")\n";
+  o << "    out = " << linear("x", "net_head") << "\n";
+  const int64_t nb = cc.n_bins;
+  if (!cc.decoupled) {
+    o << "    q = out.view([b, " << nb * nb * nb << "])\n"
+      << "    idx = q.argmax(1)\n"
+      << "    bins = torch.stack([torch.div(idx, " << nb * nb << ", rounding_mode='floor'), "
+      << "torch.remainder(torch.div(idx, " << nb << ", rounding_mode='floor'), " << nb << "), torch.remainder(idx, " << nb
+      << ")], 1)\n"
+      << "    return {'bins': bins, 'q': q}\n";
+  } else if (cc.n_atoms == 1) {
+    o << "    q = out.view([b, 3, " << nb << "])\n"
+      << "    return {'bins': q.argmax(2), 'q': q}\n";
+  } else {
+    o << "    log_probs = torch.log_softmax(out.view([b, 3, " << nb << ", " << cc.n_atoms << "]), -1)\n"
+      << "    probs = log_probs.exp()\n"
+      << "    q = (probs * self.net_atoms).sum(-1)\n"
+      << "    return {'bins': q.argmax(2), 'q': q, 'probs': probs}\n";
+  }
+  m.define(o.str());
+  m.eval();
+  return m;
+}
+
+torch::jit::Module make_ll_module(const train::RunPolicy& p) {
+  const auto& net = p.ll->net();
+  const auto& nc = net->config();
+  torch::jit::Module m("f16race.LlPolicy");
+  copy_weights(m, *net, "net");
+  copy_normalizer(m, p.ll->normalizer(), p.config.ll.normalize_obs, p.dims);
+  const Shape s{p.dims, nc.d_model, nc.n_heads, nc.hidden, p.config.ll.normalize_obs, p.config.ll.obs_clip};
+  std::ostringstream o;
+  o << common_source(s, "goal");
+  o << "def forward(self, ego: Tensor, goal: Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> Dict[str, Tensor]:\n"
+    << forward_prologue("goal");
+  for (const char* part : {"actor", "critic"}) {
+    o << "    h = x\n";
+    for (std::size_t l = 0; l < nc.hidden.size(); ++l)
+      o << "    h = torch.tanh(" << linear("h", std::string("net_") + part + "_" + std::to_string(2 * l)) << ")\n";
+    o << "    " << part << "_out = " << linear("h", std::string("net_") + part + "_" + std::to_string(2 * nc.hidden.size()))
+      << "\n";
+  }
+  o << "    mean = actor_out\n"
+    << "    return {'mean': mean, 'log_std': self.net_log_std.expand([b, " << nc.action_dim << "]), "
+    << "'value': critic_out.squeeze(1), 'action': torch.clamp(mean, -1.0, 1.0)}\n";
+  m.define(o.str());
+  m.eval();
+  return m;
+}
+
+ExampleObs random_example_obs(const models::ObsDims& d, std::int64_t batch, std::uint64_t seed, double scale) {
+  at::Generator g = models::make_generator(seed);
+  ExampleObs o;
+  o.ego = torch::randn({batch, d.d_ego}, g, torch::kFloat32) * scale;
+  o.prev_action = torch::rand({batch, 3}, g, torch::kFloat32) * 2.0 - 1.0;
+  o.goal = torch::randn({batch, 3}, g, torch::kFloat32) * scale;
+  o.ado = torch::randn({batch, d.n_other, d.d_ado}, g, torch::kFloat32) * scale;
+  o.ado_alive = torch::rand({batch, d.n_other}, g, torch::kFloat32) < 0.75;
+  // Every eighth sample sees nobody alive: the encoder's all-dead branch.
+  o.ado_alive.index_put_({torch::arange(0, batch, 8)}, false);
+  o.task = torch::randn({batch, d.d_task}, g, torch::kFloat32) * scale;
+  return o;
+}
+
+HlReference hl_reference(train::RunPolicy& p, const ExampleObs& x) {
+  torch::NoGradGuard no_grad;
+  const models::HlObs raw{x.ego, x.prev_action, x.ado, x.ado_alive, x.task};
+  at::Generator g = models::make_generator(0);
+  const agents::EsAction a = p.hl->act(raw, 0.0, g);
+  HlReference r{a.greedy_bins, a.q, {}};
+  if (p.config.hl.variant == agents::EsVariant::kEsD3) {
+    const models::HlObs n = p.config.hl.normalize_obs ? p.hl->normalizer()->normalize(raw, false) : raw;
+    r.probs = p.hl->critic()(n).log_probs.exp();
+  }
+  return r;
+}
+
+LlReference ll_reference(train::RunPolicy& p, const ExampleObs& x) {
+  torch::NoGradGuard no_grad;
+  const models::LlObs raw{x.ego, x.goal, x.ado, x.ado_alive, x.task};
+  const models::LlOutput out = p.ll->net()(p.ll->normalize(raw, false));
+  return LlReference{out.mean, out.log_std, out.value};
+}
+
+ExportReport export_policy(train::RunPolicy& p, const std::string& out_dir) {
+  torch::NoGradGuard no_grad;
+  torch::jit::Module hl = make_hl_module(p), ll = make_ll_module(p);
+  const ExampleObs x = random_example_obs(p.dims, 256, 12345);
+  const HlReference hr = hl_reference(p, x);
+  const LlReference lr = ll_reference(p, x);
+  const auto ho = hl.forward({x.ego, x.prev_action, x.ado, x.ado_alive, x.task}).toGenericDict();
+  const auto lo = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
+  ExportReport rep;
+  rep.bins_equal = ho.at("bins").toTensor().equal(hr.bins);
+  rep.hl_max_abs_diff = max_abs_diff(ho.at("q").toTensor(), hr.q);
+  if (hr.probs.defined()) rep.hl_max_abs_diff = std::max(rep.hl_max_abs_diff, max_abs_diff(ho.at("probs").toTensor(), hr.probs));
+  rep.ll_max_abs_diff = std::max({max_abs_diff(lo.at("mean").toTensor(), lr.mean),
+                                  max_abs_diff(lo.at("log_std").toTensor(), lr.log_std),
+                                  max_abs_diff(lo.at("value").toTensor(), lr.value)});
+  if (!rep.bins_equal || !(rep.hl_max_abs_diff < 1e-5) || !(rep.ll_max_abs_diff < 1e-5))
+    throw std::runtime_error("exported modules disagree with the trained networks (HL " + std::to_string(rep.hl_max_abs_diff) +
+                             ", LL " + std::to_string(rep.ll_max_abs_diff) + "); nothing written");
+
+  torch::jit::Module io("f16race.ExampleIO");
+  for (const auto& [k, t] : std::vector<std::pair<std::string, torch::Tensor>>{
+           {"ego", x.ego}, {"prev_action", x.prev_action}, {"goal", x.goal}, {"ado", x.ado}, {"ado_alive", x.ado_alive},
+           {"task", x.task}, {"hl_bins", hr.bins}, {"hl_q", hr.q}, {"ll_mean", lr.mean}, {"ll_log_std", lr.log_std},
+           {"ll_value", lr.value}})
+    io.register_buffer(k, t.contiguous());
+  if (hr.probs.defined()) io.register_buffer("hl_probs", hr.probs.contiguous());
+
+  fs::create_directories(out_dir);
+  save_atomic(hl, out_dir + "/hl_policy.pt");
+  save_atomic(ll, out_dir + "/ll_policy.pt");
+  save_atomic(io, out_dir + "/example_io.pt");
+  write_text_atomic(out_dir + "/README.md", readme(p, rep));
+  return rep;
+}
+
+}  // namespace f16race::torchscript

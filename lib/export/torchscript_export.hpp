@@ -1,0 +1,52 @@
+#pragma once
+// TorchScript export of a trained run's greedy policies, for use without this project:
+//   hl_policy.pt   forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]
+//                  bins [B, 3] int64 (greedy goal bin per axis n, e, up), q (utilities), and
+//                  probs (atom probabilities, es_d3 only)
+//   ll_policy.pt   forward(ego, goal, ado, ado_alive, task) -> Dict[str, Tensor]
+//                  mean [B, 3], log_std [B, 3], value [B], action [B, 3] (mean clipped to [-1, 1])
+// Inputs are the raw observations the race env writes; the running normalisation is baked into
+// the modules. The modules are built from TorchScript source with the trained weights as
+// parameters (the C++ networks cannot be scripted directly), and the export checks them
+// against the in-process networks before writing anything.
+#include <torch/script.h>
+#include <torch/torch.h>
+
+#include <string>
+
+#include "train/run_policy.hpp"
+
+namespace f16race::torchscript {
+
+torch::jit::Module make_hl_module(const train::RunPolicy& policy);
+torch::jit::Module make_ll_module(const train::RunPolicy& policy);
+
+// Random observations with the run's shapes: floats ~ N(0, scale^2), ado rows alive with
+// probability 0.75 and some samples with every other aircraft dead.
+struct ExampleObs {
+  torch::Tensor ego, prev_action, goal, ado, ado_alive, task;
+};
+ExampleObs random_example_obs(const models::ObsDims& dims, std::int64_t batch, std::uint64_t seed, double scale = 2.0);
+
+// What the in-process networks answer for `obs` (the reference the exported modules must match).
+struct HlReference {
+  torch::Tensor bins, q, probs;  // probs undefined unless es_d3
+};
+struct LlReference {
+  torch::Tensor mean, log_std, value;
+};
+HlReference hl_reference(train::RunPolicy& policy, const ExampleObs& obs);
+LlReference ll_reference(train::RunPolicy& policy, const ExampleObs& obs);
+
+struct ExportReport {
+  double hl_max_abs_diff = 0.0;  // exported vs in-process on random inputs
+  double ll_max_abs_diff = 0.0;
+  bool bins_equal = true;
+};
+
+// Writes hl_policy.pt, ll_policy.pt, example_io.pt (random inputs and the in-process outputs,
+// for checking a loader) and README.md into out_dir; each file atomically. Throws
+// std::runtime_error if the exported modules disagree with the in-process ones (> 1e-5).
+ExportReport export_policy(train::RunPolicy& policy, const std::string& out_dir);
+
+}  // namespace f16race::torchscript

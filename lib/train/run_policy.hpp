@@ -1,0 +1,39 @@
+#pragma once
+// The trained policy of a run folder written by `f16race train` (its newest checkpoint), for
+// evaluation, replays and export. Everything that reads a run's policy goes through here, so a
+// missing, corrupt or mismatched run is refused the same way everywhere.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "agents/expected_sarsa.hpp"
+#include "agents/ppo.hpp"
+#include "models/obs.hpp"
+#include "train/train_config.hpp"
+
+namespace f16race::train {
+
+struct RunPolicy {
+  std::string name;            // the run folder's name, or "untrained"
+  std::string run_dir;         // empty for the untrained policy
+  std::string checkpoint_dir;  // RUN/checkpoint/<LATEST>; empty for the untrained policy
+  std::int64_t env_steps = 0;  // training steps behind the checkpoint (meta.yaml)
+  TrainConfig config;          // as trained; ll.net.dims and hl.dims filled in
+  models::ObsDims dims;
+  std::unique_ptr<agents::PpoAgent> ll;
+  std::unique_ptr<agents::EsAgent> hl;
+};
+
+// RUN/config.yaml, parsed. Throws std::runtime_error naming the folder when it is not a run.
+TrainConfig read_run_config(const std::string& run_dir);
+
+// Loads the LATEST checkpoint of `run_dir`. Throws std::runtime_error naming the file and the
+// fix when the folder is not a run, has no checkpoint, was written by another config.yaml
+// (hash mismatch) or a checkpoint file is unreadable.
+RunPolicy load_run_policy(const std::string& run_dir);
+
+// The networks of `config` before any update (initial weights from `seed`), as the
+// `untrained` tournament entry and for tests.
+RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed);
+
+}  // namespace f16race::train

@@ -1,0 +1,44 @@
+#!/usr/bin/python3
+"""Loads an `f16race export` folder with plain PyTorch (no f16race code) and checks the modules
+against the in-process outputs stored in example_io.pt, then on inputs of another batch size.
+Usage: check_export.py EXPORT_DIR   (exit 0 when every check holds)"""
+import sys
+
+import torch
+
+
+def main(folder):
+    hl = torch.jit.load(f"{folder}/hl_policy.pt")
+    ll = torch.jit.load(f"{folder}/ll_policy.pt")
+    io = dict(torch.jit.load(f"{folder}/example_io.pt").named_buffers())
+    with torch.no_grad():
+        h = hl(io["ego"], io["prev_action"], io["ado"], io["ado_alive"], io["task"])
+        l = ll(io["ego"], io["goal"], io["ado"], io["ado_alive"], io["task"])
+    worst = 0.0
+    for key, ref in [("q", io["hl_q"]), ("probs", io.get("hl_probs"))]:
+        if ref is None:
+            assert key not in h, f"hl output {key} present but no reference"
+            continue
+        worst = max(worst, (h[key] - ref).abs().max().item())
+    for key in ["mean", "log_std", "value"]:
+        worst = max(worst, (l[key] - io["ll_" + key]).abs().max().item())
+    assert torch.equal(h["bins"], io["hl_bins"]), "greedy bins differ"
+    assert h["bins"].dtype == torch.int64 and h["bins"].shape == (io["ego"].shape[0], 3)
+    assert torch.equal(l["action"], l["mean"].clamp(-1.0, 1.0))
+    assert worst < 1e-5, f"max abs diff {worst}"
+    # Any batch size, including a single aircraft.
+    one = [io[k][:1] for k in ["ego", "goal", "ado", "ado_alive", "task"]]
+    with torch.no_grad():
+        assert torch.allclose(ll(*one)["mean"], io["ll_mean"][:1], atol=1e-5)
+    # Wrong input shapes are refused with a message naming the input.
+    try:
+        ll(io["ego"][:, :3], io["goal"], io["ado"], io["ado_alive"], io["task"])
+    except Exception as e:  # torch.jit.Error
+        assert "ego must be" in str(e), str(e)
+    else:
+        raise AssertionError("bad ego shape accepted")
+    print(f"torch {torch.__version__}: {folder} OK, max abs diff {worst:.3g}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

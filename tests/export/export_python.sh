@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# `f16race export` end to end: train a tiny run, export it, load the modules with plain PyTorch
+# (Debian's python3-torch) and compare with the in-process outputs; refuse a missing run.
+# Usage: export_python.sh F16RACE_BINARY SMOKE_CONFIG WORK_DIR
+set -euo pipefail
+bin=$1 config=$2 work=$3
+here=$(cd "$(dirname "$0")" && pwd)
+rm -rf "$work" && mkdir -p "$work"
+"$bin" train --config "$config" --run "$work/run" --max-updates 2 --quiet
+"$bin" export --run "$work/run" --out "$work/export"
+/usr/bin/python3 "$here/check_export.py" "$work/export"
+set +e
+msg=$("$bin" export --run "$work/no_such_run" --out "$work/x" 2>&1)
+rc=$?
+set -e
+if [ "$rc" -ne 2 ] || [[ "$msg" != *"no_such_run: not a training run"* ]] || [ -e "$work/x" ]; then
+  echo "FAIL: missing run not refused cleanly (rc $rc): $msg"
+  exit 1
+fi
+echo "OK"

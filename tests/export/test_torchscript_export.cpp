@@ -1,0 +1,168 @@
+// TorchScript export: the saved modules, loaded back with torch::jit::load, answer exactly like
+// the in-process networks (all HL heads: joint, decoupled, distributional; normalisation on and
+// off); bad inputs are refused by name; a missing or mismatched run is refused.
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "export/torchscript_export.hpp"
+#include "io/yaml_config.hpp"
+#include "train/run_policy.hpp"
+#include "train/trainer.hpp"
+
+namespace f16race::torchscript {
+namespace {
+
+namespace fs = std::filesystem;
+
+train::TrainConfig tiny_config(const std::string& agent, bool normalize = true) {
+  YAML::Node root = YAML::Load(R"(
+race: {n_env: 2, team_size: 2, time_limit_s: 10.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
+ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8, 8], d_model: 8, n_heads: 2, init_log_std: -0.7}
+hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}
+train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
+)");
+  io::apply_override(root, "hl.agent=" + agent);
+  train::TrainConfig cfg = train::read_train_config(root, "test");
+  cfg.hl.normalize_obs = normalize;  // not a YAML key: the library default is always on
+  cfg.ll.normalize_obs = normalize;
+  return cfg;
+}
+
+// Untrained networks whose normalisers have seen shifted data, so normalisation matters.
+train::RunPolicy policy_with_stats(const std::string& agent, bool normalize = true) {
+  train::RunPolicy p = train::untrained_policy(tiny_config(agent, normalize), 7);
+  const ExampleObs x = random_example_obs(p.dims, 64, 99, 3.0);
+  const auto shift = [](const torch::Tensor& t) { return t * 2.0 + 1.5; };
+  p.hl->normalizer()->normalize(models::HlObs{shift(x.ego), x.prev_action, shift(x.ado), x.ado_alive, shift(x.task)}, true);
+  p.ll->normalize(models::LlObs{shift(x.ego), shift(x.goal), shift(x.ado), x.ado_alive, shift(x.task)}, true);
+  return p;
+}
+
+torch::jit::Module round_trip(const torch::jit::Module& m, const std::string& name) {
+  const std::string path = (fs::temp_directory_path() / ("f16race_export_" + name + ".pt")).string();
+  m.save(path);
+  return torch::jit::load(path);
+}
+
+double diff(const torch::Tensor& a, const torch::Tensor& b) { return (a - b).abs().max().item<double>(); }
+
+class ExportVariants : public ::testing::TestWithParam<std::tuple<std::string, bool>> {};
+
+TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
+  const auto& [agent, normalize] = GetParam();
+  train::RunPolicy p = policy_with_stats(agent, normalize);
+  torch::jit::Module hl = round_trip(make_hl_module(p), "hl_" + agent);
+  torch::jit::Module ll = round_trip(make_ll_module(p), "ll_" + agent);
+  for (std::int64_t batch : {1, 37}) {
+    const ExampleObs x = random_example_obs(p.dims, batch, 1000 + batch);
+    const HlReference hr = hl_reference(p, x);
+    const LlReference lr = ll_reference(p, x);
+    const auto ho = hl.forward({x.ego, x.prev_action, x.ado, x.ado_alive, x.task}).toGenericDict();
+    const auto lo = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
+    EXPECT_TRUE(ho.at("bins").toTensor().equal(hr.bins)) << agent;
+    EXPECT_LT(diff(ho.at("q").toTensor(), hr.q), 1e-5) << agent;
+    EXPECT_EQ(ho.contains("probs"), agent == "es_d3");
+    if (agent == "es_d3") {
+      EXPECT_LT(diff(ho.at("probs").toTensor(), hr.probs), 1e-5);
+      EXPECT_NEAR(ho.at("probs").toTensor().sum(-1).min().item<double>(), 1.0, 1e-5);
+    }
+    EXPECT_LT(diff(lo.at("mean").toTensor(), lr.mean), 1e-5);
+    EXPECT_LT(diff(lo.at("value").toTensor(), lr.value), 1e-5);
+    EXPECT_LT(diff(lo.at("log_std").toTensor(), lr.log_std), 1e-7);
+    EXPECT_NEAR(lo.at("log_std").toTensor()[0][0].item<double>(), -0.7, 1e-6);
+    EXPECT_TRUE(lo.at("action").toTensor().equal(lr.mean.clamp(-1.0, 1.0)));
+    // The encoder's all-dead branch was exercised (sample 0 sees nobody).
+    EXPECT_FALSE(x.ado_alive[0].any().item<bool>());
+  }
+  // The normalisation is in the module: without it the outputs would differ.
+  if (normalize) {
+    const ExampleObs x = random_example_obs(p.dims, 16, 5);
+    const auto out = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
+    torch::NoGradGuard no_grad;
+    const auto raw = p.ll->net()(models::LlObs{x.ego, x.goal, x.ado, x.ado_alive, x.task});
+    EXPECT_GT(diff(out.at("value").toTensor(), raw.value), 1e-4);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
+                         ::testing::Values(std::make_tuple("es", true), std::make_tuple("es_d1", true),
+                                           std::make_tuple("es_d2", true), std::make_tuple("es_d3", true),
+                                           std::make_tuple("es_d3", false)));
+
+TEST(Export, BadInputShapesAreRefusedByName) {
+  train::RunPolicy p = policy_with_stats("es_d3");
+  torch::jit::Module ll = make_ll_module(p);
+  const ExampleObs x = random_example_obs(p.dims, 4, 1);
+  try {
+    ll.forward({x.ego, x.goal, x.ado, x.ado_alive.to(torch::kFloat32), x.task});
+    FAIL() << "float ado_alive accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("ado_alive must be bool"), std::string::npos) << e.what();
+  }
+  try {
+    ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task.narrow(1, 0, 5)});
+    FAIL() << "short task accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("task must be float32"), std::string::npos) << e.what();
+  }
+}
+
+std::string trained_run(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("f16race_export_run_" + name);
+  fs::remove_all(dir);
+  train::Trainer t(tiny_config("es_d3"), dir.string());
+  t.run(nullptr, 2);
+  return dir.string();
+}
+
+TEST(Export, WritesTheFolderFromATrainedRun) {
+  const std::string run = trained_run("ok");
+  train::RunPolicy p = train::load_run_policy(run);
+  const std::string out = (fs::temp_directory_path() / "f16race_export_out").string();
+  fs::remove_all(out);
+  const ExportReport rep = export_policy(p, out);
+  EXPECT_LT(rep.hl_max_abs_diff, 1e-5);
+  EXPECT_LT(rep.ll_max_abs_diff, 1e-5);
+  EXPECT_TRUE(rep.bins_equal);
+  for (const char* f : {"hl_policy.pt", "ll_policy.pt", "example_io.pt", "README.md"})
+    EXPECT_TRUE(fs::exists(fs::path(out) / f)) << f;
+  // The stored references are the trained networks' answers.
+  torch::jit::Module io = torch::jit::load(out + "/example_io.pt");
+  torch::jit::Module ll = torch::jit::load(out + "/ll_policy.pt");
+  const auto mean = ll.forward({io.attr("ego"), io.attr("goal"), io.attr("ado"), io.attr("ado_alive"), io.attr("task")})
+                        .toGenericDict()
+                        .at("mean")
+                        .toTensor();
+  EXPECT_LT(diff(mean, io.attr("ll_mean").toTensor()), 1e-5);
+  std::ifstream readme(out + "/README.md");
+  const std::string text((std::istreambuf_iterator<char>(readme)), {});
+  EXPECT_NE(text.find("| ado_alive | [B, 3] | bool |"), std::string::npos);
+  EXPECT_NE(text.find("| probs | [B, 3, 7, 11] |"), std::string::npos);
+}
+
+TEST(Export, MissingOrMismatchedRunsAreRefused) {
+  auto message = [](const std::string& run) {
+    try {
+      train::load_run_policy(run);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_NE(message("/nonexistent/run").find("/nonexistent/run: not a training run"), std::string::npos);
+  const std::string run = trained_run("mismatch");
+  // A config.yaml edited after training no longer matches the checkpoint.
+  {
+    std::ofstream f(run + "/config.yaml", std::ios::app);
+    f << "# edited\n";
+  }
+  EXPECT_NE(message(run).find("hash mismatch"), std::string::npos) << message(run);
+  fs::remove(fs::path(run) / "checkpoint" / "LATEST");
+  EXPECT_NE(message(run).find("checkpoint/LATEST: missing"), std::string::npos) << message(run);
+}
+
+}  // namespace
+}  // namespace f16race::torchscript
