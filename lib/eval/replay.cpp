@@ -1,0 +1,124 @@
+#include "eval/replay.hpp"
+
+#include <torch/torch.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <stdexcept>
+#include <vector>
+
+#include "race/race_env.hpp"
+#include "race/scripted_pilot.hpp"
+#include "train/obs_views.hpp"
+#include "train/run_policy.hpp"
+
+namespace f16race::eval {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// One team's pilots: a learned policy, or the built-in scripted pilot (policy empty).
+struct Side {
+  std::string name;
+  std::optional<train::RunPolicy> policy;
+};
+
+Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint64_t seed) {
+  if (spec == "scripted") return Side{"scripted", std::nullopt};
+  if (spec == "untrained") return Side{"untrained", train::untrained_policy(blue->config, seed)};
+  train::RunPolicy p = train::load_run_policy(spec);
+  if (p.config.race.team_size != blue->config.race.team_size || p.dims.d_task != blue->dims.d_task)
+    throw std::runtime_error(spec + ": trained for " + std::to_string(p.config.race.team_size) + " vs " +
+                             std::to_string(p.config.race.team_size) + " races with task size " +
+                             std::to_string(p.dims.d_task) + ", but " + blue->run_dir + " for " +
+                             std::to_string(blue->config.race.team_size) + " vs " +
+                             std::to_string(blue->config.race.team_size) + " with " + std::to_string(blue->dims.d_task));
+  return Side{p.name, std::move(p)};
+}
+
+std::string seconds(double t) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f", t);
+  return b;
+}
+
+}  // namespace
+
+ReplayResult run_replay(const ReplayOptions& o) {
+  torch::NoGradGuard no_grad;
+  Side blue{"", train::load_run_policy(o.run)};
+  blue.name = blue.policy->name;
+  const std::string opp = o.opponent.empty() || o.opponent == "self" ? o.run : o.opponent;
+  Side red = make_side(opp, &*blue.policy, o.seed);
+
+  race::RaceConfig rc = blue.policy->config.race;
+  rc.n_env = 1;
+  rc.seed = o.seed;
+  race::RaceEnv env(rc);
+  race::RaceRecorder rec(env);
+  const int n_agent = env.n_agent(), ts = rc.team_size;
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(n_agent) * race::kHlDims, rc.hl_bins / 2);
+  std::vector<float> actions(static_cast<std::size_t>(n_agent) * race::kActionDim, 0.0f);
+  race::ScriptedPilotConfig pilot;
+  pilot.speed_ftps = rc.start_speed_ftps;
+  at::Generator gen = models::make_generator(o.seed * 31 + 7);
+  std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
+  for (int a = 0; a < n_agent; ++a) learned[a] = (a < ts ? blue : red).policy.has_value();
+  // Rows [first, last) of the aircraft a side flies.
+  auto copy_rows = [](const torch::Tensor& t, int first, int last, auto* dst) {
+    const auto c = t.contiguous();
+    const auto* p = c.data_ptr<std::remove_pointer_t<decltype(dst)>>();
+    const int w = static_cast<int>(c.size(1));
+    std::copy(p + first * w, p + last * w, dst + first * w);
+  };
+  while (rec.remaining() > 0) {
+    const std::vector<std::uint8_t> due(env.hl_due(), env.hl_due() + 1);
+    if (due[0]) {
+      const models::HlObs obs = train::hl_obs_view(env);
+      for (int team = 0; team < 2; ++team) {
+        const Side& s = team == 0 ? blue : red;
+        if (!s.policy) continue;  // the scripted pilot keeps the center-line goal
+        copy_rows(s.policy->hl->act(obs, o.epsilon, gen).bins, team * ts, (team + 1) * ts, bins.data());
+      }
+      env.set_hl_actions(bins.data());
+      rec.record_goals(env, due.data(), learned.data());
+    }
+    if (!blue.policy || !red.policy) race::scripted_actions(env, pilot, actions.data());
+    const models::LlObs obs = train::ll_obs_view(env);
+    for (int team = 0; team < 2; ++team) {
+      const Side& s = team == 0 ? blue : red;
+      if (s.policy) copy_rows(s.policy->ll->act(obs, gen, false).mean, team * ts, (team + 1) * ts, actions.data());
+    }
+    rec.before_step(env);
+    env.step(actions.data());
+    rec.after_step(env);
+  }
+  return ReplayResult{rec.trace(0), blue.name, red.name};
+}
+
+bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string* message) {
+  fs::create_directories(out_dir);
+  const race::RaceTrace& t = r.trace;
+  race::write_trace_csv(t, out_dir, "replay");
+  const std::string blue = "Blue: " + r.blue, red = "Red: " + r.red;
+  const std::string winner = t.winner < 0 ? "draw" : (t.winner == 0 ? blue : red);
+  const std::string title = blue + " vs " + red + " - " + race::end_reason_name(t.end) + ", winner " + winner;
+  race::write_trace_acmi(t, out_dir + "/replay.acmi", title, {blue, red});
+  std::ofstream md(out_dir + "/replay.md");
+  md << "# Replay: " << r.blue << " (blue) vs " << r.red << " (red)\n\n"
+     << "Ended by " << race::end_reason_name(t.end) << " after " << t.duration_s << " s; winner: " << winner
+     << ". Track " << static_cast<long>(t.track.length_ft()) << " ft.\n\n| aircraft | team | fate | HL decisions |\n|---|---|---|---|\n";
+  for (std::size_t a = 0; a < t.rows.size(); ++a) {
+    const int team = race::RaceEnv::team_of(static_cast<int>(a), t.team_size);
+    md << "| " << a << " | " << (team == 0 ? "blue" : "red") << " | "
+       << (t.cause[a] == race::kCauseNone ? std::string("in the race at the end")
+                                          : "out at " + seconds(t.out_s[a]) + " s (" + race::cause_name(t.cause[a]) + ")")
+       << " | " << t.goals[a].size() << " |\n";
+  }
+  return race::plot_trace(t, out_dir, "replay", title, message);
+}
+
+}  // namespace f16race::eval

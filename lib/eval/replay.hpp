@@ -1,0 +1,32 @@
+#pragma once
+// One race between a trained run (blue) and an opponent (red), recorded for inspection: both
+// teams greedy (the HL's best bins, the LL's mean action) unless epsilon > 0.
+#include <cstdint>
+#include <string>
+
+#include "race/race_recorder.hpp"
+
+namespace f16race::eval {
+
+struct ReplayOptions {
+  std::string run;       // blue: a run folder written by `f16race train`
+  std::string opponent;  // red: a run folder, "self" (default: the same run), "untrained" or "scripted"
+  std::uint64_t seed = 1;  // track and starting positions
+  double epsilon = 0.0;    // HL exploration of both teams
+};
+
+struct ReplayResult {
+  race::RaceTrace trace;
+  std::string blue, red;  // entry names
+};
+
+// Throws std::runtime_error naming the folder when a run is missing, corrupt or was trained for
+// another race shape than the blue run.
+ReplayResult run_replay(const ReplayOptions& options);
+
+// replay_agentK.csv, replay_goals.csv, replay_track.csv, replay_tube.csv, replay.png (+ .gp),
+// replay.acmi and replay.md (who won, how, each aircraft's fate) into out_dir. Returns false
+// with `message` when gnuplot is missing (everything else is still written).
+bool write_replay(const ReplayResult& result, const std::string& out_dir, std::string* message);
+
+}  // namespace f16race::eval

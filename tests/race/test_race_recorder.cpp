@@ -1,0 +1,80 @@
+// Race recording: every race ends once, trajectories are in time order and stop when an
+// aircraft is out, goals land where the env placed them, and the writers produce the files.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "race/race_env.hpp"
+#include "race/race_recorder.hpp"
+#include "race/scripted_pilot.hpp"
+
+namespace f16race::race {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
+  RaceConfig c;
+  c.n_env = 3;
+  c.team_size = 2;
+  c.seed = 11;
+  c.time_limit_s = 30.0;
+  RaceEnv env(c);
+  RaceRecorder rec(env);
+  std::vector<float> actions(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_bins / 2);
+  ScriptedPilotConfig pilot;
+  int steps = 0;
+  while (rec.remaining() > 0 && steps < 10000) {
+    const std::vector<std::uint8_t> due(env.hl_due(), env.hl_due() + c.n_env);
+    env.set_hl_actions(bins.data());
+    rec.record_goals(env, due.data());
+    scripted_actions(env, pilot, actions.data());
+    rec.before_step(env);
+    env.step(actions.data());
+    rec.after_step(env);
+    ++steps;
+  }
+  ASSERT_EQ(rec.remaining(), 0);
+  for (int e = 0; e < c.n_env; ++e) {
+    const RaceTrace& t = rec.trace(e);
+    EXPECT_TRUE(t.done);
+    EXPECT_NE(t.end, RaceEnv::kEndNone);
+    EXPECT_GT(t.duration_s, 0.0);
+    EXPECT_LE(t.duration_s, c.time_limit_s + c.dt_ll_s);
+    for (int a = 0; a < env.n_agent(); ++a) {
+      const auto& rows = t.rows[a];
+      ASSERT_FALSE(rows.empty());
+      for (std::size_t k = 1; k < rows.size(); ++k) EXPECT_NEAR(rows[k].t_s - rows[k - 1].t_s, c.dt_ll_s, 1e-9);
+      if (t.cause[a] != kCauseNone) {
+        EXPECT_NEAR(t.out_s[a], rows.back().t_s + c.dt_ll_s, 1e-9);
+      }
+      // Middle bins: the goal is the center-line point goal_ahead_ft ahead of the aircraft.
+      ASSERT_FALSE(t.goals[a].empty());
+      const GoalMark& g = t.goals[a].front();
+      EXPECT_NEAR(g.lateral_ft, 0.0, 1.0);
+      EXPECT_NEAR(g.vertical_ft, 0.0, 1.0);
+      EXPECT_NEAR(g.s_ft, rows.front().s_ft + c.goal_ahead_ft, 5.0);
+    }
+  }
+  const std::string dir = (fs::temp_directory_path() / "f16race_recorder").string();
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  write_trace_csv(rec.trace(0), dir, "r");
+  write_trace_acmi(rec.trace(0), dir + "/r.acmi", "test");
+  for (const char* f : {"r_agent0.csv", "r_agent3.csv", "r_goals.csv", "r_track.csv", "r_tube.csv", "r.acmi"})
+    EXPECT_TRUE(fs::exists(fs::path(dir) / f)) << f;
+  std::ifstream acmi(dir + "/r.acmi");
+  const std::string text((std::istreambuf_iterator<char>(acmi)), {});
+  int aircraft = 0;
+  for (std::size_t p = text.find("Type=Air+FixedWing"); p != std::string::npos; p = text.find("Type=Air+FixedWing", p + 1))
+    ++aircraft;
+  EXPECT_EQ(aircraft, env.n_agent());
+  EXPECT_NE(text.find("Coalition=Red"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace f16race::race
