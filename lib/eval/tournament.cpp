@@ -81,84 +81,110 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   torch::NoGradGuard no_grad;
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   const int ts = rc.team_size, n_agent = rc.n_agent();
-  long done_games = 0;
-  for (std::size_t start = 0, batch = 0; start < games.size(); start += static_cast<std::size_t>(o.batch_envs), ++batch) {
-    const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size() - start));
-    rc.n_env = n;
-    rc.seed = o.seed * 1000003ULL + batch;  // every race gets its own track and start
-    race::RaceEnv env(rc);
-    // owner[i]: entry flying aircraft i.
-    std::vector<int> owner(static_cast<std::size_t>(n) * n_agent);
-    std::set<int> present;
+  // One batch of envs for the whole tournament: an env whose race ends takes the next game at
+  // once (its auto-reset already drew a fresh track and start), so no env idles until the
+  // slowest race of a batch is over.
+  const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size()));
+  rc.n_env = n;
+  rc.seed = o.seed * 1000003ULL;
+  race::RaceEnv env(rc);
+  std::vector<long> env_game(n, -1);  // game index raced in each env, -1 idle
+  std::vector<int> race_in_env(n, 0);
+  std::vector<int> out_blue(n, 0), out_red(n, 0);
+  std::vector<int> owner(static_cast<std::size_t>(n) * n_agent, -1);  // entry flying aircraft i
+  std::size_t next_game = 0;
+  auto assign = [&](int e) {
+    env_game[e] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
+    out_blue[e] = out_red[e] = 0;
+    for (int a = 0; a < n_agent; ++a) {
+      const Game* g = env_game[e] >= 0 ? &games[env_game[e]] : nullptr;
+      owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
+    }
+  };
+  for (int e = 0; e < n; ++e) assign(e);
+  // Aircraft rows per entry, rebuilt when a game changes.
+  std::vector<torch::Tensor> rows(n_entries);
+  auto rebuild_rows = [&]() {
+    std::vector<std::vector<std::int64_t>> r(n_entries);
+    for (std::size_t i = 0; i < owner.size(); ++i)
+      if (owner[i] >= 0) r[owner[i]].push_back(static_cast<std::int64_t>(i));
+    for (int id = 0; id < n_entries; ++id) rows[id] = torch::tensor(r[id], torch::kInt64);
+  };
+  rebuild_rows();
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_bins / 2);
+  std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3, 0.0f);
+  // Writes rows `idx` of `values` [M, 3] into the flat [N, 3] array `dst`.
+  auto scatter = [](const torch::Tensor& idx, const torch::Tensor& values, auto* dst) {
+    const auto v = values.contiguous();
+    const auto* p = v.data_ptr<std::remove_pointer_t<decltype(dst)>>();
+    const auto* r = idx.data_ptr<std::int64_t>();
+    for (std::int64_t k = 0; k < idx.numel(); ++k) std::copy(p + 3 * k, p + 3 * k + 3, dst + 3 * r[k]);
+  };
+  long done_games = 0, reported = 0;
+  int active = n;
+  while (active > 0) {
+    bool due = false;
+    for (int e = 0; e < n; ++e) due = due || (env.hl_due()[e] && env_game[e] >= 0);
+    if (due) {
+      const HlObs obs = train::hl_obs_view(env);
+      for (int id = 0; id < n_entries; ++id)
+        if (rows[id].numel() > 0)
+          scatter(rows[id], pol[id].hl->act(models::index_rows(obs, rows[id]), o.epsilon, gen).bins, bins.data());
+      env.set_hl_actions(bins.data());
+    }
+    const LlObs obs = train::ll_obs_view(env);
+    for (int id = 0; id < n_entries; ++id)
+      if (rows[id].numel() > 0)  // greedy: the Gaussian's mean, not a sample
+        scatter(rows[id], pol[id].ll->act(models::index_rows(obs, rows[id]), gen, false).mean, actions.data());
+    std::vector<double> t_before(n);
+    for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);
+    env.step(actions.data());
+    bool changed = false;
     for (int e = 0; e < n; ++e) {
-      const Game& g = games[start + e];
-      for (int a = 0; a < n_agent; ++a) owner[e * n_agent + a] = a < ts ? g.blue : g.red;
-      present.insert(g.blue);
-      present.insert(g.red);
+      if (env_game[e] < 0) continue;
+      for (int a = 0; a < n_agent; ++a)
+        if (env.step_cause()[e * n_agent + a] != race::kCauseNone) (a < ts ? out_blue[e] : out_red[e]) += 1;
+      if (!env.env_done()[e]) continue;
+      const Game& g = games[env_game[e]];
+      RaceRecord r;
+      r.pair = g.pair;
+      r.blue = g.blue;
+      r.red = g.red;
+      r.track_seed = rc.seed;
+      r.env = e;
+      r.race_in_env = race_in_env[e]++;
+      const int w = env.race_winner()[e];
+      r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
+      r.end_reason = env.race_end()[e];
+      r.duration_s = t_before[e] + rc.dt_ll_s;
+      r.blue_out = out_blue[e];
+      r.red_out = out_red[e];
+      res.races.push_back(r);
+      res.games[g.blue][g.red] += 1;
+      res.games[g.red][g.blue] += 1;
+      if (r.winner < 0) {
+        res.wins[g.blue][g.red] += 0.5;
+        res.wins[g.red][g.blue] += 0.5;
+      } else {
+        res.wins[r.winner][r.winner == g.blue ? g.red : g.blue] += 1;
+      }
+      ++done_games;
+      assign(e);
+      active -= env_game[e] < 0;
+      changed = true;
     }
-    std::vector<std::uint8_t> finished(n, 0);
-    std::vector<int> out_blue(n, 0), out_red(n, 0);
-    int remaining = n;
-    std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3);
-    std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3);
-    while (remaining > 0) {
-      bool due = false;
-      for (int e = 0; e < n; ++e) due = due || env.hl_due()[e];
-      if (due) {
-        const HlObs obs = train::hl_obs_view(env);
-        for (int id : present) {
-          const auto b = pol[id].hl->act(obs, o.epsilon, gen).bins.contiguous();
-          const std::int64_t* p = b.data_ptr<std::int64_t>();
-          for (std::size_t i = 0; i < owner.size(); ++i)
-            if (owner[i] == id) std::copy(p + 3 * i, p + 3 * i + 3, bins.begin() + 3 * static_cast<long>(i));
-        }
-        env.set_hl_actions(bins.data());
-      }
-      const LlObs obs = train::ll_obs_view(env);
-      for (int id : present) {
-        // Greedy: the Gaussian's mean, not a sample.
-        const auto m = pol[id].ll->act(obs, gen, false).mean.contiguous();
-        const float* p = m.data_ptr<float>();
-        for (std::size_t i = 0; i < owner.size(); ++i)
-          if (owner[i] == id) std::copy(p + 3 * i, p + 3 * i + 3, actions.begin() + 3 * static_cast<long>(i));
-      }
-      std::vector<double> t_before(n);
-      for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);
-      env.step(actions.data());
-      for (int e = 0; e < n; ++e) {
-        if (finished[e]) continue;
-        for (int a = 0; a < n_agent; ++a)
-          if (env.step_cause()[e * n_agent + a] != race::kCauseNone) (a < ts ? out_blue[e] : out_red[e]) += 1;
-        if (!env.env_done()[e]) continue;
-        finished[e] = 1;
-        --remaining;
-        const Game& g = games[start + e];
-        RaceRecord r;
-        r.pair = g.pair;
-        r.blue = g.blue;
-        r.red = g.red;
-        r.track_seed = rc.seed;
-        r.env = e;
-        const int w = env.race_winner()[e];
-        r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
-        r.end_reason = env.race_end()[e];
-        r.duration_s = t_before[e] + rc.dt_ll_s;
-        r.blue_out = out_blue[e];
-        r.red_out = out_red[e];
-        res.races.push_back(r);
-        res.games[g.blue][g.red] += 1;
-        res.games[g.red][g.blue] += 1;
-        if (r.winner < 0) {
-          res.wins[g.blue][g.red] += 0.5;
-          res.wins[g.red][g.blue] += 0.5;
-        } else {
-          res.wins[r.winner][r.winner == g.blue ? g.red : g.blue] += 1;
-        }
-      }
+    if (changed) rebuild_rows();
+    // Progress about every 1 % of the games.
+    if (progress && (done_games - reported >= std::max<long>(1, static_cast<long>(games.size()) / 100) ||
+                     (active == 0 && done_games != reported))) {
+      reported = done_games;
+      progress(done_games, static_cast<long>(games.size()));
     }
-    done_games += n;
-    if (progress) progress(done_games, static_cast<long>(games.size()));
   }
+  // Races finish in env order, not game order: sort for a stable races.csv.
+  std::stable_sort(res.races.begin(), res.races.end(), [](const RaceRecord& x, const RaceRecord& y) {
+    return x.env != y.env ? x.env < y.env : x.race_in_env < y.race_in_env;
+  });
   return res;
 }
 
@@ -178,7 +204,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
   // races.csv
   {
     std::vector<std::vector<double>> cols(8);
-    std::vector<double> durations;
+    std::vector<double> durations, race_idx;
     std::vector<std::vector<std::string>> names(3);
     for (const RaceRecord& x : r.races) {
       cols[0].push_back(x.pair);
@@ -186,6 +212,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       cols[2].push_back(static_cast<double>(r.entries[x.red].seed));
       cols[3].push_back(static_cast<double>(x.track_seed));
       cols[4].push_back(x.env);
+      race_idx.push_back(x.race_in_env);
       cols[5].push_back(x.end_reason);
       durations.push_back(x.duration_s);
       cols[6].push_back(x.blue_out);
@@ -195,9 +222,10 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       names[2].push_back(x.winner < 0 ? "draw" : r.entries[x.winner].name);
     }
     cols.push_back(durations);
+    cols.push_back(race_idx);
     io::write_csv(o.out_dir + "/races.csv",
                   {"pair", "blue_seed", "red_seed", "track_stream_seed", "track_stream_env", "end_reason",
-                   "blue_terminated", "red_terminated", "duration_s"},
+                   "blue_terminated", "red_terminated", "duration_s", "track_stream_race"},
                   cols, {"blue", "red", "winner"}, names);
   }
   // pairings.csv and the heatmap data (row entry's winrate against the column entry).

@@ -28,8 +28,10 @@ struct Entry {
 
 struct RaceRecord {
   int pair = 0, blue = 0, red = 0;  // entry indices
+  // The track and start: race number race_in_env of env `env` of a RaceEnv seeded track_seed.
   std::uint64_t track_seed = 0;
   int env = 0;
+  int race_in_env = 0;
   int winner = -1;                  // entry index, -1 draw
   int end_reason = 0;               // RaceEnv::EndReason
   double duration_s = 0.0;
