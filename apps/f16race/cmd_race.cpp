@@ -34,8 +34,7 @@ struct RaceOptions {
 };
 
 void run_race(const RaceOptions& o) {
-  YAML::Node root = io::load_yaml_file(o.config);
-  for (const std::string& s : o.overrides) io::apply_override(root, s);
+  YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
   RaceConfig cfg;
   io::ConfigReader top(root, o.config);
   io::ConfigReader rr = top.child("race");

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -21,10 +22,25 @@ void run(const eval::TournamentOptions& o) {
   torch::set_num_threads(omp_get_max_threads());
   const bool tty = isatty(STDOUT_FILENO) != 0;
   eval::TournamentResult r;
+  const auto start = std::chrono::steady_clock::now();
+  int last_percent = -1;
   try {
     r = eval::run_tournament(o, [&](long done, long total) {
-      if (tty) std::printf("\r%ld / %ld races\x1b[K", done, total);
-      else std::printf("%ld / %ld races\n", done, total);
+      const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double left = frac > 0.0 ? elapsed * (1.0 - frac) / frac : 0.0;
+      const int percent = static_cast<int>(100.0 * frac);
+      if (tty) {
+        char bar[41];
+        const int filled = static_cast<int>(40.0 * frac);
+        for (int k = 0; k < 40; ++k) bar[k] = k < filled ? '#' : '.';
+        bar[40] = '\0';
+        std::printf("\r[%s] %3d%%  %ld / %ld races  %.0f s elapsed, ~%.0f s left\x1b[K", bar, percent, done, total,
+                    elapsed, left);
+      } else if (percent / 10 != last_percent / 10 || done == total) {  // a log line every 10 %
+        std::printf("%3d%%  %ld / %ld races  %.0f s elapsed\n", percent, done, total, elapsed);
+      }
+      last_percent = percent;
       std::fflush(stdout);
     });
   } catch (const std::runtime_error& e) {
@@ -34,6 +50,8 @@ void run(const eval::TournamentOptions& o) {
   eval::write_tournament_report(r, o);
   std::ifstream md(o.out_dir + "/summary.md");
   std::printf("%s", std::string(std::istreambuf_iterator<char>(md), {}).c_str());
+  std::printf("%zu races in %.1f s\n", r.races.size(),
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json, tournament.png}\n", o.out_dir.c_str());
 }
 

@@ -74,8 +74,7 @@ void run_train(const TrainOptions& o) {
       trainer = train::Trainer::resume(o.resume);
       spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
     } else {
-      YAML::Node root = io::load_yaml_file(o.config);
-      for (const std::string& s : o.overrides) io::apply_override(root, s);
+      YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
       if (!o.agent.empty()) io::apply_override(root, "hl.agent=" + o.agent);
       if (o.seed >= 0) io::apply_override(root, "seed=" + std::to_string(o.seed));
       const train::TrainConfig cfg = train::read_train_config(root, o.config);

@@ -50,4 +50,24 @@ inline int64_t read_int(torch::serialize::InputArchive& root, const std::string&
   return t.item<int64_t>();
 }
 
+// What every agent saves beside its networks: the observation normaliser, the optimiser, the
+// update counter and the minibatch generator, so a resumed agent continues exactly.
+inline void write_agent_state(torch::serialize::OutputArchive& root, const torch::nn::Module& normalizer,
+                              const torch::optim::Optimizer& opt, int64_t update_count, const at::Generator& generator) {
+  write_module(root, "normalizer", normalizer);
+  write_optimizer(root, "optimizer", opt);
+  root.write("update_count", torch::tensor(update_count));
+  root.write("generator_state", generator.get_state());
+}
+
+inline void read_agent_state(torch::serialize::InputArchive& root, torch::nn::Module& normalizer,
+                             torch::optim::Optimizer& opt, int64_t* update_count, at::Generator& generator) {
+  read_module(root, "normalizer", normalizer);
+  read_optimizer(root, "optimizer", opt);
+  *update_count = read_int(root, "update_count");
+  torch::Tensor state;
+  root.read("generator_state", state);
+  generator.set_state(state);
+}
+
 }  // namespace f16race::agents

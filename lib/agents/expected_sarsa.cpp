@@ -312,11 +312,8 @@ void EsAgent::save(const std::string& path) const {
   torch::serialize::OutputArchive root;
   write_module(root, "critic", *critic_);
   write_module(root, "target", *target_);
-  write_module(root, "normalizer", *normalizer_);
-  write_optimizer(root, "optimizer", *optimizer_);
   root.write("variant", torch::tensor(static_cast<int64_t>(cfg_.variant)));
-  root.write("update_count", torch::tensor(update_count_));
-  root.write("generator_state", generator_.get_state());
+  write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
   save_archive_atomic(root, path);
 }
 
@@ -328,12 +325,7 @@ void EsAgent::load(const std::string& path) {
               ", this agent is ", es_variant_name(cfg_.variant));
   read_module(root, "critic", *critic_);
   read_module(root, "target", *target_);
-  read_module(root, "normalizer", *normalizer_);
-  read_optimizer(root, "optimizer", *optimizer_);
-  update_count_ = read_int(root, "update_count");
-  torch::Tensor state;
-  root.read("generator_state", state);
-  generator_.set_state(state);
+  read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
 }
 
 }  // namespace f16race::agents

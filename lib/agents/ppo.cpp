@@ -142,10 +142,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
 void PpoAgent::save(const std::string& path) const {
   torch::serialize::OutputArchive root;
   write_module(root, "net", *net_);
-  write_module(root, "normalizer", *normalizer_);
-  write_optimizer(root, "optimizer", *optimizer_);
-  root.write("update_count", torch::tensor(update_count_));
-  root.write("generator_state", generator_.get_state());
+  write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
   save_archive_atomic(root, path);
 }
 
@@ -153,12 +150,7 @@ void PpoAgent::load(const std::string& path) {
   torch::serialize::InputArchive root;
   root.load_from(path);
   read_module(root, "net", *net_);
-  read_module(root, "normalizer", *normalizer_);
-  read_optimizer(root, "optimizer", *optimizer_);
-  update_count_ = read_int(root, "update_count");
-  torch::Tensor state;
-  root.read("generator_state", state);
-  generator_.set_state(state);
+  read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
 }
 
 }  // namespace f16race::agents

@@ -14,6 +14,12 @@ YAML::Node load_yaml_file(const std::string& path) {
   }
 }
 
+YAML::Node load_yaml_with_overrides(const std::string& path, const std::vector<std::string>& overrides) {
+  YAML::Node root = load_yaml_file(path);
+  for (const std::string& s : overrides) apply_override(root, s);
+  return root;
+}
+
 void apply_override(YAML::Node& root, const std::string& assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)

@@ -24,6 +24,9 @@ YAML::Node load_yaml_file(const std::string& path);
 // so numbers, booleans, strings and [lists] work. Unknown keys are caught later by the reader.
 void apply_override(YAML::Node& root, const std::string& assignment);
 
+// load_yaml_file(path), then every override in order (what `--config F --set k=v ...` means).
+YAML::Node load_yaml_with_overrides(const std::string& path, const std::vector<std::string>& overrides);
+
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {
  public:

@@ -135,14 +135,6 @@ Vec3 Track::point_at(double s_ft) const {
   return samples_[i].p + f * (samples_[i + 1].p - samples_[i].p);
 }
 
-Vec3 Track::sample(double s_ft, double* radius_ft) const {
-  const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
-  const int i = std::min(static_cast<int>(x), n_samples() - 2);
-  const double f = x - i;
-  *radius_ft = samples_[i].radius_ft + f * (samples_[i + 1].radius_ft - samples_[i].radius_ft);
-  return samples_[i].p + f * (samples_[i + 1].p - samples_[i].p);
-}
-
 double Track::radius_at(double s_ft) const {
   const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
   const int i = std::min(static_cast<int>(x), n_samples() - 2);

@@ -2,6 +2,7 @@
 // A race track: a smooth 3-D center-line through random waypoints, each with its own tube
 // radius, resampled at a fixed arc-length spacing so queries for many aircraft are O(1) each.
 // Coordinates are AeroBench's: north, east, altitude (up), in feet.
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -77,7 +78,16 @@ class Track {
   // Geometry at arc length s (clamped to [0, length]).
   TrackFrame frame_at(double s_ft) const;
   Vec3 point_at(double s_ft) const;  // center-line point only: cheaper than frame_at
-  Vec3 sample(double s_ft, double* radius_ft) const;  // point and radius in one look-up
+  // Point and radius in one look-up; inline: the observations call it for every preview point.
+  Vec3 sample(double s_ft, double* radius_ft) const {
+    const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
+    const int i = std::min(static_cast<int>(x), n_samples() - 2);
+    const double f = x - i;
+    const Sample& a = samples_[i];
+    const Sample& b = samples_[i + 1];
+    *radius_ft = a.radius_ft + f * (b.radius_ft - a.radius_ft);
+    return a.p + f * (b.p - a.p);
+  }
   double radius_at(double s_ft) const;
 
   // Closest center-line point to `pos`, searched from `hint` (a previous answer's index, or

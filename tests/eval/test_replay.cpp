@@ -14,8 +14,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string tiny_run() {
-  const fs::path dir = fs::temp_directory_path() / "f16race_replay_run";
+// Each test its own folder: ctest runs tests in parallel.
+std::string tiny_run(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("f16race_replay_" + name);
   fs::remove_all(dir);
   YAML::Node root = YAML::Load(R"(
 race: {n_env: 2, team_size: 2, time_limit_s: 12.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
@@ -29,7 +30,7 @@ train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
 }
 
 TEST(Replay, RacesEveryOpponentKindToTheEnd) {
-  const std::string run = tiny_run();
+  const std::string run = tiny_run("run");
   for (const std::string opp : {"self", "untrained", "scripted"}) {
     ReplayOptions o;
     o.run = run;
@@ -39,13 +40,13 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
     const race::RaceTrace& t = r.trace;
     EXPECT_TRUE(t.done) << opp;
     EXPECT_GT(t.duration_s, 0.0);
-    EXPECT_EQ(r.blue, "f16race_replay_run");
+    EXPECT_EQ(r.blue, "f16race_replay_run");  // the run folder's name
     EXPECT_EQ(r.red, opp == "self" ? r.blue : opp);
     ASSERT_EQ(t.rows.size(), 4u);
     // The learned sides take HL decisions every dt_hl_s; the scripted side takes none.
     EXPECT_FALSE(t.goals[0].empty());
     EXPECT_EQ(t.goals[2].empty(), opp == "scripted") << opp;
-    const std::string dir = (fs::temp_directory_path() / ("f16race_replay_" + opp)).string();
+    const std::string dir = (fs::temp_directory_path() / ("f16race_replay_out_" + opp)).string();
     fs::remove_all(dir);
     std::string msg;
     write_replay(r, dir, &msg);
@@ -70,7 +71,7 @@ TEST(Replay, RefusesMissingRuns) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/run: not a training run"), std::string::npos) << e.what();
   }
-  o.run = tiny_run();
+  o.run = tiny_run("refuse");
   o.opponent = "/nonexistent/other";
   EXPECT_THROW(run_replay(o), std::runtime_error);
 }

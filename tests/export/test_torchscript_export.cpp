@@ -54,8 +54,9 @@ class ExportVariants : public ::testing::TestWithParam<std::tuple<std::string, b
 TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
   const auto& [agent, normalize] = GetParam();
   train::RunPolicy p = policy_with_stats(agent, normalize);
-  torch::jit::Module hl = round_trip(make_hl_module(p), "hl_" + agent);
-  torch::jit::Module ll = round_trip(make_ll_module(p), "ll_" + agent);
+  const std::string tag = agent + (normalize ? "" : "_raw");  // tests run in parallel: own files
+  torch::jit::Module hl = round_trip(make_hl_module(p), "hl_" + tag);
+  torch::jit::Module ll = round_trip(make_ll_module(p), "ll_" + tag);
   for (std::int64_t batch : {1, 37}) {
     const ExampleObs x = random_example_obs(p.dims, batch, 1000 + batch);
     const HlReference hr = hl_reference(p, x);
@@ -90,7 +91,10 @@ TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
 INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
                          ::testing::Values(std::make_tuple("es", true), std::make_tuple("es_d1", true),
                                            std::make_tuple("es_d2", true), std::make_tuple("es_d3", true),
-                                           std::make_tuple("es_d3", false)));
+                                           std::make_tuple("es_d3", false)),
+                         [](const ::testing::TestParamInfo<std::tuple<std::string, bool>>& info) {
+                           return std::get<0>(info.param) + (std::get<1>(info.param) ? "" : "_unnormalised");
+                         });
 
 TEST(Export, BadInputShapesAreRefusedByName) {
   train::RunPolicy p = policy_with_stats("es_d3");
