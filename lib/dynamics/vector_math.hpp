@@ -51,6 +51,26 @@ F16_INLINE void sincos(double x, double* s_out, double* c_out) {
   *c_out = c;
 }
 
+// Single-precision sin and cos together, for observations (float buffers): 16 lanes per
+// AVX-512 vector instead of 8. Absolute error < 2e-7 for |x| < 1e4 rad. pi/2 split and the
+// minimax coefficients on [-pi/4, pi/4] are Cephes sinf.c / cosf.c (S. L. Moshier, public).
+F16_INLINE void sincosf(float x, float* s_out, float* c_out) {
+  const float k = std::floor(x * 0.636619772f + 0.5f);
+  float r = x - k * 1.5703125f;
+  r -= k * 4.837512969970703125e-4f;
+  r -= k * 7.54978995489188216e-8f;
+  // Quadrant as an integer: GCC vectorises these selects, not the float-compare chain.
+  const int q = static_cast<int>(k) & 3;
+  const float r2 = r * r;
+  const float sin_r = r + r * r2 * (-1.6666654611e-1f + r2 * (8.3321608736e-3f + r2 * -1.9515295891e-4f));
+  const float cos_r =
+      1.0f - 0.5f * r2 + r2 * r2 * (4.166664568298827e-2f + r2 * (-1.388731625493765e-3f + r2 * 2.443315711809948e-5f));
+  const float s = (q & 1) ? cos_r : sin_r;
+  const float c = (q & 1) ? sin_r : cos_r;
+  *s_out = (q & 2) ? -s : s;
+  *c_out = ((q + 1) & 2) ? -c : c;
+}
+
 // Natural log for x in about [0.05, 20]: two square roots (exactly rounded in hardware) bring
 // y = x^(1/4) near 1, then log(x) = 8 atanh((y - 1) / (y + 1)) by its odd series.
 F16_INLINE double log_near_one(double x) {

@@ -219,7 +219,9 @@ void RaceEnv::reset_env(int env) {
     alive_[i] = 1;
     cause_[i] = kCauseNone;
     tube_out_s_[i] = 0.0;
-    track_hint_[i] = -1;
+    // Warm start at the start line: a cold (global) search per aircraft and reset cost more
+    // than the rest of the reset, and the start point's nearest sample is known.
+    track_hint_[i] = std::clamp(static_cast<int>(config_.start_s_ft / tr.spacing_ft()), 0, tr.n_samples() - 1);
     // The trim's own commands, in action units, are the "previous action" of the first step.
     float* la = &last_action_[static_cast<std::size_t>(i) * kActionDim];
     la[0] = static_cast<float>(2.0 * (trim.u_ref[kThrottleDelta] + lqr::kThrottleEquil) - 1.0);
@@ -502,7 +504,7 @@ void RaceEnv::write_observations(int env) {
   // 16-lane iteration), which is faster than a loop of na iterations and its remainder.
   float px[kMaxAgents] = {}, py[kMaxAgents] = {}, pz[kMaxAgents] = {}, vx[kMaxAgents] = {}, vy[kMaxAgents] = {};
   float vz[kMaxAgents] = {}, prog[kMaxAgents] = {}, alive_f[kMaxAgents] = {};
-  double ang[5][kMaxAgents] = {};
+  float ang[5][kMaxAgents] = {};
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
     px[a] = static_cast<float>(sim_.state(kPn)[i] - sim_.state(kPn)[base]);
@@ -513,25 +515,29 @@ void RaceEnv::write_observations(int env) {
     vz[a] = static_cast<float>(sim_.output(kOutVu)[i]);
     prog[a] = static_cast<float>((progress_ft_[i] - progress_ft_[base]) / 5000.0);
     alive_f[a] = alive_[i] ? 1.0f : 0.0f;
-    ang[0][a] = sim_.state(kAlpha)[i];
-    ang[1][a] = sim_.state(kBeta)[i];
-    ang[2][a] = sim_.state(kPhi)[i];
-    ang[3][a] = sim_.state(kTheta)[i];
-    ang[4][a] = sim_.state(kPsi)[i];
+    ang[0][a] = static_cast<float>(sim_.state(kAlpha)[i]);
+    ang[1][a] = static_cast<float>(sim_.state(kBeta)[i]);
+    ang[2][a] = static_cast<float>(sim_.state(kPhi)[i]);
+    ang[3][a] = static_cast<float>(sim_.state(kTheta)[i]);
+    ang[4][a] = static_cast<float>(sim_.state(kPsi)[i]);
   }
-  // Attitude trig of every aircraft of the env: [angle][agent], vectorised.
-  double sn[5][kMaxAgents], cs[5][kMaxAgents];
+  // Attitude trig of every aircraft of the env: [angle][agent], one 16-lane float pass per
+  // angle (the observations are float; float sin/cos is exact to ~2e-7 here).
+  // The bound is a runtime 16 on purpose: with a constant one GCC unrolls the loop fully and then
+  // fails to if-convert it.
+  float sn[5][kMaxAgents], cs[5][kMaxAgents];
+  const int na_pad = (na + 15) / 16 * 16;
   for (int k = 0; k < 5; ++k) {
 #pragma omp simd
-    for (int a = 0; a < kMaxAgents; ++a) vmath::sincos(ang[k][a], &sn[k][a], &cs[k][a]);
+    for (int a = 0; a < na_pad; ++a) vmath::sincosf(ang[k][a], &sn[k][a], &cs[k][a]);
   }
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
     float* o = &ego_[static_cast<std::size_t>(i) * kEgoDim];
     o[0] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
     for (int k = 0; k < 5; ++k) {
-      o[1 + 2 * k] = static_cast<float>(sn[k][a]);
-      o[2 + 2 * k] = static_cast<float>(cs[k][a]);
+      o[1 + 2 * k] = sn[k][a];
+      o[2 + 2 * k] = cs[k][a];
     }
     o[11] = clampf(sim_.state(kP)[i] / 2.0, -10.0, 10.0);
     o[12] = clampf(sim_.state(kQ)[i], -10.0, 10.0);
@@ -546,7 +552,7 @@ void RaceEnv::write_observations(int env) {
   const int my_team_end = c.team_size;
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
-    const float ca = static_cast<float>(cs[4][a]), sa = static_cast<float>(sn[4][a]);
+    const float ca = cs[4][a], sa = sn[4][a];
     // Features of every aircraft b as seen from a ([feature][b]); a dead b gets zeros.
     float f[8][kMaxAgents];
 #pragma omp simd
@@ -597,8 +603,8 @@ void RaceEnv::write_observations(int env) {
       qe[k] = static_cast<float>(q.e - pe);
       qu[k] = static_cast<float>(q.u - pu);
       qr[k] = static_cast<float>(radius / 2000.0);
-      qc[k] = static_cast<float>(cs[4][a]);
-      qs[k] = static_cast<float>(sn[4][a]);
+      qc[k] = cs[4][a];
+      qs[k] = sn[4][a];
     }
   }
   float g[4][kMaxAgents * kMaxPreview];

@@ -22,17 +22,29 @@ Vec3 cross(Vec3 a, Vec3 b) { return {a.e * b.u - a.u * b.e, a.u * b.n - a.n * b.
 
 // Centripetal Catmull-Rom (Barry-Goldman form) between p1 and p2: no cusps or self-loops
 // within a segment even for uneven waypoint spacing.
-Vec3 catmull_rom(Vec3 p0, Vec3 p1, Vec3 p2, Vec3 p3, double u) {
-  auto knot = [](double t, Vec3 a, Vec3 b) { return t + std::sqrt(std::max(norm(b - a), 1e-9)); };
-  const double t0 = 0.0, t1 = knot(t0, p0, p1), t2 = knot(t1, p1, p2), t3 = knot(t2, p2, p3);
-  const double t = t1 + u * (t2 - t1);
-  auto lerp = [](Vec3 a, Vec3 b, double ta, double tb, double tt) {
-    return ((tb - tt) / (tb - ta)) * a + ((tt - ta) / (tb - ta)) * b;
-  };
-  const Vec3 a1 = lerp(p0, p1, t0, t1, t), a2 = lerp(p1, p2, t1, t2, t), a3 = lerp(p2, p3, t2, t3, t);
-  const Vec3 b1 = lerp(a1, a2, t0, t2, t), b2 = lerp(a2, a3, t1, t3, t);
-  return lerp(b1, b2, t1, t2, t);
-}
+// Centripetal Catmull-Rom segment from p1 to p2. The knots depend only on the four points, so
+// they are computed once per segment, not per evaluation (track generation runs at every race
+// reset); the arithmetic per evaluation is unchanged.
+struct CatmullRomSegment {
+  Vec3 p0, p1, p2, p3;
+  double t0, t1, t2, t3;
+  CatmullRomSegment(Vec3 a, Vec3 b, Vec3 c, Vec3 d) : p0(a), p1(b), p2(c), p3(d) {
+    auto knot = [](double t, Vec3 x, Vec3 y) { return t + std::sqrt(std::max(norm(y - x), 1e-9)); };
+    t0 = 0.0;
+    t1 = knot(t0, p0, p1);
+    t2 = knot(t1, p1, p2);
+    t3 = knot(t2, p2, p3);
+  }
+  Vec3 at(double u) const {
+    const double t = t1 + u * (t2 - t1);
+    auto lerp = [](Vec3 a, Vec3 b, double ta, double tb, double tt) {
+      return ((tb - tt) / (tb - ta)) * a + ((tt - ta) / (tb - ta)) * b;
+    };
+    const Vec3 a1 = lerp(p0, p1, t0, t1, t), a2 = lerp(p1, p2, t1, t2, t), a3 = lerp(p2, p3, t2, t3, t);
+    const Vec3 b1 = lerp(a1, a2, t0, t2, t), b2 = lerp(a2, a3, t1, t3, t);
+    return lerp(b1, b2, t1, t2, t);
+  }
+};
 
 }  // namespace
 
@@ -94,12 +106,18 @@ void Track::build(double spacing_ft) {
 
   // Dense parameter sampling, cumulative chord length, and the arc length of each waypoint.
   constexpr int kPerSegment = 400;
-  std::vector<Vec3> dense{w[1]};
-  std::vector<double> dense_s{0.0};
-  std::vector<double> waypoint_s{0.0};
+  std::vector<Vec3> dense;
+  std::vector<double> dense_s, waypoint_s;
+  dense.reserve((n - 1) * kPerSegment + 1);
+  dense_s.reserve((n - 1) * kPerSegment + 1);
+  waypoint_s.reserve(n);
+  dense.push_back(w[1]);
+  dense_s.push_back(0.0);
+  waypoint_s.push_back(0.0);
   for (std::size_t k = 1; k < n; ++k) {
+    const CatmullRomSegment segment(w[k - 1], w[k], w[k + 1], w[k + 2]);
     for (int i = 1; i <= kPerSegment; ++i) {
-      const Vec3 q = catmull_rom(w[k - 1], w[k], w[k + 1], w[k + 2], static_cast<double>(i) / kPerSegment);
+      const Vec3 q = segment.at(static_cast<double>(i) / kPerSegment);
       dense_s.push_back(dense_s.back() + norm(q - dense.back()));
       dense.push_back(q);
     }

@@ -24,6 +24,22 @@ TEST(VectorMath, SinCosWithinTwoUlpOfLibmOverManyTurns) {
   EXPECT_TRUE(std::isnan(s) && std::isnan(c));
 }
 
+TEST(VectorMath, FloatSinCosWithin2e7OfLibmInEveryQuadrant) {
+  double worst = 0.0;
+  for (int k = -200000; k <= 200000; ++k) {
+    const float x = static_cast<float>(k * 5e-4 + 1e-7 * (k % 13));  // -100..100 rad
+    float s, c;
+    vmath::sincosf(x, &s, &c);
+    worst = std::fmax(worst, std::fabs(s - std::sin(static_cast<double>(x))));
+    worst = std::fmax(worst, std::fabs(c - std::cos(static_cast<double>(x))));
+  }
+  EXPECT_LT(worst, 2e-7);
+  float s, c;
+  vmath::sincosf(-3.0f * static_cast<float>(M_PI) / 4.0f, &s, &c);  // third quadrant: both negative
+  EXPECT_NEAR(s, -std::sqrt(0.5), 1e-7);
+  EXPECT_NEAR(c, -std::sqrt(0.5), 1e-7);
+}
+
 TEST(VectorMath, DensityPowerMatchesStdPow) {
   double worst = 0.0;
   for (int k = 0; k <= 12000; ++k) {

@@ -92,8 +92,8 @@ INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
                          ::testing::Values(std::make_tuple("es", true), std::make_tuple("es_d1", true),
                                            std::make_tuple("es_d2", true), std::make_tuple("es_d3", true),
                                            std::make_tuple("es_d3", false)),
-                         [](const ::testing::TestParamInfo<std::tuple<std::string, bool>>& info) {
-                           return std::get<0>(info.param) + (std::get<1>(info.param) ? "" : "_unnormalised");
+                         [](const ::testing::TestParamInfo<std::tuple<std::string, bool>>& param_info) {
+                           return std::get<0>(param_info.param) + (std::get<1>(param_info.param) ? "" : "_unnormalised");
                          });
 
 TEST(Export, BadInputShapesAreRefusedByName) {
