@@ -312,9 +312,27 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
                     x.races, x.mean, x.std, x.iqm.point, x.iqm.lo, x.iqm.hi);
       md << buf;
     }
+    if (rows.empty()) md << "| (every entry has the same variant: no variant-vs-variant statistics) | | | | |\n";
     md << "\nTotal winrate: all races of a run against entries of the other variants (draws count half). IQM: "
           "25% trimmed mean over the run x opponent winrates; CI: percentile bootstrap resampling runs within "
-          "each opponent (rliable's stratified bootstrap).\n";
+          "each opponent (rliable's stratified bootstrap).\n\n";
+    // Per entry, against every other entry: the winrate with a Wilson score 95 % interval over its
+    // races (draws count half), so single runs can be compared too.
+    md << "| entry | variant | seed | races | winrate vs all other entries [95% Wilson CI] |\n|---|---|---|---|---|\n";
+    for (int i = 0; i < n; ++i) {
+      double w = 0, g = 0;
+      for (int j = 0; j < n; ++j) {
+        w += r.wins[i][j];
+        g += r.games[i][j];
+      }
+      const double p = g > 0 ? w / g : std::nan(""), z = 1.959963984540054;
+      const double centre = (p + z * z / (2 * g)) / (1 + z * z / g);
+      const double half = z * std::sqrt(p * (1 - p) / g + z * z / (4 * g * g)) / (1 + z * z / g);
+      std::snprintf(buf, sizeof buf, "| %s | %s | %llu | %.0f | %.4f [%.4f, %.4f] |\n", r.entries[i].name.c_str(),
+                    r.entries[i].variant.c_str(), static_cast<unsigned long long>(r.entries[i].seed), g, p,
+                    centre - half, centre + half);
+      md << buf;
+    }
   }
   // Figures in the layout of the paper's Fig. 3: bars with std, IQM with CI, pairing heatmap.
   {

@@ -166,6 +166,8 @@ bool plot_trace(const RaceTrace& t, const std::string& dir, const std::string& p
       ver.series.push_back({goals, sel + ":6", style, "", ""});
     }
   }
+  // Same right margin in both panels (room for the legend), so their x axes line up.
+  lat.extra = ver.extra = "set rmargin 34";
   io::PlotSpec spec;
   spec.output = dir + "/" + prefix + ".png";
   spec.rows = 2;

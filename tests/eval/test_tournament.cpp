@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include "eval/tournament.hpp"
 #include "io/yaml_config.hpp"
@@ -58,6 +59,11 @@ TEST(Tournament, CountsEveryRaceOnceWithSidesSwapped) {
   write_tournament_report(r, o);
   for (const char* f : {"races.csv", "pairings.csv", "summary.json", "summary.md", "tournament.gp"})
     EXPECT_TRUE(fs::exists(fs::path(o.out_dir) / f)) << f;
+  {
+    std::ifstream md(o.out_dir + "/summary.md");
+    const std::string text((std::istreambuf_iterator<char>(md)), {});
+    EXPECT_NE(text.find("| untrained | untrained | 1 | 12 |"), std::string::npos) << text;  // 6 races x 2 opponents
+  }
   const YAML::Node js = YAML::LoadFile(o.out_dir + "/summary.json");
   ASSERT_EQ(js["variants"].size(), 2u);  // es_d3 (2 runs) and untrained
   for (const auto& v : js["variants"]) {
