@@ -63,8 +63,6 @@ void copy_normalizer(torch::jit::Module& out, const models::ObsNormalizer& norm,
 struct Shape {
   models::ObsDims dims;
   int64_t d_model = 0, n_heads = 0;
-  std::vector<int64_t> hidden;
-  bool normalize = true;
   double clip = 10.0;
 };
 
@@ -117,6 +115,19 @@ std::string forward_prologue(const char* extra_name) {
     << "    enc = self.encode(ego_n, ado_n, ado_alive)\n"
     << "    x = torch.cat([ego_n, extra_n, enc, task_n], 1)\n";
   return o.str();
+}
+
+// A module holding `net`'s weights and the normaliser, with the shared methods and the start of
+// forward(ego, <extra>, ado, ado_alive, task) written to `o`; the caller adds the heads.
+torch::jit::Module start_module(const char* class_name, const torch::nn::Module& net, const models::ObsNormalizer& norm,
+                                bool normalize, const Shape& s, const char* extra_name, std::ostringstream& o) {
+  torch::jit::Module m(class_name);
+  copy_weights(m, net, "net");
+  copy_normalizer(m, norm, normalize, s.dims);
+  o << common_source(s, extra_name) << "def forward(self, ego: Tensor, " << extra_name
+    << ": Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> Dict[str, Tensor]:\n"
+    << forward_prologue(extra_name);
+  return m;
 }
 
 void save_atomic(const torch::jit::Module& m, const std::string& path) {
@@ -228,14 +239,9 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
 torch::jit::Module make_hl_module(const train::RunPolicy& p) {
   const auto& critic = p.hl->critic();
   const auto& cc = critic->config();
-  torch::jit::Module m("f16race.HlPolicy");
-  copy_weights(m, *critic, "net");
-  copy_normalizer(m, p.hl->normalizer(), p.config.hl.normalize_obs, p.dims);
-  const Shape s{p.dims, cc.d_model, cc.n_heads, cc.hidden, p.config.hl.normalize_obs, p.config.hl.obs_clip};
   std::ostringstream o;
-  o << common_source(s, "prev_action");
-  o << "def forward(self, ego: Tensor, prev_action: Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> Dict[str, Tensor]:\n"
-    << forward_prologue("prev_action");
+  torch::jit::Module m = start_module("f16race.HlPolicy", *critic, p.hl->normalizer(), p.config.hl.normalize_obs,
+                                      Shape{p.dims, cc.d_model, cc.n_heads, p.config.hl.obs_clip}, "prev_action", o);
   for (std::size_t l = 0; l < cc.hidden.size(); ++l)
     o << "    x = torch.relu(" << linear("x", "net_trunk_" + std::to_string(2 * l)) << ")\n";
   o << "    out = " << linear("x", "net_head") << "\n";
@@ -264,14 +270,9 @@ torch::jit::Module make_hl_module(const train::RunPolicy& p) {
 torch::jit::Module make_ll_module(const train::RunPolicy& p) {
   const auto& net = p.ll->net();
   const auto& nc = net->config();
-  torch::jit::Module m("f16race.LlPolicy");
-  copy_weights(m, *net, "net");
-  copy_normalizer(m, p.ll->normalizer(), p.config.ll.normalize_obs, p.dims);
-  const Shape s{p.dims, nc.d_model, nc.n_heads, nc.hidden, p.config.ll.normalize_obs, p.config.ll.obs_clip};
   std::ostringstream o;
-  o << common_source(s, "goal");
-  o << "def forward(self, ego: Tensor, goal: Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> Dict[str, Tensor]:\n"
-    << forward_prologue("goal");
+  torch::jit::Module m = start_module("f16race.LlPolicy", *net, p.ll->normalizer(), p.config.ll.normalize_obs,
+                                      Shape{p.dims, nc.d_model, nc.n_heads, p.config.ll.obs_clip}, "goal", o);
   for (const char* part : {"actor", "critic"}) {
     o << "    h = x\n";
     for (std::size_t l = 0; l < nc.hidden.size(); ++l)
