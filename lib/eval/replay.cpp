@@ -30,12 +30,7 @@ Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint6
   if (spec == "scripted") return Side{"scripted", std::nullopt};
   if (spec == "untrained") return Side{"untrained", train::untrained_policy(blue->config, seed)};
   train::RunPolicy p = train::load_run_policy(spec);
-  if (p.config.race.team_size != blue->config.race.team_size || p.dims.d_task != blue->dims.d_task)
-    throw std::runtime_error(spec + ": trained for " + std::to_string(p.config.race.team_size) + " vs " +
-                             std::to_string(p.config.race.team_size) + " races with task size " +
-                             std::to_string(p.dims.d_task) + ", but " + blue->run_dir + " for " +
-                             std::to_string(blue->config.race.team_size) + " vs " +
-                             std::to_string(blue->config.race.team_size) + " with " + std::to_string(blue->dims.d_task));
+  train::check_same_race_shape(*blue, p);
   return Side{p.name, std::move(p)};
 }
 

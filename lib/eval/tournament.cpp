@@ -40,32 +40,17 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   if (o.runs.empty() && !o.include_untrained) throw std::runtime_error("tournament: no entries");
   if (o.runs.empty()) throw std::runtime_error("tournament: give at least one run folder with --runs");
   TournamentResult res;
-  std::vector<train::TrainConfig> cfgs;
-  for (const std::string& r : o.runs) {
-    cfgs.push_back(train::read_run_config(r));
-    Entry e;
-    e.path = r;
-    e.name = fs::path(r).filename().string();
-    if (e.name.empty()) e.name = fs::path(r).parent_path().filename().string();
-    e.variant = agents::es_variant_name(cfgs.back().hl.variant);
-    e.seed = cfgs.back().seed;
-    res.entries.push_back(e);
-  }
-  // Races use the first run's race; every entry must have been trained on the same shapes.
-  race::RaceConfig rc = cfgs.front().race;
-  const models::ObsDims dims = train::obs_dims(rc);
-  for (std::size_t k = 1; k < cfgs.size(); ++k) {
-    const models::ObsDims dk = train::obs_dims(cfgs[k].race);
-    if (cfgs[k].race.team_size != rc.team_size || dk.d_task != dims.d_task)
-      throw std::runtime_error(o.runs[k] + ": trained on " + std::to_string(cfgs[k].race.team_size) + " vs " +
-                               std::to_string(cfgs[k].race.team_size) + " with task size " + std::to_string(dk.d_task) +
-                               ", but " + o.runs[0] + " on " + std::to_string(rc.team_size) + " vs " +
-                               std::to_string(rc.team_size) + " with " + std::to_string(dims.d_task));
-  }
   std::vector<train::RunPolicy> pol;
-  for (const std::string& r : o.runs) pol.push_back(train::load_run_policy(r));
+  for (const std::string& r : o.runs) {
+    pol.push_back(train::load_run_policy(r));
+    // Races use the first run's race; every entry must have been trained for the same shapes.
+    train::check_same_race_shape(pol.front(), pol.back());
+    res.entries.push_back(Entry{pol.back().name, r, agents::es_variant_name(pol.back().config.hl.variant),
+                                pol.back().config.seed});
+  }
+  race::RaceConfig rc = pol.front().config.race;
   if (o.include_untrained) {
-    pol.push_back(train::untrained_policy(cfgs.front(), o.seed));
+    pol.push_back(train::untrained_policy(pol.front().config, o.seed));
     res.entries.push_back(Entry{"untrained", "", "untrained", o.seed});
   }
   const int n_entries = static_cast<int>(res.entries.size());

@@ -18,6 +18,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
+constexpr std::int64_t kCheckSamples = 256;  // random observations the export is checked on
+
 // A double literal TorchScript reads back to the same value.
 std::string num(double v) {
   char b[64];
@@ -179,7 +181,7 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "the running observation normalisation of training is inside the modules (clip ±" << p.config.ll.obs_clip
     << "). The two modules have their own cross-attention encoders (the HL critic and the LL actor-critic\n"
     << "were trained with separate ones), so there is no separate encoder file.\n\n"
-    << "At export the modules were run on " << 256 << " random observations and compared with the in-process\n"
+    << "At export the modules were run on " << rep.samples << " random observations and compared with the in-process\n"
     << "networks: max abs difference " << rep.hl_max_abs_diff << " (HL), " << rep.ll_max_abs_diff
     << " (LL), greedy bins " << (rep.bins_equal ? "identical" : "DIFFERENT") << ". `example_io.pt` holds those\n"
     << "inputs and the in-process outputs as buffers (`hl_*`, `ll_*`), to check a loader:\n\n"
@@ -325,12 +327,13 @@ LlReference ll_reference(train::RunPolicy& p, const ExampleObs& x) {
 ExportReport export_policy(train::RunPolicy& p, const std::string& out_dir) {
   torch::NoGradGuard no_grad;
   torch::jit::Module hl = make_hl_module(p), ll = make_ll_module(p);
-  const ExampleObs x = random_example_obs(p.dims, 256, 12345);
+  const ExampleObs x = random_example_obs(p.dims, kCheckSamples, 12345);
   const HlReference hr = hl_reference(p, x);
   const LlReference lr = ll_reference(p, x);
   const auto ho = hl.forward({x.ego, x.prev_action, x.ado, x.ado_alive, x.task}).toGenericDict();
   const auto lo = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
   ExportReport rep;
+  rep.samples = kCheckSamples;
   rep.bins_equal = ho.at("bins").toTensor().equal(hr.bins);
   rep.hl_max_abs_diff = max_abs_diff(ho.at("q").toTensor(), hr.q);
   if (hr.probs.defined()) rep.hl_max_abs_diff = std::max(rep.hl_max_abs_diff, max_abs_diff(ho.at("probs").toTensor(), hr.probs));

@@ -39,6 +39,7 @@ HlReference hl_reference(train::RunPolicy& policy, const ExampleObs& obs);
 LlReference ll_reference(train::RunPolicy& policy, const ExampleObs& obs);
 
 struct ExportReport {
+  std::int64_t samples = 0;      // random observations compared
   double hl_max_abs_diff = 0.0;  // exported vs in-process on random inputs
   double ll_max_abs_diff = 0.0;
   bool bins_equal = true;

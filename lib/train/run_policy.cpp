@@ -1,7 +1,6 @@
 #include "train/run_policy.hpp"
 
 #include <torch/torch.h>
-#include <yaml-cpp/yaml.h>
 
 #include <filesystem>
 #include <fstream>
@@ -58,16 +57,10 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   p.checkpoint_dir = dir.string();
   std::string step = "meta.yaml";
   try {
-    const YAML::Node meta = YAML::LoadFile((dir / "meta.yaml").string());
-    if (meta["format"].as<int>() != kCheckpointFormat)
-      throw std::runtime_error("checkpoint format " + meta["format"].as<std::string>() + ", this build reads " +
-                               std::to_string(kCheckpointFormat));
     std::ifstream c(run_dir + "/config.yaml");
     std::stringstream text;
     text << c.rdbuf();
-    if (meta["config_hash"].as<std::uint64_t>() != config_hash(text.str()))
-      throw std::runtime_error("written with a different config.yaml (hash mismatch); restore the run's config.yaml");
-    p.env_steps = meta["env_steps"].as<std::int64_t>();
+    p.env_steps = check_checkpoint_meta(dir.string(), config_hash(text.str()));
     step = "ll.pt";
     p.ll->load((dir / "ll.pt").string());
     step = "hl.pt";
@@ -75,9 +68,24 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   } catch (const std::exception& e) {
     std::string what = e.what();
     if (const auto nl = what.find('\n'); nl != std::string::npos) what = what.substr(0, nl);
-    throw std::runtime_error((dir / step).string() + ": cannot load the policy: " + what.substr(0, 200));
+    throw std::runtime_error((dir / step).string() + ": cannot load the policy (" + what.substr(0, 160) +
+                             "); the file is corrupt, truncated or from another build: restore it or train again");
   }
   return p;
+}
+
+void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
+  const auto& a = reference.dims;
+  const auto& b = other.dims;
+  if (reference.config.race.team_size == other.config.race.team_size && a.d_task == b.d_task && a.d_ego == b.d_ego &&
+      a.d_ado == b.d_ado)
+    return;
+  auto shape = [](const RunPolicy& p) {
+    return std::to_string(p.config.race.team_size) + " vs " + std::to_string(p.config.race.team_size) +
+           " races with task size " + std::to_string(p.dims.d_task);
+  };
+  throw std::runtime_error(other.run_dir + ": trained on " + shape(other) + ", but " + reference.run_dir + " on " +
+                           shape(reference) + "; race runs trained for the same race.team_size and race.preview_points");
 }
 
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed) {

@@ -32,6 +32,10 @@ TrainConfig read_run_config(const std::string& run_dir);
 // (hash mismatch) or a checkpoint file is unreadable.
 RunPolicy load_run_policy(const std::string& run_dir);
 
+// Throws std::runtime_error naming `other`'s folder unless it was trained for the same race
+// shapes (team size, observation sizes) as `reference`, so their policies can share races.
+void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other);
+
 // The networks of `config` before any update (initial weights from `seed`), as the
 // `untrained` tournament entry and for tests.
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed);

@@ -616,6 +616,16 @@ void Trainer::State::save_checkpoint() {
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
 }
 
+std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash) {
+  const YAML::Node meta = YAML::LoadFile(checkpoint_dir + "/meta.yaml");
+  if (meta["format"].as<int>() != kCheckpointFormat)
+    throw std::runtime_error("checkpoint format " + meta["format"].as<std::string>() + ", this build reads " +
+                             std::to_string(kCheckpointFormat));
+  if (meta["config_hash"].as<std::uint64_t>() != expected_config_hash)
+    throw std::runtime_error("it was written with a different config.yaml (hash mismatch); restore that file");
+  return meta["env_steps"].as<std::int64_t>();
+}
+
 void Trainer::State::load_checkpoint() {
   const std::string latest = run_dir + "/checkpoint/LATEST";
   if (!fs::exists(latest)) throw std::runtime_error(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing)");
@@ -623,12 +633,7 @@ void Trainer::State::load_checkpoint() {
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
   const std::string where = dir.string();
   try {
-    const YAML::Node meta = YAML::LoadFile((dir / "meta.yaml").string());
-    if (meta["format"].as<int>() != kCheckpointFormat)
-      throw std::runtime_error("checkpoint format " + meta["format"].as<std::string>() + ", this build reads " +
-                               std::to_string(kCheckpointFormat));
-    if (meta["config_hash"].as<std::uint64_t>() != hash)
-      throw std::runtime_error("it was written with a different config.yaml (hash mismatch); restore that file");
+    check_checkpoint_meta(dir.string(), hash);
     ppo->load((dir / "ll.pt").string());
     es->load((dir / "hl.pt").string());
     torch::serialize::InputArchive a;

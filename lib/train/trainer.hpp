@@ -21,6 +21,10 @@ namespace f16race::train {
 
 inline constexpr int kCheckpointFormat = 1;
 
+// Reads CHECKPOINT_DIR/meta.yaml and returns its env_steps; throws std::runtime_error (the caller
+// adds the path) unless it has this build's format and was written under `expected_config_hash`.
+std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash);
+
 // Self-play matchups, drawn per race from the trainer's own stream (deterministic per seed).
 struct Matchup {
   int learner_side = 0;   // 0 blue, 1 red
