@@ -100,7 +100,21 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   }
 
   const int n = n_aircraft();
-  tracks_.resize(n_env());
+  // Longest possible track: every leg at its maximum length, with a generous allowance for the
+  // spline's arc being longer than the chord. A longer one would still work (its vectors would
+  // grow into ordinary heap memory), only without huge pages.
+  const TrackConfig& tc = config_.track;
+  const int max_samples =
+      static_cast<int>(std::ceil(1.5 * (tc.n_waypoints - 1) * tc.leg_max_ft / tc.spacing_ft)) + 2;
+  const std::size_t slice_bytes = (Track::storage_bytes(max_samples) + 4095) / 4096 * 4096;
+  track_memory_ = std::make_unique<HugePageMemory>(slice_bytes * n_env());
+  track_slices_.reserve(n_env());
+  tracks_.reserve(n_env());
+  for (int e = 0; e < n_env(); ++e) {
+    track_slices_.push_back(std::make_unique<std::pmr::monotonic_buffer_resource>(
+        track_memory_->data() + slice_bytes * e, slice_bytes, std::pmr::new_delete_resource()));
+    tracks_.emplace_back(track_slices_.back().get(), max_samples);
+  }
   rng_.reserve(n_env());
   for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(e));
   time_s_.assign(n_env(), 0.0);
@@ -300,10 +314,33 @@ void RaceEnv::set_hl_actions(const std::int64_t* bins) {
 }
 
 StepStats RaceEnv::step(const float* actions) {
-  const int n = n_aircraft();
   const RaceConfig& c = config_;
-  // 1. Actions -> references for the aircraft still racing.
-  for (int i = 0; i < n; ++i) {
+  const int n_envs = n_env();
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < n_envs; ++e) apply_actions(e * n_agent_, (e + 1) * n_agent_, actions);
+  sim_.step(c.dt_ll_s / c.substeps, c.substeps);
+  sim_.evaluate_outputs();
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < n_envs; ++e) step_env(e);
+  StepStats total;
+  for (const StepStats& s : step_stats_) {
+    for (int k = 0; k < kNumCauses; ++k) total.terminations[k] += s.terminations[k];
+    total.races_finished += s.races_finished;
+    total.races_won[0] += s.races_won[0];
+    total.races_won[1] += s.races_won[1];
+    total.races_drawn += s.races_drawn;
+    total.races_by_finish_line += s.races_by_finish_line;
+    total.races_by_elimination += s.races_by_elimination;
+    total.races_by_time_limit += s.races_by_time_limit;
+    total.aircraft_alive_at_end += s.aircraft_alive_at_end;
+  }
+  return total;
+}
+
+// Actions -> references for aircraft [i0, i1) still racing.
+void RaceEnv::apply_actions(int i0, int i1, const float* actions) {
+  const RaceConfig& c = config_;
+  for (int i = i0; i < i1; ++i) {
     acted_[i] = alive_[i];
     step_cause_[i] = kCauseNone;
     terminated_[i] = 0;
@@ -326,149 +363,131 @@ StepStats RaceEnv::step(const float* actions) {
     sim_.ref(kPsRef)[i] = la[2] * c.ps_ref_max_radps;
     sim_.ref(kNyRRef)[i] = 0.0;
   }
-  // 2. Flight dynamics.
-  sim_.step(c.dt_ll_s / c.substeps, c.substeps);
-  sim_.evaluate_outputs();
+}
 
-  // 3. Race logic and observations, env by env.
-  std::vector<StepStats>& per_env = step_stats_;
-  std::fill(per_env.begin(), per_env.end(), StepStats{});
-#pragma omp parallel for schedule(static)
-  for (int e = 0; e < n_env(); ++e) {
-    StepStats& st = per_env[e];
-    const int base = e * n_agent_;
-    time_s_[e] += c.dt_ll_s;
-    update_track_geometry(e);
-    std::int8_t new_cause[16] = {};
-    double sphi[16], cphi[16], sth[16], cth[16];
-    {
-      const double* phi = sim_.state(kPhi) + base;
-      const double* theta = sim_.state(kTheta) + base;
+void RaceEnv::step_env(int e) {
+  const RaceConfig& c = config_;
+  step_stats_[e] = StepStats{};
+  StepStats& st = step_stats_[e];
+  const int base = e * n_agent_;
+  time_s_[e] += c.dt_ll_s;
+  update_track_geometry(e);
+  std::int8_t new_cause[16] = {};
+  double sphi[16], cphi[16], sth[16], cth[16];
+  {
+    const double* phi = sim_.state(kPhi) + base;
+    const double* theta = sim_.state(kTheta) + base;
 #pragma omp simd
-      for (int a = 0; a < n_agent_; ++a) {
-        vmath::sincos(phi[a], &sphi[a], &cphi[a]);
-        vmath::sincos(theta[a], &sth[a], &cth[a]);
+    for (int a = 0; a < n_agent_; ++a) {
+      vmath::sincos(phi[a], &sphi[a], &cphi[a]);
+      vmath::sincos(theta[a], &sth[a], &cth[a]);
+    }
+  }
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    if (!alive_[i]) continue;
+    const double psi_dot = (sim_.state(kQ)[i] * sphi[a] + sim_.state(kR)[i] * cphi[a]) / cth[a];
+    const double nz = sim_.output(kOutNz)[i];
+    const double alt = sim_.state(kAlt)[i];
+    const bool outside = dist_ft_[i] > radius_ft_[i];
+    tube_out_s_[i] = outside ? tube_out_s_[i] + c.dt_ll_s : 0.0;
+    std::int8_t cause = kCauseNone;
+    if (sim_.status()[i] != kStatusOk) cause = kCauseSimulator;
+    else if (alt < c.alt_min_ft || alt > c.alt_max_ft) cause = kCauseAltitude;
+    else if (nz < c.nz_min_g || nz > c.nz_max_g) cause = kCauseLoad;
+    else if (std::fabs(psi_dot) * 180.0 / kPi > c.turn_rate_max_dps) cause = kCauseTurnRate;
+    else if (outside && (c.tube_exit == TubeExit::kTerminate || tube_out_s_[i] > c.tube_grace_s)) cause = kCauseTube;
+    new_cause[a] = cause;
+  }
+  // Collisions between any two aircraft that flew this step: both are out.
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    if (!acted_[i]) continue;
+    for (int b = a + 1; b < n_agent_; ++b) {
+      const int j = base + b;
+      if (!acted_[j]) continue;
+      const Vec3 d = position(sim_, i) - position(sim_, j);
+      if (dot(d, d) < c.collision_radius_ft * c.collision_radius_ft) {
+        if (new_cause[a] == kCauseNone) new_cause[a] = kCauseCollision;
+        if (new_cause[b] == kCauseNone) new_cause[b] = kCauseCollision;
       }
     }
+  }
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    if (new_cause[a] == kCauseNone) continue;
+    alive_[i] = 0;
+    cause_[i] = new_cause[a];
+    step_cause_[i] = new_cause[a];
+    terminated_[i] = 1;
+    st.terminations[new_cause[a]] += 1;
+    sim_.status()[i] = kStatusRetired;  // frozen where it was taken out
+  }
+  compute_ranks(e);
+
+  // Rewards for every aircraft that acted this step.
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    if (!acted_[i]) {
+      ll_reward_[i] = 0.0f;
+      hl_reward_[i] = 0.0f;
+      continue;
+    }
+    hl_reward_[i] = static_cast<float>(race::hl_reward(team_rank_[i], prev_ego_rank_[i], ego_rank_[i]));
+    const Vec3 d = goal_point_[i] - position(sim_, i);
+    const double gd = std::sqrt(dot(d, d));
+    double r = ll_reward_[i];  // already holds the action-change penalty
+    r += c.w_goal_progress * (goal_dist_ft_[i] - gd) / c.goal_scale_ft;
+    r += c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
+    goal_dist_ft_[i] = gd;
+    if (dist_ft_[i] > radius_ft_[i]) r -= c.w_tube * c.dt_ll_s * (dist_ft_[i] - radius_ft_[i]) / radius_ft_[i];
+    const double p = sim_.state(kP)[i], q = sim_.state(kQ)[i], rr = sim_.state(kR)[i];
+    r -= c.w_rates * (p * p + q * q + rr * rr);
+    if (cause_[i] == kCauseCollision && terminated_[i]) r -= c.w_collision;
+    else if (terminated_[i]) r -= c.w_termination;
+    ll_reward_[i] = static_cast<float>(r);
+    prev_ego_rank_[i] = ego_rank_[i];
+  }
+
+  // Race end: finish line, a whole team out, or the time limit.
+  bool finished = false;
+  int team_alive[2] = {0, 0};
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = base + a;
+    team_alive[team_of(a, c.team_size)] += alive_[i];
+    finished = finished || (alive_[i] && progress_ft_[i] >= tracks_[e].length_ft() - c.finish_margin_ft);
+  }
+  const bool eliminated = team_alive[0] == 0 || team_alive[1] == 0;
+  const bool timeout = time_s_[e] >= c.time_limit_s - 1e-9;
+  env_done_[e] = finished || eliminated || timeout;
+  if (env_done_[e]) {
+    st.races_finished = 1;
+    const double tr_blue = team_rank_[base];
+    if (tr_blue == 0.0) st.races_won[0] = 1;
+    else if (tr_blue == 1.0) st.races_won[1] = 1;
+    else st.races_drawn = 1;
+    st.races_by_finish_line = finished;
+    st.races_by_elimination = !finished && eliminated;
+    st.races_by_time_limit = !finished && !eliminated;
+    race_winner_[e] = static_cast<std::int8_t>(tr_blue == 0.0 ? 0 : (tr_blue == 1.0 ? 1 : -1));
+    race_end_[e] = finished ? kEndFinishLine : (eliminated ? kEndElimination : kEndTimeLimit);
     for (int a = 0; a < n_agent_; ++a) {
       const int i = base + a;
       if (!alive_[i]) continue;
-      const double psi_dot = (sim_.state(kQ)[i] * sphi[a] + sim_.state(kR)[i] * cphi[a]) / cth[a];
-      const double nz = sim_.output(kOutNz)[i];
-      const double alt = sim_.state(kAlt)[i];
-      const bool outside = dist_ft_[i] > radius_ft_[i];
-      tube_out_s_[i] = outside ? tube_out_s_[i] + c.dt_ll_s : 0.0;
-      std::int8_t cause = kCauseNone;
-      if (sim_.status()[i] != kStatusOk) cause = kCauseSimulator;
-      else if (alt < c.alt_min_ft || alt > c.alt_max_ft) cause = kCauseAltitude;
-      else if (nz < c.nz_min_g || nz > c.nz_max_g) cause = kCauseLoad;
-      else if (std::fabs(psi_dot) * 180.0 / kPi > c.turn_rate_max_dps) cause = kCauseTurnRate;
-      else if (outside && (c.tube_exit == TubeExit::kTerminate || tube_out_s_[i] > c.tube_grace_s)) cause = kCauseTube;
-      new_cause[a] = cause;
+      st.aircraft_alive_at_end += 1;
+      if (finished || eliminated) terminated_[i] = 1;
+      else truncated_[i] = 1;
     }
-    // Collisions between any two aircraft that flew this step: both are out.
-    for (int a = 0; a < n_agent_; ++a) {
-      const int i = base + a;
-      if (!acted_[i]) continue;
-      for (int b = a + 1; b < n_agent_; ++b) {
-        const int j = base + b;
-        if (!acted_[j]) continue;
-        const Vec3 d = position(sim_, i) - position(sim_, j);
-        if (dot(d, d) < c.collision_radius_ft * c.collision_radius_ft) {
-          if (new_cause[a] == kCauseNone) new_cause[a] = kCauseCollision;
-          if (new_cause[b] == kCauseNone) new_cause[b] = kCauseCollision;
-        }
-      }
+    if (st.races_by_time_limit) {
+      write_observations(e);
+      copy_final_observations(e);
     }
-    for (int a = 0; a < n_agent_; ++a) {
-      const int i = base + a;
-      if (new_cause[a] == kCauseNone) continue;
-      alive_[i] = 0;
-      cause_[i] = new_cause[a];
-      step_cause_[i] = new_cause[a];
-      terminated_[i] = 1;
-      st.terminations[new_cause[a]] += 1;
-      sim_.status()[i] = kStatusRetired;  // frozen where it was taken out
-    }
-    compute_ranks(e);
-
-    // Rewards for every aircraft that acted this step.
-    for (int a = 0; a < n_agent_; ++a) {
-      const int i = base + a;
-      if (!acted_[i]) {
-        ll_reward_[i] = 0.0f;
-        hl_reward_[i] = 0.0f;
-        continue;
-      }
-      hl_reward_[i] = static_cast<float>(race::hl_reward(team_rank_[i], prev_ego_rank_[i], ego_rank_[i]));
-      const Vec3 d = goal_point_[i] - position(sim_, i);
-      const double gd = std::sqrt(dot(d, d));
-      double r = ll_reward_[i];  // already holds the action-change penalty
-      r += c.w_goal_progress * (goal_dist_ft_[i] - gd) / c.goal_scale_ft;
-      r += c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
-      goal_dist_ft_[i] = gd;
-      if (dist_ft_[i] > radius_ft_[i]) r -= c.w_tube * c.dt_ll_s * (dist_ft_[i] - radius_ft_[i]) / radius_ft_[i];
-      const double p = sim_.state(kP)[i], q = sim_.state(kQ)[i], rr = sim_.state(kR)[i];
-      r -= c.w_rates * (p * p + q * q + rr * rr);
-      if (cause_[i] == kCauseCollision && terminated_[i]) r -= c.w_collision;
-      else if (terminated_[i]) r -= c.w_termination;
-      ll_reward_[i] = static_cast<float>(r);
-      prev_ego_rank_[i] = ego_rank_[i];
-    }
-
-    // Race end: finish line, a whole team out, or the time limit.
-    bool finished = false;
-    int team_alive[2] = {0, 0};
-    for (int a = 0; a < n_agent_; ++a) {
-      const int i = base + a;
-      team_alive[team_of(a, c.team_size)] += alive_[i];
-      finished = finished || (alive_[i] && progress_ft_[i] >= tracks_[e].length_ft() - c.finish_margin_ft);
-    }
-    const bool eliminated = team_alive[0] == 0 || team_alive[1] == 0;
-    const bool timeout = time_s_[e] >= c.time_limit_s - 1e-9;
-    env_done_[e] = finished || eliminated || timeout;
-    if (env_done_[e]) {
-      st.races_finished = 1;
-      const double tr_blue = team_rank_[base];
-      if (tr_blue == 0.0) st.races_won[0] = 1;
-      else if (tr_blue == 1.0) st.races_won[1] = 1;
-      else st.races_drawn = 1;
-      st.races_by_finish_line = finished;
-      st.races_by_elimination = !finished && eliminated;
-      st.races_by_time_limit = !finished && !eliminated;
-      race_winner_[e] = static_cast<std::int8_t>(tr_blue == 0.0 ? 0 : (tr_blue == 1.0 ? 1 : -1));
-      race_end_[e] = finished ? kEndFinishLine : (eliminated ? kEndElimination : kEndTimeLimit);
-      for (int a = 0; a < n_agent_; ++a) {
-        const int i = base + a;
-        if (!alive_[i]) continue;
-        st.aircraft_alive_at_end += 1;
-        if (finished || eliminated) terminated_[i] = 1;
-        else truncated_[i] = 1;
-      }
-      if (st.races_by_time_limit) {
-        write_observations(e);
-        copy_final_observations(e);
-      }
-      reset_env(e);
-    } else {
-      hl_time_left_s_[e] -= c.dt_ll_s;
-      if (hl_time_left_s_[e] <= 1e-9) hl_due_[e] = 1;
-    }
-    write_observations(e);
+    reset_env(e);
+  } else {
+    hl_time_left_s_[e] -= c.dt_ll_s;
+    if (hl_time_left_s_[e] <= 1e-9) hl_due_[e] = 1;
   }
-  StepStats total;
-  for (const StepStats& s : per_env) {
-    for (int k = 0; k < kNumCauses; ++k) total.terminations[k] += s.terminations[k];
-    total.races_finished += s.races_finished;
-    total.races_won[0] += s.races_won[0];
-    total.races_won[1] += s.races_won[1];
-    total.races_drawn += s.races_drawn;
-    total.races_by_finish_line += s.races_by_finish_line;
-    total.races_by_elimination += s.races_by_elimination;
-    total.races_by_time_limit += s.races_by_time_limit;
-    total.aircraft_alive_at_end += s.aircraft_alive_at_end;
-  }
-  return total;
+  write_observations(e);
 }
 
 void RaceEnv::write_goal_observation(int i) {
@@ -588,35 +607,28 @@ void RaceEnv::write_observations(int env) {
       ado_alive_[r] = alive_[base + b];
     }
   }
-  // Track preview: gather the center-line points of all aircraft, then one vectorised pass.
+  // Track preview: every (aircraft, point) pair in two vector passes.
   const int np = c.preview_points;
-  float qn[kMaxAgents * kMaxPreview], qe[kMaxAgents * kMaxPreview], qu[kMaxAgents * kMaxPreview];
-  float qr[kMaxAgents * kMaxPreview], qc[kMaxAgents * kMaxPreview], qs[kMaxAgents * kMaxPreview];
-  for (int a = 0; a < na; ++a) {
-    const int i = base + a;
-    const double pn = sim_.state(kPn)[i], pe = sim_.state(kPe)[i], pu = sim_.state(kAlt)[i];
-    for (int p = 0; p < np; ++p) {
-      double radius;
-      const Vec3 q = tr.sample(progress_ft_[i] + (p + 1) * c.preview_spacing_ft, &radius);
-      const int k = a * np + p;
-      qn[k] = static_cast<float>(q.n - pn);
-      qe[k] = static_cast<float>(q.e - pe);
-      qu[k] = static_cast<float>(q.u - pu);
-      qr[k] = static_cast<float>(radius / 2000.0);
-      qc[k] = cs[4][a];
-      qs[k] = sn[4][a];
-    }
-  }
-  float g[4][kMaxAgents * kMaxPreview];
   const int nk = na * np;
+  float qn[kMaxAgents * kMaxPreview], qe[kMaxAgents * kMaxPreview], qu[kMaxAgents * kMaxPreview];
+  float qr[kMaxAgents * kMaxPreview];
+  tr.preview(na, np, c.preview_spacing_ft, &progress_ft_[base], sim_.state(kPn) + base, sim_.state(kPe) + base,
+             sim_.state(kAlt) + base, qn, qe, qu, qr);
+  const float inv_np = 1.0f / static_cast<float>(np);
+  const float* cos_psi = cs[4];
+  const float* sin_psi = sn[4];
+  float g[5][kMaxAgents * kMaxPreview];
 #pragma omp simd
   for (int k = 0; k < nk; ++k) {
-    const float x = qc[k] * qn[k] + qs[k] * qe[k], y = -qs[k] * qn[k] + qc[k] * qe[k], du = qu[k];
+    const int a = static_cast<int>((static_cast<float>(k) + 0.5f) * inv_np);  // k / np, as in Track::preview
+    const float ca = cos_psi[a], sa = sin_psi[a];
+    const float x = ca * qn[k] + sa * qe[k], y = -sa * qn[k] + ca * qe[k], du = qu[k];
     const float rh = std::sqrt(x * x + y * y), rr = std::sqrt(rh * rh + du * du);
     g[0][k] = std::min(rr * (1.0f / 5000.0f), 10.0f);
     g[1][k] = rh > 1e-3f ? y / rh : 0.0f;
     g[2][k] = rh > 1e-3f ? x / rh : 1.0f;
     g[3][k] = rr > 1e-3f ? du / rr : 0.0f;
+    g[4][k] = qr[k] * (1.0f / 2000.0f);
   }
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
@@ -628,7 +640,7 @@ void RaceEnv::write_observations(int env) {
       tp[1] = g[1][k];
       tp[2] = g[2][k];
       tp[3] = g[3][k];
-      tp[4] = qr[k];
+      tp[4] = g[4][k];
     }
     float* u = t + 5 * np;
     u[0] = clampf(lateral_ft_[i] / radius_ft_[i], -10.0, 10.0);

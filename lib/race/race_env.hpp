@@ -8,10 +8,13 @@
 // aircraft (set_hl_actions). Torch-free; see docs/race.md for every number and formula.
 #include <cstdint>
 #include <iosfwd>
+#include <memory>
+#include <memory_resource>
 #include <vector>
 
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
+#include "race/huge_page_memory.hpp"
 #include "race/race_config.hpp"
 #include "race/random_stream.hpp"
 #include "race/track.hpp"
@@ -132,6 +135,8 @@ class RaceEnv {
   void load_state(std::istream& in);
 
  private:
+  void apply_actions(int i0, int i1, const float* actions);
+  void step_env(int env);  // race logic, rewards, resets and observations after the flight step
   void reset_env(int env);
   void update_track_geometry(int env);
   void compute_ranks(int env);
@@ -147,7 +152,9 @@ class RaceEnv {
   std::vector<dynamics::TrimResult> trims_;  // level trims at start_speed every trim_step_ft
   double trim_alt0_ft_ = 0.0, trim_step_ft_ = 50.0;
 
-  // Per env.
+  // Per env. Every track's samples live in one huge-page block, a fixed slice per env.
+  std::unique_ptr<HugePageMemory> track_memory_;
+  std::vector<std::unique_ptr<std::pmr::monotonic_buffer_resource>> track_slices_;
   std::vector<Track> tracks_;
   std::vector<RandomStream> rng_;
   std::vector<double> time_s_, hl_time_left_s_;

@@ -80,6 +80,18 @@ Track Track::generate(const TrackConfig& c, RandomStream& rng) {
   return from_waypoints(std::move(wps), c.spacing_ft);
 }
 
+Track::Track(std::pmr::memory_resource* memory, int max_samples)
+    : samples_(memory), tangents_(memory), frames_(memory) {
+  samples_.reserve(max_samples);
+  tangents_.reserve(max_samples);
+  frames_.reserve(max_samples);
+}
+
+std::size_t Track::storage_bytes(int max_samples) {
+  const std::size_t n = static_cast<std::size_t>(max_samples);
+  return n * (sizeof(Sample) + sizeof(Vec3) + sizeof(SegmentFrame)) + 3 * alignof(SegmentFrame);
+}
+
 Track Track::from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft) {
   if (waypoints.size() < 4) throw std::invalid_argument("a track needs at least 4 waypoints, got " + std::to_string(waypoints.size()));
   if (!(spacing_ft > 0.0)) throw std::invalid_argument("track spacing must be > 0 ft");
@@ -144,6 +156,27 @@ void Track::build(double spacing_ft) {
     const int a = std::max(i - 1, 0), b = std::min(i + 1, m - 1);
     tangents_[i] = normalized(samples_[b].p - samples_[a].p);
   }
+  // Segment frames for project().
+  frames_.resize(m - 1);
+  for (int i = 0; i + 1 < m; ++i) {
+    const Vec3 seg = samples_[i + 1].p - samples_[i].p;
+    const double len = std::max(norm(seg), 1e-9);
+    const Vec3 t = (1.0 / len) * seg;
+    const double th = std::sqrt(t.n * t.n + t.e * t.e);
+    SegmentFrame& g = frames_[i];
+    g.pn = samples_[i].p.n;
+    g.pe = samples_[i].p.e;
+    g.pu = samples_[i].p.u;
+    g.tn = static_cast<float>(t.n);
+    g.te = static_cast<float>(t.e);
+    g.tu = static_cast<float>(t.u);
+    g.rn = static_cast<float>(th > 0.0 ? -t.e / th : 0.0);
+    g.re = static_cast<float>(th > 0.0 ? t.n / th : 1.0);
+    g.len_ft = static_cast<float>(len);
+    g.inv_len = static_cast<float>(1.0 / len);
+    g.radius_ft = static_cast<float>(samples_[i].radius_ft);
+    g.dradius_ft = static_cast<float>(samples_[i + 1].radius_ft - samples_[i].radius_ft);
+  }
 }
 
 Vec3 Track::point_at(double s_ft) const {
@@ -160,6 +193,33 @@ double Track::radius_at(double s_ft) const {
   return samples_[i].radius_ft + f * (samples_[i + 1].radius_ft - samples_[i].radius_ft);
 }
 
+void Track::preview(int n_agents, int n_points, double spacing_ft, const double* progress_ft, const double* pn,
+                    const double* pe, const double* pu, float* d_n, float* d_e, float* d_u, float* radius_ft) const {
+  // sample()'s arithmetic. Indices rather than pointers and plain selects rather than
+  // std::min/max in the loop: either of those stops GCC's vectoriser.
+  static_assert(sizeof(Sample) == 4 * sizeof(double), "Sample must be four packed doubles");
+  const double* smp = &samples_[0].p.n;  // [n_samples, 4]: n, e, u, radius
+  const double s_max = (n_samples() - 1) * spacing_ft_, inv_spacing = 1.0 / spacing_ft_;
+  const int i_max = n_samples() - 2;
+  const int n = n_agents * n_points;
+  const float inv_points = 1.0f / static_cast<float>(n_points);
+#pragma omp simd
+  for (int k = 0; k < n; ++k) {
+    // k = a * n_points + p without an integer division (exact: k < 2^20).
+    const int a = static_cast<int>((static_cast<float>(k) + 0.5f) * inv_points);
+    const int p = k - a * n_points;
+    const double s_raw = progress_ft[a] + (p + 1) * spacing_ft;
+    const double x = (s_raw < 0.0 ? 0.0 : (s_raw > s_max ? s_max : s_raw)) * inv_spacing;
+    const int i = static_cast<int>(x) < i_max ? static_cast<int>(x) : i_max;
+    const double f = x - i;
+    const int lo = 4 * i, hi = lo + 4;
+    d_n[k] = static_cast<float>(smp[lo] + f * (smp[hi] - smp[lo]) - pn[a]);
+    d_e[k] = static_cast<float>(smp[lo + 1] + f * (smp[hi + 1] - smp[lo + 1]) - pe[a]);
+    d_u[k] = static_cast<float>(smp[lo + 2] + f * (smp[hi + 2] - smp[lo + 2]) - pu[a]);
+    radius_ft[k] = static_cast<float>(smp[lo + 3] + f * (smp[hi + 3] - smp[lo + 3]));
+  }
+}
+
 TrackFrame Track::frame_at(double s_ft) const {
   const double x = std::clamp(s_ft, 0.0, (n_samples() - 1) * spacing_ft_) / spacing_ft_;
   const int i = std::min(static_cast<int>(x), n_samples() - 2);
@@ -174,46 +234,44 @@ TrackFrame Track::frame_at(double s_ft) const {
 }
 
 TrackQuery Track::project(const Vec3& pos, int hint) const {
-  const int m = n_samples();
-  auto d2 = [&](int i) {
-    const Vec3 d = pos - samples_[i].p;
-    return dot(d, d);
-  };
-  int i;
+  const int m = n_samples(), n_seg = m - 1;
+  int a;
   if (hint < 0 || hint >= m) {
-    i = 0;  // cold start: global scan (reset, or a user's one-off query)
-    double best = d2(0);
-    for (int k = 1; k < m; ++k) {
-      const double v = d2(k);
-      if (v < best) best = v, i = k;
+    // Cold start (reset, or a user's one-off query): the nearest sample by a global scan.
+    a = 0;
+    double best = 1e300;
+    for (int k = 0; k < m; ++k) {
+      const Vec3 d = pos - samples_[k].p;
+      const double v = dot(d, d);
+      if (v < best) best = v, a = k;
     }
   } else {
-    // Warm start: walk downhill in distance from the previous answer. Tracks never fold back
-    // within a tube radius, so the local minimum is the global one near the aircraft.
-    i = hint;
-    double cur = d2(i);
-    while (i + 1 < m && d2(i + 1) < cur) cur = d2(++i);
-    while (i > 0 && d2(i - 1) < cur) cur = d2(--i);
+    a = hint;
   }
-  // Refine on the neighbouring segment on whichever side the aircraft lies; the segment's own
-  // direction is the local tangent of the resampled center-line.
-  int a = i, b = i + 1;
-  if (i == m - 1 || (i > 0 && dot(pos - samples_[i].p, tangents_[i]) < 0.0)) a = i - 1, b = i;
-  const Vec3 seg = samples_[b].p - samples_[a].p;
-  const double seg2 = std::max(dot(seg, seg), 1e-12);
-  const double f = std::clamp(dot(pos - samples_[a].p, seg) / seg2, 0.0, 1.0);
+  a = std::min(a, n_seg - 1);
+  // How far `pos` lies beyond the end of segment k, along it (> 0: passed).
+  auto beyond = [&](int k) {
+    const SegmentFrame& g = frames_[k];
+    return (pos.n - g.pn) * g.tn + (pos.e - g.pe) * g.te + (pos.u - g.pu) * g.tu - g.len_ft;
+  };
+  // The first segment whose end is not passed. Tracks never fold back within a tube radius, so
+  // this is unique near the aircraft and the walk from any nearby start finds it.
+  while (a + 1 < n_seg && beyond(a) > 0.0) ++a;
+  while (a > 0 && beyond(a - 1) <= 0.0) --a;
+  const SegmentFrame& g = frames_[a];
+  const double dn = pos.n - g.pn, de = pos.e - g.pe, du = pos.u - g.pu;
+  const double f = std::clamp((dn * g.tn + de * g.te + du * g.tu) * g.inv_len, 0.0, 1.0);
   TrackQuery q;
   q.s_ft = (a + f) * spacing_ft_;
-  q.index = i;
-  const Vec3 t = (1.0 / std::sqrt(seg2)) * seg;
-  const double th = std::sqrt(t.n * t.n + t.e * t.e);
-  const Vec3 right = th > 0.0 ? Vec3{-t.e / th, t.n / th, 0.0} : Vec3{0.0, 1.0, 0.0};
-  const Vec3 up = cross(t, right);
-  const Vec3 off = pos - (samples_[a].p + f * seg);
-  q.lateral_ft = dot(off, right);
-  q.vertical_ft = dot(off, up);
+  q.index = a;
+  // Right and up are perpendicular to the segment, so the offsets from its start are the
+  // offsets from the closest point.
+  const double un = -static_cast<double>(g.tu) * g.re, ue = static_cast<double>(g.tu) * g.rn;
+  const double uu = static_cast<double>(g.tn) * g.re - static_cast<double>(g.te) * g.rn;
+  q.lateral_ft = dn * g.rn + de * g.re;
+  q.vertical_ft = dn * un + de * ue + du * uu;
   q.dist_ft = std::sqrt(q.lateral_ft * q.lateral_ft + q.vertical_ft * q.vertical_ft);
-  q.radius_ft = samples_[a].radius_ft + f * (samples_[b].radius_ft - samples_[a].radius_ft);
+  q.radius_ft = g.radius_ft + f * g.dradius_ft;
   return q;
 }
 

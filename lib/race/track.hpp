@@ -3,6 +3,7 @@
 // radius, resampled at a fixed arc-length spacing so queries for many aircraft are O(1) each.
 // Coordinates are AeroBench's: north, east, altitude (up), in feet.
 #include <algorithm>
+#include <memory_resource>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,13 @@ struct TrackQuery {
 class Track {
  public:
   Track() = default;
+  // An empty track whose sample arrays live in `memory` (see RaceEnv: one huge-page block for
+  // all envs), with room for `max_samples` samples so regenerating it never reallocates.
+  // Assigning another track into it copies the samples into that memory; copies of it own
+  // ordinary heap memory.
+  Track(std::pmr::memory_resource* memory, int max_samples);
+  // Bytes that Track(memory, max_samples) takes from `memory`, alignment padding included.
+  static std::size_t storage_bytes(int max_samples);
   // Random track from `rng`; deterministic for a given stream state on every machine.
   static Track generate(const TrackConfig& config, RandomStream& rng);
   // Center-line through given waypoints (at least 4); throws std::invalid_argument otherwise.
@@ -89,9 +97,19 @@ class Track {
     return a.p + f * (b.p - a.p);
   }
   double radius_at(double s_ft) const;
+  // The observations' track preview for n_agents aircraft: point p (0 .. n_points-1) of aircraft
+  // a is the center-line at arc length progress_ft[a] + (p + 1) * spacing_ft (clamped to [0,
+  // length]), written relative to the aircraft's position (pn, pe, pu [ft]) with the local
+  // radius, as float, at k = a * n_points + p of each output. Inputs are the env's contiguous
+  // per-aircraft arrays, read directly: staging them per point with scalar stores would stall
+  // the vector loop until the store buffer drains.
+  // Same values as sample() to float rounding, in one vector pass with gathered samples.
+  void preview(int n_agents, int n_points, double spacing_ft, const double* progress_ft, const double* pn,
+               const double* pe, const double* pu, float* d_n, float* d_e, float* d_u, float* radius_ft) const;
 
   // Closest center-line point to `pos`, searched from `hint` (a previous answer's index, or
-  // -1 for a global search). A warm-started call walks only a few samples: O(1).
+  // -1 for a global search). A warm-started call walks only a few segments: O(1). The answer is
+  // on the first segment whose end the aircraft has not passed, so warm and cold searches agree.
   TrackQuery project(const Vec3& pos, int hint) const;
 
  private:
@@ -103,8 +121,18 @@ class Track {
     Vec3 p;
     double radius_ft;
   };
-  std::vector<Sample> samples_;  // [n_samples] every spacing_ft of arc length
-  std::vector<Vec3> tangents_;   // [n_samples] unit tangents
+  std::pmr::vector<Sample> samples_;  // [n_samples] every spacing_ft of arc length
+  std::pmr::vector<Vec3> tangents_;   // [n_samples] unit tangents
+  // Everything project() needs about segment a (sample a to a+1) in one cache line. The frame
+  // vectors are float: their rounding moves offsets by ~1e-4 ft at 1 000 ft.
+  struct alignas(64) SegmentFrame {
+    double pn, pe, pu;         // sample a [ft]
+    float tn, te, tu;          // unit direction to sample a+1
+    float rn, re;              // unit right, horizontal (up = t x right)
+    float len_ft, inv_len;     // chord length to sample a+1, its inverse
+    float radius_ft, dradius_ft;  // radius at sample a, change to sample a+1
+  };
+  std::pmr::vector<SegmentFrame> frames_;  // [n_samples - 1]
   double spacing_ft_ = 100.0;
   double length_ft_ = 0.0;
 };

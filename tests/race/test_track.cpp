@@ -76,6 +76,60 @@ TEST(Track, WarmStartedProjectionEqualsGlobalSearch) {
   }
 }
 
+TEST(Track, PreviewEqualsSampleForEveryAircraftAndPoint) {
+  // The vectorised preview against sample(), for aircraft off the center-line, over whole
+  // generated tracks including both clamped ends; only the float output rounds.
+  for (std::uint64_t seed = 0; seed < 8; ++seed) {
+    RandomStream rng(seed, 9);
+    const Track t = Track::generate(TrackConfig{}, rng);
+    constexpr int kAgents = 5, kPoints = 7;
+    double progress[kAgents], pn[kAgents], pe[kAgents], pu[kAgents];
+    float dn[kAgents * kPoints], de[kAgents * kPoints], du[kAgents * kPoints], radius[kAgents * kPoints];
+    for (double s0 = -3000.0; s0 < t.length_ft() + 3000.0; s0 += 1234.5) {
+      for (int a = 0; a < kAgents; ++a) {
+        progress[a] = s0 + 371.0 * a;
+        const Vec3 c = t.point_at(progress[a]);
+        pn[a] = c.n + 300.0 * a;
+        pe[a] = c.e - 200.0;
+        pu[a] = c.u + 150.0;
+      }
+      t.preview(kAgents, kPoints, 1500.0, progress, pn, pe, pu, dn, de, du, radius);
+      for (int a = 0; a < kAgents; ++a) {
+        for (int p = 0; p < kPoints; ++p) {
+          const int k = a * kPoints + p;
+          double r_ref;
+          const Vec3 q = t.sample(progress[a] + (p + 1) * 1500.0, &r_ref);
+          ASSERT_NEAR(dn[k], q.n - pn[a], 1e-3) << "seed " << seed << " s " << progress[a] << " p " << p;
+          ASSERT_NEAR(de[k], q.e - pe[a], 1e-3);
+          ASSERT_NEAR(du[k], q.u - pu[a], 1e-3);
+          ASSERT_NEAR(radius[k], r_ref, 1e-3);
+        }
+      }
+    }
+  }
+}
+
+TEST(Track, ProjectionOnACurveIsTheClosestCenterLinePoint) {
+  // Brute force over a fine resampling of the center-line: the projected point is the closest
+  // one to well within a sample spacing, and the offsets reproduce the distance.
+  RandomStream rng(3, 1);
+  const Track t = Track::generate(TrackConfig{}, rng);
+  for (double s = 500.0; s < t.length_ft() - 500.0; s += 777.0) {
+    const TrackFrame f = t.frame_at(s);
+    const Vec3 p = f.center + 600.0 * f.right - 350.0 * f.up;
+    const TrackQuery q = t.project(p, -1);
+    double best = 1e300, best_s = 0.0;
+    for (double u = s - 1000.0; u <= s + 1000.0; u += 1.0) {
+      const Vec3 d = p - t.point_at(u);
+      if (dot(d, d) < best) best = dot(d, d), best_s = u;
+    }
+    EXPECT_NEAR(q.s_ft, best_s, 2.0) << "s=" << s;
+    EXPECT_NEAR(q.dist_ft, std::sqrt(best), 0.5) << "s=" << s;
+    EXPECT_NEAR(q.lateral_ft, 600.0, 2.0);
+    EXPECT_NEAR(q.vertical_ft, -350.0, 2.0);
+  }
+}
+
 TEST(Track, GenerationRespectsItsConstraintsAndIsDeterministic) {
   const TrackConfig c;
   for (std::uint64_t seed = 0; seed < 40; ++seed) {
