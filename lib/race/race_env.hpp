@@ -171,13 +171,16 @@ class RaceEnv {
   std::vector<Vec3> goal_point_;
   std::vector<float> last_action_;  // [N, 3]
 
-  // Outputs.
-  std::vector<float> ego_, prev_action_, goal_obs_, ado_, task_;
-  std::vector<std::uint8_t> ado_alive_;
+  // Outputs. The observation buffers (megabytes, rewritten every step) share one huge-page
+  // block like the tracks.
+  std::unique_ptr<HugePageMemory> obs_memory_;
+  std::unique_ptr<std::pmr::monotonic_buffer_resource> obs_slice_;
+  std::pmr::vector<float> ego_, prev_action_, goal_obs_, ado_, task_;
+  std::pmr::vector<std::uint8_t> ado_alive_;
   std::vector<float> ll_reward_, hl_reward_;
   std::vector<StepStats> step_stats_;  // [n_env], reused every step
-  std::vector<float> final_ego_, final_goal_, final_prev_action_, final_ado_, final_task_;
-  std::vector<std::uint8_t> final_ado_alive_;
+  std::pmr::vector<float> final_ego_, final_goal_, final_prev_action_, final_ado_, final_task_;
+  std::pmr::vector<std::uint8_t> final_ado_alive_;
   void copy_final_observations(int env);
 };
 
