@@ -67,12 +67,21 @@ const char* cause_name(int cause) {
 int task_dim(const RaceConfig& c) { return 5 * c.preview_points + 8; }
 
 namespace {
-// Every observation buffer and its final copy, each padded for alignment.
-std::size_t observation_bytes(const RaceConfig& c) {
-  const std::size_t n = static_cast<std::size_t>(c.n_env) * c.n_agent(), rows = n * (c.n_agent() - 1);
-  const std::size_t floats = n * (kEgoDim + kActionDim + kGoalDim + task_dim(c)) + rows * kAdoDim;
-  return 2 * (floats * sizeof(float) + rows + 6 * 64);
-}
+// Element counts of the observation buffers, and the bytes of all of them plus their final
+// copies (each padded for alignment): the size of the env's huge-page observation block.
+struct ObservationSizes {
+  std::size_t ego, action, goal, ado_rows, ado, task;
+  explicit ObservationSizes(const RaceConfig& c) {
+    const std::size_t n = static_cast<std::size_t>(c.n_env) * c.n_agent();
+    ego = n * kEgoDim;
+    action = n * kActionDim;
+    goal = n * kGoalDim;
+    ado_rows = n * (c.n_agent() - 1);
+    ado = ado_rows * kAdoDim;
+    task = n * task_dim(c);
+  }
+  std::size_t bytes() const { return 2 * ((ego + action + goal + ado + task) * sizeof(float) + ado_rows + 6 * 64); }
+};
 
 F16BatchConfig batch_config(const RaceConfig& c) {
   F16BatchConfig b;
@@ -89,7 +98,7 @@ RaceEnv::RaceEnv(const RaceConfig& config)
       n_agent_(config.n_agent()),
       task_dim_(race::task_dim(config)),
       sim_(batch_config(config)),
-      obs_memory_(std::make_unique<HugePageMemory>(observation_bytes(config))),
+      obs_memory_(std::make_unique<HugePageMemory>(ObservationSizes(config).bytes())),
       obs_slice_(std::make_unique<std::pmr::monotonic_buffer_resource>(obs_memory_->data(), obs_memory_->size(),
                                                                        std::pmr::new_delete_resource())),
       ego_(obs_slice_.get()),
@@ -125,12 +134,7 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   }
 
   const int n = n_aircraft();
-  // Longest possible track: every leg at its maximum length, with a generous allowance for the
-  // spline's arc being longer than the chord. A longer one would still work (its vectors would
-  // grow into ordinary heap memory), only without huge pages.
-  const TrackConfig& tc = config_.track;
-  const int max_samples =
-      static_cast<int>(std::ceil(1.5 * (tc.n_waypoints - 1) * tc.leg_max_ft / tc.spacing_ft)) + 2;
+  const int max_samples = Track::max_samples(config_.track);
   const std::size_t slice_bytes = (Track::storage_bytes(max_samples) + 4095) / 4096 * 4096;
   track_memory_ = std::make_unique<HugePageMemory>(slice_bytes * n_env());
   track_slices_.reserve(n_env());
@@ -169,16 +173,13 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   start_vertical_ft_.assign(n, 0.0);
   goal_point_.assign(n, Vec3{});
   last_action_.assign(static_cast<std::size_t>(n) * kActionDim, 0.0f);
-  const std::size_t n_ego = static_cast<std::size_t>(n) * kEgoDim, n_act = static_cast<std::size_t>(n) * kActionDim;
-  const std::size_t n_goal = static_cast<std::size_t>(n) * kGoalDim;
-  const std::size_t n_rows = static_cast<std::size_t>(n) * (n_agent_ - 1);
-  const std::size_t n_ado = n_rows * kAdoDim, n_task = static_cast<std::size_t>(n) * task_dim_;
-  ego_.assign(n_ego, 0.0f);
-  prev_action_.assign(n_act, 0.0f);
-  goal_obs_.assign(n_goal, 0.0f);
-  ado_.assign(n_ado, 0.0f);
-  ado_alive_.assign(n_rows, 0);
-  task_.assign(n_task, 0.0f);
+  const ObservationSizes sizes(config_);
+  ego_.assign(sizes.ego, 0.0f);
+  prev_action_.assign(sizes.action, 0.0f);
+  goal_obs_.assign(sizes.goal, 0.0f);
+  ado_.assign(sizes.ado, 0.0f);
+  ado_alive_.assign(sizes.ado_rows, 0);
+  task_.assign(sizes.task, 0.0f);
   ll_reward_.assign(n, 0.0f);
   hl_reward_.assign(n, 0.0f);
   step_stats_.assign(n_env(), StepStats{});
@@ -648,7 +649,7 @@ void RaceEnv::write_observations(int env) {
   const float inv_np = 1.0f / static_cast<float>(np);
   const float* cos_psi = cs[4];
   const float* sin_psi = sn[4];
-  float g[5][kMaxAgents * kMaxPreview];
+  float g[4][kMaxAgents * kMaxPreview];
 #pragma omp simd
   for (int k = 0; k < nk; ++k) {
     const int a = static_cast<int>((static_cast<float>(k) + 0.5f) * inv_np);  // k / np, as in Track::preview
@@ -659,7 +660,6 @@ void RaceEnv::write_observations(int env) {
     g[1][k] = rh > 1e-3f ? y / rh : 0.0f;
     g[2][k] = rh > 1e-3f ? x / rh : 1.0f;
     g[3][k] = rr > 1e-3f ? du / rr : 0.0f;
-    g[4][k] = qr[k] * (1.0f / 2000.0f);
   }
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
@@ -671,7 +671,7 @@ void RaceEnv::write_observations(int env) {
       tp[1] = g[1][k];
       tp[2] = g[2][k];
       tp[3] = g[3][k];
-      tp[4] = g[4][k];
+      tp[4] = qr[k] * (1.0f / 2000.0f);
     }
     float* u = t + 5 * np;
     u[0] = clampf(lateral_ft_[i] / radius_ft_[i], -10.0, 10.0);

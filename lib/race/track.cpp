@@ -87,6 +87,10 @@ Track::Track(std::pmr::memory_resource* memory, int max_samples)
   frames_.reserve(max_samples);
 }
 
+int Track::max_samples(const TrackConfig& c) {
+  return static_cast<int>(std::ceil(1.5 * (c.n_waypoints - 1) * c.leg_max_ft / c.spacing_ft)) + 2;
+}
+
 std::size_t Track::storage_bytes(int max_samples) {
   const std::size_t n = static_cast<std::size_t>(max_samples);
   return n * (sizeof(Sample) + sizeof(Vec3) + sizeof(SegmentFrame)) + 3 * alignof(SegmentFrame);

@@ -67,6 +67,9 @@ class Track {
   // Assigning another track into it copies the samples into that memory; copies of it own
   // ordinary heap memory.
   Track(std::pmr::memory_resource* memory, int max_samples);
+  // Samples of the longest track `config` can generate (every leg at its maximum, with a
+  // generous allowance for the spline's arc exceeding the chord): the capacity to reserve.
+  static int max_samples(const TrackConfig& config);
   // Bytes that Track(memory, max_samples) takes from `memory`, alignment padding included.
   static std::size_t storage_bytes(int max_samples);
   // Random track from `rng`; deterministic for a given stream state on every machine.

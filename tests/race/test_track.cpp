@@ -136,6 +136,7 @@ TEST(Track, GenerationRespectsItsConstraintsAndIsDeterministic) {
     RandomStream a(seed, 3), b(seed, 3);
     const Track t1 = Track::generate(c, a), t2 = Track::generate(c, b);
     ASSERT_EQ(t1.waypoints().size(), static_cast<std::size_t>(c.n_waypoints));
+    ASSERT_LE(t1.n_samples(), Track::max_samples(c));  // the env's reserved capacity suffices
     double h0 = 0.0, prev_h = 0.0;
     for (std::size_t k = 0; k < t1.waypoints().size(); ++k) {
       const Waypoint& w = t1.waypoints()[k];
