@@ -1,5 +1,7 @@
 #include "race/race_env.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <istream>
@@ -134,15 +136,14 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   }
 
   const int n = n_aircraft();
-  const int max_samples = Track::max_samples(config_.track);
-  const std::size_t slice_bytes = (Track::storage_bytes(max_samples) + 4095) / 4096 * 4096;
+  const std::size_t slice_bytes = (Track::storage_bytes(config_.track) + 4095) / 4096 * 4096;
   track_memory_ = std::make_unique<HugePageMemory>(slice_bytes * n_env());
   track_slices_.reserve(n_env());
   tracks_.reserve(n_env());
   for (int e = 0; e < n_env(); ++e) {
     track_slices_.push_back(std::make_unique<std::pmr::monotonic_buffer_resource>(
         track_memory_->data() + slice_bytes * e, slice_bytes, std::pmr::new_delete_resource()));
-    tracks_.emplace_back(track_slices_.back().get(), max_samples);
+    tracks_.emplace_back(track_slices_.back().get(), config_.track);
   }
   rng_.reserve(n_env());
   for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(e));
@@ -350,10 +351,19 @@ StepStats RaceEnv::step(const float* actions) {
   for (int e = 0; e < n_envs; ++e) apply_actions(e * n_agent_, (e + 1) * n_agent_, actions);
   sim_.step(c.dt_ll_s / c.substeps, c.substeps);
   sim_.evaluate_outputs();
-  // Static, like the simulator's own loop: each thread reads the states its core just wrote
-  // (measured: dynamic scheduling costs 4 points of overhead at 2 threads).
-#pragma omp parallel for schedule(static)
-  for (int e = 0; e < n_envs; ++e) step_env(e);
+  // Contiguous env ranges per thread, as schedule(static) makes them, like the simulator's own
+  // loop: each thread reads the states its core just wrote (measured: dynamic scheduling costs
+  // 4 points of overhead at 2 threads). The explicit range lets a thread prefetch its next env
+  // without touching one that another thread is updating.
+#pragma omp parallel
+  {
+    const int nt = omp_get_num_threads(), chunk = (n_envs + nt - 1) / nt;
+    const int e0 = std::min(omp_get_thread_num() * chunk, n_envs), e1 = std::min(e0 + chunk, n_envs);
+    for (int e = e0; e < e1; ++e) {
+      if (e + 1 < e1) prefetch_track(e + 1);
+      step_env(e);
+    }
+  }
   StepStats total;
   for (const StepStats& s : step_stats_) {
     for (int k = 0; k < kNumCauses; ++k) total.terminations[k] += s.terminations[k];
@@ -367,6 +377,16 @@ StepStats RaceEnv::step(const float* actions) {
     total.aircraft_alive_at_end += s.aircraft_alive_at_end;
   }
   return total;
+}
+
+// The env's track lines that its step will read (segment frames at its hints, the preview table
+// ahead of its pack) are cold when its turn comes: the simulator step streamed everything else
+// through the cache. Asked for one env ahead, their latency overlaps the current env's work
+// (measured: 5 points of overhead at 1 thread).
+void RaceEnv::prefetch_track(int env) const {
+  const int base = env * n_agent_;
+  tracks_[env].prefetch(n_agent_, &track_hint_[base], &progress_ft_[base],
+                        config_.preview_points * config_.preview_spacing_ft);
 }
 
 // Actions -> references for aircraft [i0, i1) still racing.

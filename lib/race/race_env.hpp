@@ -136,6 +136,7 @@ class RaceEnv {
 
  private:
   void apply_actions(int i0, int i1, const float* actions);
+  void prefetch_track(int env) const;
   void step_env(int env);  // race logic, rewards, resets and observations after the flight step
   void reset_env(int env);
   void update_track_geometry(int env);

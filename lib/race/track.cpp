@@ -80,20 +80,35 @@ Track Track::generate(const TrackConfig& c, RandomStream& rng) {
   return from_waypoints(std::move(wps), c.spacing_ft);
 }
 
-Track::Track(std::pmr::memory_resource* memory, int max_samples)
-    : samples_(memory), tangents_(memory), frames_(memory) {
-  samples_.reserve(max_samples);
-  tangents_.reserve(max_samples);
-  frames_.reserve(max_samples);
+namespace {
+// Entries of the preview table of a track with `n_samples` samples (see preview_table_).
+int preview_entries(int n_samples, int stride) { return (n_samples - 1) / stride + 4; }
+}  // namespace
+
+Track::Track(std::pmr::memory_resource* memory, const TrackConfig& config)
+    : samples_(memory), tangents_(memory), frames_(memory), preview_table_(memory) {
+  const int m = max_samples(config);
+  samples_.reserve(m);
+  tangents_.reserve(m);
+  frames_.reserve(m);
+  preview_table_.reserve(4 * preview_entries(m, preview_stride(config.spacing_ft)));
+}
+
+int Track::preview_stride(double spacing_ft) {
+  // ~500 ft: the cubic's error on the center-line stays ~0.1 ft, and one cache line holds
+  // 2 000 ft of track.
+  return std::max(1, static_cast<int>(std::lround(500.0 / spacing_ft)));
 }
 
 int Track::max_samples(const TrackConfig& c) {
   return static_cast<int>(std::ceil(1.5 * (c.n_waypoints - 1) * c.leg_max_ft / c.spacing_ft)) + 2;
 }
 
-std::size_t Track::storage_bytes(int max_samples) {
-  const std::size_t n = static_cast<std::size_t>(max_samples);
-  return n * (sizeof(Sample) + sizeof(Vec3) + sizeof(SegmentFrame)) + 3 * alignof(SegmentFrame);
+std::size_t Track::storage_bytes(const TrackConfig& config) {
+  const int m = max_samples(config);
+  const std::size_t n = static_cast<std::size_t>(m);
+  const std::size_t table = 4 * sizeof(float) * static_cast<std::size_t>(preview_entries(m, preview_stride(config.spacing_ft)));
+  return n * (sizeof(Sample) + sizeof(Vec3) + sizeof(SegmentFrame)) + table + 4 * alignof(SegmentFrame);
 }
 
 Track Track::from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft) {
@@ -181,6 +196,31 @@ void Track::build(double spacing_ft) {
     g.radius_ft = static_cast<float>(samples_[i].radius_ft);
     g.dradius_ft = static_cast<float>(samples_[i + 1].radius_ft - samples_[i].radius_ft);
   }
+  // Preview table: samples every `stride`, continued along the end tangents with the end radii.
+  const int stride = preview_stride(spacing_ft);
+  preview_step_ft_ = stride * spacing_ft;
+  const int n_entries = preview_entries(m, stride);
+  preview_table_.resize(4 * static_cast<std::size_t>(n_entries));
+  for (int t = 0; t < n_entries; ++t) {
+    const int i = (t - 1) * stride;  // sample index of the entry, outside [0, m) past the ends
+    Vec3 p;
+    double r;
+    if (i < 0) {
+      p = samples_[0].p + (i * spacing_ft) * tangents_[0];
+      r = samples_[0].radius_ft;
+    } else if (i >= m) {
+      p = samples_[m - 1].p + ((i - (m - 1)) * spacing_ft) * tangents_[m - 1];
+      r = samples_[m - 1].radius_ft;
+    } else {
+      p = samples_[i].p;
+      r = samples_[i].radius_ft;
+    }
+    float* e = &preview_table_[4 * static_cast<std::size_t>(t)];
+    e[0] = static_cast<float>(p.n);
+    e[1] = static_cast<float>(p.e);
+    e[2] = static_cast<float>(p.u);
+    e[3] = static_cast<float>(r);
+  }
 }
 
 Vec3 Track::point_at(double s_ft) const {
@@ -199,12 +239,12 @@ double Track::radius_at(double s_ft) const {
 
 void Track::preview(int n_agents, int n_points, double spacing_ft, const double* progress_ft, const double* pn,
                     const double* pe, const double* pu, float* d_n, float* d_e, float* d_u, float* radius_ft) const {
-  // sample()'s arithmetic. Indices rather than pointers and plain selects rather than
-  // std::min/max in the loop: either of those stops GCC's vectoriser.
-  static_assert(sizeof(Sample) == 4 * sizeof(double), "Sample must be four packed doubles");
-  const double* smp = &samples_[0].p.n;  // [n_samples, 4]: n, e, u, radius
-  const double s_max = (n_samples() - 1) * spacing_ft_, inv_spacing = 1.0 / spacing_ft_;
-  const int i_max = n_samples() - 2;
+  // Uniform Catmull-Rom on the preview table, one vector pass over all (aircraft, point) pairs.
+  // Indices rather than pointers, plain selects rather than std::min/max, and no member reads
+  // in the loop: each of those stops GCC's vectoriser.
+  const float* tab = preview_table_.data();  // [n_entries, 4]
+  const double s_max = length_ft_, inv_step = 1.0 / preview_step_ft_;
+  const int j_max = static_cast<int>(preview_table_.size() / 4) - 4;  // entries j .. j+3 are read
   const int n = n_agents * n_points;
   const float inv_points = 1.0f / static_cast<float>(n_points);
 #pragma omp simd
@@ -213,15 +253,35 @@ void Track::preview(int n_agents, int n_points, double spacing_ft, const double*
     const int a = static_cast<int>((static_cast<float>(k) + 0.5f) * inv_points);
     const int p = k - a * n_points;
     const double s_raw = progress_ft[a] + (p + 1) * spacing_ft;
-    const double x = (s_raw < 0.0 ? 0.0 : (s_raw > s_max ? s_max : s_raw)) * inv_spacing;
-    const int i = static_cast<int>(x) < i_max ? static_cast<int>(x) : i_max;
-    const double f = x - i;
-    const int lo = 4 * i, hi = lo + 4;
-    d_n[k] = static_cast<float>(smp[lo] + f * (smp[hi] - smp[lo]) - pn[a]);
-    d_e[k] = static_cast<float>(smp[lo + 1] + f * (smp[hi + 1] - smp[lo + 1]) - pe[a]);
-    d_u[k] = static_cast<float>(smp[lo + 2] + f * (smp[hi + 2] - smp[lo + 2]) - pu[a]);
-    radius_ft[k] = static_cast<float>(smp[lo + 3] + f * (smp[hi + 3] - smp[lo + 3]));
+    const double x = (s_raw < 0.0 ? 0.0 : (s_raw > s_max ? s_max : s_raw)) * inv_step;
+    const int j = static_cast<int>(x) < j_max ? static_cast<int>(x) : j_max;
+    const float f = static_cast<float>(x - j), f2 = f * f, f3 = f2 * f;
+    // Weights of entries j .. j+3, i.e. of the table points at (j-1, j, j+1, j+2) steps.
+    const float w0 = 0.5f * (-f3 + 2.0f * f2 - f), w1 = 0.5f * (3.0f * f3 - 5.0f * f2 + 2.0f);
+    const float w2 = 0.5f * (-3.0f * f3 + 4.0f * f2 + f), w3 = 0.5f * (f3 - f2);
+    const int o = 4 * j;
+    d_n[k] = w0 * tab[o] + w1 * tab[o + 4] + w2 * tab[o + 8] + w3 * tab[o + 12] - static_cast<float>(pn[a]);
+    d_e[k] = w0 * tab[o + 1] + w1 * tab[o + 5] + w2 * tab[o + 9] + w3 * tab[o + 13] - static_cast<float>(pe[a]);
+    d_u[k] = w0 * tab[o + 2] + w1 * tab[o + 6] + w2 * tab[o + 10] + w3 * tab[o + 14] - static_cast<float>(pu[a]);
+    radius_ft[k] = w0 * tab[o + 3] + w1 * tab[o + 7] + w2 * tab[o + 11] + w3 * tab[o + 15];
   }
+}
+
+void Track::prefetch(int n_agents, const int* hints, const double* progress_ft, double horizon_ft) const {
+  for (int a = 0; a < n_agents; ++a) {
+    const int h = hints[a];
+    if (h > 0 && h < static_cast<int>(frames_.size())) {
+      __builtin_prefetch(&frames_[h - 1]);
+      __builtin_prefetch(&frames_[h]);
+    }
+  }
+  double lo = progress_ft[0], hi = progress_ft[0];
+  for (int a = 1; a < n_agents; ++a) lo = std::min(lo, progress_ft[a]), hi = std::max(hi, progress_ft[a]);
+  const int n_entries = static_cast<int>(preview_table_.size() / 4);
+  const int j0 = std::clamp(static_cast<int>(lo / preview_step_ft_), 0, n_entries - 1);
+  const int j1 = std::clamp(static_cast<int>((hi + horizon_ft) / preview_step_ft_) + 4, 0, n_entries - 1);
+  for (int j = j0; j <= j1; j += 4) __builtin_prefetch(&preview_table_[4 * static_cast<std::size_t>(j)]);
+  __builtin_prefetch(&preview_table_[4 * static_cast<std::size_t>(j1)]);
 }
 
 TrackFrame Track::frame_at(double s_ft) const {

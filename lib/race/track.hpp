@@ -62,16 +62,16 @@ struct TrackQuery {
 class Track {
  public:
   Track() = default;
-  // An empty track whose sample arrays live in `memory` (see RaceEnv: one huge-page block for
-  // all envs), with room for `max_samples` samples so regenerating it never reallocates.
-  // Assigning another track into it copies the samples into that memory; copies of it own
-  // ordinary heap memory.
-  Track(std::pmr::memory_resource* memory, int max_samples);
+  // An empty track whose arrays live in `memory` (see RaceEnv: one huge-page block for all
+  // envs), with room for the longest track `config` can generate, so regenerating it never
+  // reallocates. Assigning another track into it copies the arrays into that memory; copies of
+  // it own ordinary heap memory.
+  Track(std::pmr::memory_resource* memory, const TrackConfig& config);
   // Samples of the longest track `config` can generate (every leg at its maximum, with a
   // generous allowance for the spline's arc exceeding the chord): the capacity to reserve.
   static int max_samples(const TrackConfig& config);
-  // Bytes that Track(memory, max_samples) takes from `memory`, alignment padding included.
-  static std::size_t storage_bytes(int max_samples);
+  // Bytes that Track(memory, config) takes from `memory`, alignment padding included.
+  static std::size_t storage_bytes(const TrackConfig& config);
   // Random track from `rng`; deterministic for a given stream state on every machine.
   static Track generate(const TrackConfig& config, RandomStream& rng);
   // Center-line through given waypoints (at least 4); throws std::invalid_argument otherwise.
@@ -106,9 +106,18 @@ class Track {
   // radius, as float, at k = a * n_points + p of each output. Inputs are the env's contiguous
   // per-aircraft arrays, read directly: staging them per point with scalar stores would stall
   // the vector loop until the store buffer drains.
-  // Same values as sample() to float rounding, in one vector pass with gathered samples.
+  // Read from the preview table (cubic interpolation every preview_step_ft()), not the samples:
+  // within ~0.1 ft of sample()'s point, and of its radius away from waypoints (up to ~30 ft
+  // where the radius changes slope at a waypoint); see docs/race.md.
   void preview(int n_agents, int n_points, double spacing_ft, const double* progress_ft, const double* pn,
                const double* pe, const double* pu, float* d_n, float* d_e, float* d_u, float* radius_ft) const;
+  // Starts loading what project() from hints[a] and preview() from progress_ft[a] up to
+  // horizon_ft ahead will read, for n_agents aircraft: called one env ahead so those cache
+  // misses overlap the current env's work.
+  void prefetch(int n_agents, const int* hints, const double* progress_ft, double horizon_ft) const;
+  // Arc-length step of the preview table: the sample spacing times a whole number, ~500 ft.
+  double preview_step_ft() const { return preview_step_ft_; }
+  static int preview_stride(double spacing_ft);
 
   // Closest center-line point to `pos`, searched from `hint` (a previous answer's index, or
   // -1 for a global search). A warm-started call walks only a few segments: O(1). The answer is
@@ -136,6 +145,13 @@ class Track {
     float radius_ft, dradius_ft;  // radius at sample a, change to sample a+1
   };
   std::pmr::vector<SegmentFrame> frames_;  // [n_samples - 1]
+  // Center-line point and radius every preview_step_ft_ of arc length, as float, entry t at arc
+  // length (t - 1) * step, continued straight past both ends (one entry before, three after)
+  // so the cubic never leaves the table. Its ~25 entries per 12 000 ft of preview sit in a
+  // few cache lines shared by the whole pack; the samples behind the same 48 preview points
+  // are ~60 scattered lines, and fetching those was the observations' largest cost.
+  std::pmr::vector<float> preview_table_;  // [n_entries, 4]: n, e, u [ft], radius [ft]
+  double preview_step_ft_ = 500.0;
   double spacing_ft_ = 100.0;
   double length_ft_ = 0.0;
 };

@@ -76,16 +76,20 @@ TEST(Track, WarmStartedProjectionEqualsGlobalSearch) {
   }
 }
 
-TEST(Track, PreviewEqualsSampleForEveryAircraftAndPoint) {
-  // The vectorised preview against sample(), for aircraft off the center-line, over whole
-  // generated tracks including both clamped ends; only the float output rounds.
+TEST(Track, PreviewFollowsTheCenterLineForEveryAircraftAndPoint) {
+  // The preview (cubic on a ~500 ft table) against sample(), for aircraft off the center-line,
+  // over whole generated tracks including both clamped ends. The points agree to ~2 ft at worst
+  // (where the spline's curvature jumps at a waypoint) and a fraction of a foot on average; the
+  // radius, linear between waypoints, is rounded off over one table step around each waypoint.
+  double worst_point = 0.0, worst_radius = 0.0, sum_point = 0.0;
+  int count = 0;
   for (std::uint64_t seed = 0; seed < 8; ++seed) {
     RandomStream rng(seed, 9);
     const Track t = Track::generate(TrackConfig{}, rng);
     constexpr int kAgents = 5, kPoints = 7;
     double progress[kAgents], pn[kAgents], pe[kAgents], pu[kAgents];
     float dn[kAgents * kPoints], de[kAgents * kPoints], du[kAgents * kPoints], radius[kAgents * kPoints];
-    for (double s0 = -3000.0; s0 < t.length_ft() + 3000.0; s0 += 1234.5) {
+    for (double s0 = -3000.0; s0 < t.length_ft() + 3000.0; s0 += 123.4) {
       for (int a = 0; a < kAgents; ++a) {
         progress[a] = s0 + 371.0 * a;
         const Vec3 c = t.point_at(progress[a]);
@@ -99,14 +103,21 @@ TEST(Track, PreviewEqualsSampleForEveryAircraftAndPoint) {
           const int k = a * kPoints + p;
           double r_ref;
           const Vec3 q = t.sample(progress[a] + (p + 1) * 1500.0, &r_ref);
-          ASSERT_NEAR(dn[k], q.n - pn[a], 1e-3) << "seed " << seed << " s " << progress[a] << " p " << p;
-          ASSERT_NEAR(de[k], q.e - pe[a], 1e-3);
-          ASSERT_NEAR(du[k], q.u - pu[a], 1e-3);
-          ASSERT_NEAR(radius[k], r_ref, 1e-3);
+          const double err = std::sqrt(std::pow(dn[k] - (q.n - pn[a]), 2) + std::pow(de[k] - (q.e - pe[a]), 2) +
+                                       std::pow(du[k] - (q.u - pu[a]), 2));
+          worst_point = std::max(worst_point, err);
+          sum_point += err;
+          ++count;
+          worst_radius = std::max(worst_radius, std::fabs(radius[k] - r_ref));
+          ASSERT_LT(err, 2.5) << "seed " << seed << " s " << progress[a] << " p " << p;
+          ASSERT_LT(std::fabs(radius[k] - r_ref), 25.0) << "seed " << seed << " s " << progress[a] << " p " << p;
         }
       }
     }
   }
+  EXPECT_LT(sum_point / count, 0.15);
+  std::printf("preview vs sample(): point error mean %.3f ft, worst %.3f ft; worst radius error %.2f ft\n",
+              sum_point / count, worst_point, worst_radius);
 }
 
 TEST(Track, ProjectionOnACurveIsTheClosestCenterLinePoint) {
