@@ -27,7 +27,7 @@ float clampf(double v, double lo, double hi) { return static_cast<float>(std::mi
 
 // atan2 to ~1e-5 rad (a minimax polynomial on [0, 1] plus octant logic): observations do not
 // need libm's last bits, and it is several times cheaper than the library call.
-float fast_atan2(float y, float x) {
+F16_INLINE float fast_atan2(float y, float x) {  // always inlined: called in vector loops
   const float ax = std::fabs(x), ay = std::fabs(y);
   const float mx = std::max(ax, ay), mn = std::min(ax, ay);
   const float a = mx > 0.0f ? mn / mx : 0.0f;
@@ -37,6 +37,18 @@ float fast_atan2(float y, float x) {
   if (ay > ax) r = 1.57079637f - r;
   if (x < 0.0f) r = 3.14159274f - r;
   return y < 0.0f ? -r : r;
+}
+
+// The HL goal as the LL policy sees it, from the goal's offset from the aircraft (north, east,
+// up [ft]) and the ego heading: range / goal_ahead_ft (<= 10), azimuth / pi, elevation / (pi/2).
+// Inline: write_observations evaluates it in one vector loop over the env's aircraft.
+F16_INLINE void goal_features(float dn, float de, float du, float cos_psi, float sin_psi, float inv_ahead_ft,
+                          float* range, float* azimuth, float* elevation) {
+  const float x = cos_psi * dn + sin_psi * de, y = -sin_psi * dn + cos_psi * de;
+  const float rh = std::sqrt(x * x + y * y);
+  *range = std::min(std::sqrt(rh * rh + du * du) * inv_ahead_ft, 10.0f);
+  *azimuth = fast_atan2(y, x) * static_cast<float>(1.0 / kPi);
+  *elevation = fast_atan2(du, rh) * static_cast<float>(2.0 / kPi);
 }
 
 Vec3 position(const F16Batch& sim, int i) { return {sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]}; }
@@ -545,18 +557,10 @@ void RaceEnv::step_env(int e) {
 void RaceEnv::write_goal_observation(int i) {
   double sin_psi, cos_psi;
   vmath::sincos(sim_.state(kPsi)[i], &sin_psi, &cos_psi);
-  write_goal_observation(i, sin_psi, cos_psi);
-}
-
-void RaceEnv::write_goal_observation(int i, double sin_psi, double cos_psi) {
-  const EgoFrame f{cos_psi, sin_psi};
-  double x, y, z;
-  f.apply(goal_point_[i] - position(sim_, i), &x, &y, &z);
-  const double rh = std::sqrt(x * x + y * y);
+  const Vec3 d = goal_point_[i] - position(sim_, i);
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
-  g[0] = clampf(std::sqrt(rh * rh + z * z) / config_.goal_ahead_ft, 0.0, 10.0);
-  g[1] = fast_atan2(static_cast<float>(y), static_cast<float>(x)) * static_cast<float>(1.0 / kPi);
-  g[2] = fast_atan2(static_cast<float>(z), static_cast<float>(rh)) * static_cast<float>(2.0 / kPi);
+  goal_features(static_cast<float>(d.n), static_cast<float>(d.e), static_cast<float>(d.u), static_cast<float>(cos_psi),
+                static_cast<float>(sin_psi), static_cast<float>(1.0 / config_.goal_ahead_ft), &g[0], &g[1], &g[2]);
 }
 
 void RaceEnv::write_observations(int env) {
@@ -576,8 +580,12 @@ void RaceEnv::write_observations(int env) {
   float px[kMaxAgents] = {}, py[kMaxAgents] = {}, pz[kMaxAgents] = {}, vx[kMaxAgents] = {}, vy[kMaxAgents] = {};
   float vz[kMaxAgents] = {}, prog[kMaxAgents] = {}, alive_f[kMaxAgents] = {};
   float ang[5][kMaxAgents] = {};
+  float gdn[kMaxAgents] = {}, gde[kMaxAgents] = {}, gdu[kMaxAgents] = {};  // goal offsets [ft]
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
+    gdn[a] = static_cast<float>(goal_point_[i].n - sim_.state(kPn)[i]);
+    gde[a] = static_cast<float>(goal_point_[i].e - sim_.state(kPe)[i]);
+    gdu[a] = static_cast<float>(goal_point_[i].u - sim_.state(kAlt)[i]);
     px[a] = static_cast<float>(sim_.state(kPn)[i] - sim_.state(kPn)[base]);
     py[a] = static_cast<float>(sim_.state(kPe)[i] - sim_.state(kPe)[base]);
     pz[a] = static_cast<float>(sim_.state(kAlt)[i] - sim_.state(kAlt)[base]);
@@ -602,8 +610,24 @@ void RaceEnv::write_observations(int env) {
 #pragma omp simd
     for (int a = 0; a < na_pad; ++a) vmath::sincosf(ang[k][a], &sn[k][a], &cs[k][a]);
   }
+  float goal[kGoalDim][kMaxAgents];
+  const float inv_ahead = static_cast<float>(1.0 / c.goal_ahead_ft);
+  const float* cos_psi = cs[4];
+  const float* sin_psi = sn[4];
+#pragma omp simd
+  for (int a = 0; a < na_pad; ++a) {
+    float r, az, el;
+    goal_features(gdn[a], gde[a], gdu[a], cos_psi[a], sin_psi[a], inv_ahead, &r, &az, &el);
+    goal[0][a] = r;
+    goal[1][a] = az;
+    goal[2][a] = el;
+  }
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
+    float* gl = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
+    gl[0] = goal[0][a];
+    gl[1] = goal[1][a];
+    gl[2] = goal[2][a];
     float* o = &ego_[static_cast<std::size_t>(i) * kEgoDim];
     o[0] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
     for (int k = 0; k < 5; ++k) {
@@ -667,8 +691,6 @@ void RaceEnv::write_observations(int env) {
   tr.preview(na, np, c.preview_spacing_ft, &progress_ft_[base], sim_.state(kPn) + base, sim_.state(kPe) + base,
              sim_.state(kAlt) + base, qn, qe, qu, qr);
   const float inv_np = 1.0f / static_cast<float>(np);
-  const float* cos_psi = cs[4];
-  const float* sin_psi = sn[4];
   float g[4][kMaxAgents * kMaxPreview];
 #pragma omp simd
   for (int k = 0; k < nk; ++k) {
@@ -702,7 +724,6 @@ void RaceEnv::write_observations(int env) {
     u[5] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
     u[6] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
     u[7] = static_cast<float>(team_rank_[i]);
-    write_goal_observation(i, sn[4][a], cs[4][a]);
   }
 }
 

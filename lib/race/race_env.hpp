@@ -143,7 +143,6 @@ class RaceEnv {
   void compute_ranks(int env);
   void write_observations(int env);
   void write_goal_observation(int i);
-  void write_goal_observation(int i, double sin_psi, double cos_psi);
   void place_goal(int i, const std::int64_t* bins3);
 
   RaceConfig config_;

@@ -268,12 +268,12 @@ void Track::preview(int n_agents, int n_points, double spacing_ft, const double*
 }
 
 void Track::prefetch(int n_agents, const int* hints, const double* progress_ft, double horizon_ft) const {
+  // project() from hint h reads segment h, h + 1 when the aircraft has passed h's end (about
+  // every other step) and h - 1 otherwise.
+  const int n_frames = static_cast<int>(frames_.size());
   for (int a = 0; a < n_agents; ++a) {
     const int h = hints[a];
-    if (h > 0 && h < static_cast<int>(frames_.size())) {
-      __builtin_prefetch(&frames_[h - 1]);
-      __builtin_prefetch(&frames_[h]);
-    }
+    for (int k = std::max(h - 1, 0); k <= h + 1 && k < n_frames; ++k) __builtin_prefetch(&frames_[k]);
   }
   double lo = progress_ft[0], hi = progress_ft[0];
   for (int a = 1; a < n_agents; ++a) lo = std::min(lo, progress_ft[a]), hi = std::max(hi, progress_ft[a]);
