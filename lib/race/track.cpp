@@ -95,8 +95,8 @@ Track::Track(std::pmr::memory_resource* memory, const TrackConfig& config)
 }
 
 int Track::preview_stride(double spacing_ft) {
-  // ~500 ft: the cubic's error on the center-line stays ~0.1 ft, and one cache line holds
-  // 2 000 ft of track.
+  // ~500 ft: the cubic stays within ~0.1 ft of the center-line on average (~2 ft where the
+  // curvature jumps at a waypoint), and one cache line holds 2 000 ft of track.
   return std::max(1, static_cast<int>(std::lround(500.0 / spacing_ft)));
 }
 

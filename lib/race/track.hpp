@@ -107,8 +107,8 @@ class Track {
   // per-aircraft arrays, read directly: staging them per point with scalar stores would stall
   // the vector loop until the store buffer drains.
   // Read from the preview table (cubic interpolation every preview_step_ft()), not the samples:
-  // within ~0.1 ft of sample()'s point, and of its radius away from waypoints (up to ~30 ft
-  // where the radius changes slope at a waypoint); see docs/race.md.
+  // within ~0.1 ft of sample()'s point on average and ~2 ft at worst, and of its radius away
+  // from waypoints (up to ~20 ft where the radius changes slope at one); see docs/race.md.
   void preview(int n_agents, int n_points, double spacing_ft, const double* progress_ft, const double* pn,
                const double* pe, const double* pu, float* d_n, float* d_e, float* d_u, float* radius_ft) const;
   // Starts loading what project() from hints[a] and preview() from progress_ft[a] up to
@@ -146,8 +146,8 @@ class Track {
   };
   std::pmr::vector<SegmentFrame> frames_;  // [n_samples - 1]
   // Center-line point and radius every preview_step_ft_ of arc length, as float, entry t at arc
-  // length (t - 1) * step, continued straight past both ends (one entry before, three after)
-  // so the cubic never leaves the table. Its ~25 entries per 12 000 ft of preview sit in a
+  // length (t - 1) * step, continued straight past both ends so the cubic never leaves the
+  // table. Its ~25 entries per 12 000 ft of preview sit in a
   // few cache lines shared by the whole pack; the samples behind the same 48 preview points
   // are ~60 scattered lines, and fetching those was the observations' largest cost.
   std::pmr::vector<float> preview_table_;  // [n_entries, 4]: n, e, u [ft], radius [ft]
