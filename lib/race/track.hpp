@@ -147,9 +147,9 @@ class Track {
   std::pmr::vector<SegmentFrame> frames_;  // [n_samples - 1]
   // Center-line point and radius every preview_step_ft_ of arc length, as float, entry t at arc
   // length (t - 1) * step, continued straight past both ends so the cubic never leaves the
-  // table. Its ~25 entries per 12 000 ft of preview sit in a
-  // few cache lines shared by the whole pack; the samples behind the same 48 preview points
-  // are ~60 scattered lines, and fetching those was the observations' largest cost.
+  // table. Its ~25 entries per 12 000 ft of preview sit in a few cache lines shared by the
+  // whole pack; the samples behind the same 48 preview points are ~60 scattered lines, and
+  // fetching those was the observations' largest cost.
   std::pmr::vector<float> preview_table_;  // [n_entries, 4]: n, e, u [ft], radius [ft]
   double preview_step_ft_ = 500.0;
   double spacing_ft_ = 100.0;
