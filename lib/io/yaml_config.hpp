@@ -19,6 +19,8 @@ class ConfigError : public std::runtime_error {
 
 // Loads a YAML file (ConfigError when missing or malformed, with the line).
 YAML::Node load_yaml_file(const std::string& path);
+// Parses YAML text read from `source` (ConfigError naming it and the line when malformed).
+YAML::Node parse_yaml_text(const std::string& text, const std::string& source);
 
 // Applies `key.path=value` overrides (from --set) onto a YAML tree; the value is parsed as YAML,
 // so numbers, booleans, strings and [lists] work. Unknown keys are caught later by the reader.

@@ -4,10 +4,8 @@
 
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <stdexcept>
 
-#include "io/yaml_config.hpp"
 #include "train/obs_views.hpp"
 #include "train/trainer.hpp"
 
@@ -37,30 +35,20 @@ RunPolicy make_policy(TrainConfig cfg) {
 
 }  // namespace
 
-TrainConfig read_run_config(const std::string& run_dir) {
-  const std::string path = run_dir + "/config.yaml";
-  if (!fs::exists(path))
-    throw std::runtime_error(run_dir + ": not a training run (no config.yaml); give a folder written by f16race train");
-  return read_train_config(io::load_yaml_file(path), path);
-}
-
 RunPolicy load_run_policy(const std::string& run_dir) {
-  const TrainConfig cfg = read_run_config(run_dir);
+  const RunConfig run = read_run_config(run_dir);
   const std::string latest = run_dir + "/checkpoint/LATEST";
   std::ifstream f(latest);
   std::string name;
   if (!(f >> name)) throw std::runtime_error(latest + ": missing, so the run has no checkpoint yet; train it first");
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
-  RunPolicy p = make_policy(cfg);
+  RunPolicy p = make_policy(run.config);
   p.name = folder_name(run_dir);
   p.run_dir = run_dir;
   p.checkpoint_dir = dir.string();
   std::string step = "meta.yaml";
   try {
-    std::ifstream c(run_dir + "/config.yaml");
-    std::stringstream text;
-    text << c.rdbuf();
-    p.env_steps = check_checkpoint_meta(dir.string(), config_hash(text.str()));
+    p.env_steps = check_checkpoint_meta(dir.string(), run.hash);
     step = "ll.pt";
     p.ll->load((dir / "ll.pt").string());
     step = "hl.pt";

@@ -24,9 +24,6 @@ struct RunPolicy {
   std::unique_ptr<agents::EsAgent> hl;
 };
 
-// RUN/config.yaml, parsed. Throws std::runtime_error naming the folder when it is not a run.
-TrainConfig read_run_config(const std::string& run_dir);
-
 // Loads the LATEST checkpoint of `run_dir`. Throws std::runtime_error naming the file and the
 // fix when the folder is not a run, has no checkpoint, was written by another config.yaml
 // (hash mismatch) or a checkpoint file is unreadable.

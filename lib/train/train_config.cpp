@@ -2,6 +2,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "io/yaml_config.hpp"
@@ -146,6 +148,20 @@ std::uint64_t config_hash(const std::string& text) {
     h *= 1099511628211ULL;
   }
   return h;
+}
+
+RunConfig read_run_config(const std::string& run_dir) {
+  const std::string path = run_dir + "/config.yaml";
+  std::ifstream f(path, std::ios::binary);
+  if (!std::filesystem::is_regular_file(path) || !f)
+    throw std::runtime_error(run_dir + ": not a training run (no config.yaml); give a folder written by f16race train");
+  std::stringstream text;
+  text << f.rdbuf();
+  RunConfig rc;
+  rc.yaml = text.str();
+  rc.config = read_train_config(io::parse_yaml_text(rc.yaml, path), path);
+  rc.hash = config_hash(rc.yaml);
+  return rc;
 }
 
 }  // namespace f16race::train

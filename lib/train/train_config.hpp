@@ -49,4 +49,14 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
 std::string train_config_yaml(const TrainConfig& config);
 std::uint64_t config_hash(const std::string& resolved_yaml);
 
+// RUN/config.yaml of a training run from one read: parsed, its text, and the hash of that text
+// which the run's checkpoints record. Throws std::runtime_error naming the folder when it is not
+// a run, io::ConfigError naming the file and key when the file is malformed.
+struct RunConfig {
+  TrainConfig config;
+  std::string yaml;
+  std::uint64_t hash = 0;
+};
+RunConfig read_run_config(const std::string& run_dir);
+
 }  // namespace f16race::train

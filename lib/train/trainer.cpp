@@ -14,7 +14,6 @@
 
 #include "agents/checkpoint.hpp"
 #include "io/csv_table.hpp"
-#include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "race/random_stream.hpp"
 #include "train/obs_views.hpp"
@@ -172,13 +171,12 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std
 }
 
 std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir) {
-  const std::string cfg_path = run_dir + "/config.yaml";
-  if (!fs::exists(cfg_path)) throw std::runtime_error(run_dir + ": no config.yaml, so not a training run folder");
+  RunConfig run = read_run_config(run_dir);
   auto st = std::make_unique<State>();
-  st->cfg = read_train_config(io::load_yaml_file(cfg_path), cfg_path);
+  st->cfg = run.config;
   st->run_dir = run_dir;
-  st->resolved_yaml = read_text(cfg_path);
-  st->hash = config_hash(st->resolved_yaml);
+  st->resolved_yaml = std::move(run.yaml);
+  st->hash = run.hash;
   st->build(false);
   st->load_checkpoint();
   return std::unique_ptr<Trainer>(new Trainer(std::move(st)));
