@@ -1,11 +1,16 @@
 #include "io/yaml_config.hpp"
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 namespace f16race::io {
 
 YAML::Node load_yaml_file(const std::string& path) {
+  // A directory opens as a stream that reads nothing: it would pass as an empty config.
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw ConfigError(path + ": is a directory, not a config file; pass the path of a .yaml file");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw ConfigError(path + ": cannot open the config file (check the path)");
   std::stringstream text;

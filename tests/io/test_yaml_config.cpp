@@ -87,6 +87,23 @@ TEST(YamlConfig, MissingFileAndSyntaxErrorsAreOneLine) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/x.yaml: cannot open"), std::string::npos);
   }
+  // A directory opens as an empty stream; it must not pass as an empty (all-defaults) config.
+  const std::string dir = ::testing::TempDir();
+  try {
+    load_yaml_file(dir);
+    FAIL() << "a directory was accepted as a config file";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(": is a directory"), std::string::npos);
+  }
+  try {
+    parse_yaml_text("race:\n  n_env: [1\n", "cfg.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("cfg.yaml:", 0), 0u) << what;  // file and line first
+    EXPECT_NE(what.find("YAML syntax error"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
 }
 
 }  // namespace
