@@ -117,7 +117,7 @@ class Track {
   void prefetch(int n_agents, const int* hints, const double* progress_ft, double horizon_ft) const;
   // Arc-length step of the preview table: the sample spacing times a whole number, ~500 ft.
   double preview_step_ft() const { return preview_step_ft_; }
-  static int preview_stride(double spacing_ft);
+  static int preview_stride(double spacing_ft);  // that whole number, for a sample spacing
 
   // Closest center-line point to `pos`, searched from `hint` (a previous answer's index, or
   // -1 for a global search). A warm-started call walks only a few segments: O(1). The answer is
