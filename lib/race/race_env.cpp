@@ -555,12 +555,13 @@ void RaceEnv::step_env(int e) {
 }
 
 void RaceEnv::write_goal_observation(int i) {
-  double sin_psi, cos_psi;
-  vmath::sincos(sim_.state(kPsi)[i], &sin_psi, &cos_psi);
+  // The same float arithmetic as write_observations' pass, so both write the same values.
+  float sin_psi, cos_psi;
+  vmath::sincosf(static_cast<float>(sim_.state(kPsi)[i]), &sin_psi, &cos_psi);
   const Vec3 d = goal_point_[i] - position(sim_, i);
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
-  goal_features(static_cast<float>(d.n), static_cast<float>(d.e), static_cast<float>(d.u), static_cast<float>(cos_psi),
-                static_cast<float>(sin_psi), static_cast<float>(1.0 / config_.goal_ahead_ft), &g[0], &g[1], &g[2]);
+  goal_features(static_cast<float>(d.n), static_cast<float>(d.e), static_cast<float>(d.u), cos_psi, sin_psi,
+                static_cast<float>(1.0 / config_.goal_ahead_ft), &g[0], &g[1], &g[2]);
 }
 
 void RaceEnv::write_observations(int env) {
@@ -694,7 +695,7 @@ void RaceEnv::write_observations(int env) {
   float g[4][kMaxAgents * kMaxPreview];
 #pragma omp simd
   for (int k = 0; k < nk; ++k) {
-    const int a = static_cast<int>((static_cast<float>(k) + 0.5f) * inv_np);  // k / np, as in Track::preview
+    const int a = Track::preview_agent(k, inv_np);
     const float ca = cos_psi[a], sa = sin_psi[a];
     const float x = ca * qn[k] + sa * qe[k], y = -sa * qn[k] + ca * qe[k], du = qu[k];
     const float rh = std::sqrt(x * x + y * y), rr = std::sqrt(rh * rh + du * du);

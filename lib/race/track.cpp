@@ -249,8 +249,7 @@ void Track::preview(int n_agents, int n_points, double spacing_ft, const double*
   const float inv_points = 1.0f / static_cast<float>(n_points);
 #pragma omp simd
   for (int k = 0; k < n; ++k) {
-    // k = a * n_points + p without an integer division (exact: k < 2^20).
-    const int a = static_cast<int>((static_cast<float>(k) + 0.5f) * inv_points);
+    const int a = preview_agent(k, inv_points);
     const int p = k - a * n_points;
     const double s_raw = progress_ft[a] + (p + 1) * spacing_ft;
     const double x = (s_raw < 0.0 ? 0.0 : (s_raw > s_max ? s_max : s_raw)) * inv_step;

@@ -111,6 +111,12 @@ class Track {
   // from waypoints (up to ~20 ft where the radius changes slope at one); see docs/race.md.
   void preview(int n_agents, int n_points, double spacing_ft, const double* progress_ft, const double* pn,
                const double* pe, const double* pu, float* d_n, float* d_e, float* d_u, float* radius_ft) const;
+  // The aircraft a of preview index k = a * n_points + p, given 1 / n_points: a float multiply
+  // instead of an integer division, which GCC does not vectorise (exact for k < 2^20). Forced
+  // inline: an outlined call, even an inlinable one, stops the `omp simd` loops that use it.
+  [[gnu::always_inline]] static int preview_agent(int k, float inv_points) {
+    return static_cast<int>((static_cast<float>(k) + 0.5f) * inv_points);
+  }
   // Starts loading what project() from hints[a] and preview() from progress_ft[a] up to
   // horizon_ft ahead will read, for n_agents aircraft: called one env ahead so those cache
   // misses overlap the current env's work.
