@@ -54,9 +54,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
     step = "hl.pt";
     p.hl->load((dir / "hl.pt").string());
   } catch (const std::exception& e) {
-    std::string what = e.what();
-    if (const auto nl = what.find('\n'); nl != std::string::npos) what = what.substr(0, nl);
-    throw std::runtime_error((dir / step).string() + ": cannot load the policy (" + what.substr(0, 160) +
+    throw std::runtime_error((dir / step).string() + ": cannot load the policy (" + checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");
   }
   return p;

@@ -614,6 +614,13 @@ void Trainer::State::save_checkpoint() {
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
 }
 
+std::string checkpoint_error_reason(const std::exception& e) {
+  std::string what = e.what();
+  if (const auto nl = what.find('\n'); nl != std::string::npos) what.resize(nl);
+  if (what.size() > 160) what.resize(160);
+  return what;
+}
+
 std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash) {
   const YAML::Node meta = YAML::LoadFile(checkpoint_dir + "/meta.yaml");
   if (meta["format"].as<int>() != kCheckpointFormat)
@@ -629,13 +636,16 @@ void Trainer::State::load_checkpoint() {
   if (!fs::exists(latest)) throw std::runtime_error(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing)");
   const std::string name = read_text(latest);
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
-  const std::string where = dir.string();
+  fs::path file = dir / "meta.yaml";  // the file being read, for the error message
   try {
     check_checkpoint_meta(dir.string(), hash);
-    ppo->load((dir / "ll.pt").string());
-    es->load((dir / "hl.pt").string());
+    file = dir / "ll.pt";
+    ppo->load(file.string());
+    file = dir / "hl.pt";
+    es->load(file.string());
+    file = dir / "trainer.pt";
     torch::serialize::InputArchive a;
-    a.load_from((dir / "trainer.pt").string());
+    a.load_from(file.string());
     // A fresh tensor per key: reading into a defined tensor would reuse (and reinterpret) it.
     auto get = [&](const char* key) {
       torch::Tensor x;
@@ -695,11 +705,15 @@ void Trainer::State::load_checkpoint() {
     steps_at_row = env_steps;
     if (opponent >= 0) {
       const fs::path pd = fs::path(run_dir) / "pool" / step_name(opponent);
-      opp_ppo->load((pd / "ll.pt").string());
-      opp_es->load((pd / "hl.pt").string());
+      file = pd / "ll.pt";
+      opp_ppo->load(file.string());
+      file = pd / "hl.pt";
+      opp_es->load(file.string());
     }
   } catch (const std::exception& e) {
-    throw std::runtime_error(where + ": cannot resume from this checkpoint: " + std::string(e.what()));
+    throw std::runtime_error(file.string() + ": cannot resume from this checkpoint (" +
+                             checkpoint_error_reason(e) +
+                             "); the file is corrupt, truncated or from another build: restore it or train again");
   }
   // Drop metrics rows written after this checkpoint (the resumed run writes them again).
   const std::string mpath = run_dir + "/metrics.csv";

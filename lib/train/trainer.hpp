@@ -9,6 +9,7 @@
 //   RUN/pool/step_N/         self-play snapshots (ll.pt, hl.pt)
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <memory>
 #include <string>
@@ -24,6 +25,10 @@ inline constexpr int kCheckpointFormat = 1;
 // Reads CHECKPOINT_DIR/meta.yaml and returns its env_steps; throws std::runtime_error (the caller
 // adds the path) unless it has this build's format and was written under `expected_config_hash`.
 std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash);
+
+// The one-line reason of a failed checkpoint read, for a message that names the file and the fix:
+// LibTorch's errors carry a C++ backtrace after their first line. Cut to 160 characters.
+std::string checkpoint_error_reason(const std::exception& e);
 
 // Self-play matchups, drawn per race from the trainer's own stream (deterministic per seed).
 struct Matchup {

@@ -118,6 +118,10 @@ TEST(Trainer, RefusesToOverwriteARunAndRefusesACorruptCheckpoint) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("cannot resume from this checkpoint"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    // One line naming the file and the fix, not LibTorch's backtrace.
+    EXPECT_NE(std::string(e.what()).find(name + "/trainer.pt: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("restore it or train again"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
   }
   EXPECT_EQ(fs::file_size(ck), size / 2);  // nothing was overwritten by the failed attempt
 }
