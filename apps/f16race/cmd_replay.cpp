@@ -42,9 +42,11 @@ void run_replay_command(const ReplayCliOptions& o) {
 void add_replay_command(CLI::App& app) {
   auto o = std::make_shared<ReplayCliOptions>();
   CLI::App* cmd = app.add_subcommand("replay", "Race a trained run once; write trajectories, a figure and a Tacview file");
-  cmd->add_option("--run", o->replay.run, "Run folder (blue team)")->required();
+  cmd->add_option("--run", o->replay.run,
+                  "Run folder (blue team); RUN@center or RUN@random flies its low level under a fixed high level")
+      ->required();
   cmd->add_option("--opponent", o->replay.opponent,
-                  "Red team: a run folder, self (default), untrained or scripted");
+                  "Red team: a run folder (@center / @random allowed), self (default), untrained or scripted");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start");
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--out", o->out, "Output folder");

@@ -1,5 +1,6 @@
-// `f16race tournament`: round-robin between trained runs (and the untrained networks), with
-// per-variant mean +- std, IQM with a stratified-bootstrap CI, a pairing table and figures.
+// `f16race tournament`: round-robin between trained runs (and the untrained networks, and
+// optionally fixed-HL controls), with per-variant mean +- std, IQM with a stratified-bootstrap
+// CI, a pairing table and figures.
 #include <omp.h>
 #include <torch/torch.h>
 #include <unistd.h>
@@ -52,7 +53,8 @@ void run(const eval::TournamentOptions& o) {
   std::printf("%s", std::string(std::istreambuf_iterator<char>(md), {}).c_str());
   std::printf("%zu races in %.1f s\n", r.races.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json, tournament.png}\n", o.out_dir.c_str());
+  std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json, tournament.png, pairings.png}\n",
+              o.out_dir.c_str());
 }
 
 }  // namespace
@@ -64,11 +66,18 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_option("--runs", o->runs, "Run folders (written by f16race train)")->required();
   cmd->add_option("--races", o->races_per_pair, "Races per pair of entries (sides swapped in half)")
       ->check(CLI::Range(2, 1000000));
-  cmd->add_option("--seed", o->seed, "Seed of the tracks and starts");
+  cmd->add_option("--seed", o->seed, "Seed of the tracks and starts (and of the @random controls)");
   cmd->add_option("--epsilon", o->epsilon, "HL exploration while evaluating (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--batch", o->batch_envs, "Races run at once")->check(CLI::Range(1, 100000));
   cmd->add_option("--bootstrap", o->bootstrap_replicates, "Bootstrap replicates for the IQM CI")->check(CLI::Range(100, 1000000));
-  cmd->add_flag("!--no-untrained", o->include_untrained, "Leave out the built-in untrained entry");
+  CLI::Option* no_untrained =
+      cmd->add_flag("!--no-untrained", o->include_untrained, "Leave out the built-in untrained entry");
+  cmd->add_flag("--with-untrained", o->untrained_in_statistics,
+                "Count the untrained entry in the per-variant statistics (by default it is only listed)")
+      ->excludes(no_untrained);
+  cmd->add_flag("--controls", o->controls,
+                "Add RUN@center and RUN@random for every run: its low level under a fixed high level (middle bin, "
+                "or uniform random bins); listed, never in the variant statistics");
   cmd->add_option("--out", o->out_dir, "Output folder");
   cmd->callback([o]() { run(*o); });
 }

@@ -105,10 +105,10 @@ void run_train(const TrainOptions& o) {
     char line[400];
     std::snprintf(line, sizeof line,
                   "%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | win %.2f | finish %.2f | "
-                  "LL ret %6.2f | HL ret %6.2f",
+                  "LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, off-center %.2f",
                   100.0 * frac, fmt_time(r.wall_s).c_str(), fmt_time(eta).c_str(), static_cast<long long>(r.update),
                   r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.winrate, r.finish_rate, r.ll_return,
-                  r.hl_return);
+                  r.hl_return, r.q_spread, r.off_center_share);
     if (tty) {
       const int width = 28, filled = static_cast<int>(frac * width);
       std::printf("\r[%s%s] %s\x1b[K", std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), line);
@@ -130,8 +130,9 @@ void run_train(const TrainOptions& o) {
   const Trend fin = trend(sum.rows, &train::MetricsRow::finish_rate);
   const Trend hl = trend(sum.rows, &train::MetricsRow::hl_return);
   const Trend ll = trend(sum.rows, &train::MetricsRow::ll_return);
-  std::printf("done: %lld updates, %lld env steps\n", static_cast<long long>(sum.updates),
-              static_cast<long long>(sum.env_steps));
+  std::printf("done: %lld updates, %lld env steps, %lld HL gradient steps\n", static_cast<long long>(sum.updates),
+              static_cast<long long>(sum.env_steps), static_cast<long long>(sum.hl_grad_steps));
+  if (!sum.curves_problem.empty()) std::printf("no curves.png: %s\n", sum.curves_problem.c_str());
   std::printf("first -> last tenth: goal distance %.0f -> %.0f ft, finish rate %.2f -> %.2f, "
               "LL return %.2f -> %.2f, HL return %.2f -> %.2f\n",
               goal.first, goal.last, fin.first, fin.last, ll.first, ll.last, hl.first, hl.last);

@@ -239,6 +239,21 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
   return a;
 }
 
+void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stats) {
+  torch::NoGradGuard no_grad;
+  const int64_t n = q.size(0);
+  if (n == 0) return;
+  const bool decoupled = q.dim() == 3;
+  const auto greedy = decoupled ? q.argmax(2) : decode_joint_index(q.argmax(1), n_bins);  // [N, 3]
+  const auto spread = decoupled ? (std::get<0>(q.max(2)) - std::get<0>(q.min(2))).mean()
+                                : (std::get<0>(q.max(1)) - std::get<0>(q.min(1))).mean();
+  stats->q_spread = spread.item<double>();
+  const auto share = torch::one_hot(greedy, n_bins).to(torch::kFloat64).mean(0);  // [3, n_bins]
+  const auto entropy = -(share * share.clamp_min(1e-300).log()).sum(1).mean();
+  stats->greedy_entropy = n_bins > 1 ? entropy.item<double>() / std::log(static_cast<double>(n_bins)) : 0.0;
+  stats->off_center_share = (greedy != n_bins / 2).any(1).to(torch::kFloat64).mean().item<double>();
+}
+
 EsStats EsAgent::update(const EsBatch& batch) {
   check_tensor(batch.actions, "actions", {-1, -1, 3}, torch::kInt64);
   const int64_t t = batch.actions.size(0), n_a = batch.actions.size(1);
@@ -269,6 +284,23 @@ EsStats EsAgent::update(const EsBatch& batch) {
   }
 
   EsStats stats;
+  {
+    torch::NoGradGuard no_grad;
+    const auto rows = active.reshape({-1}).nonzero().squeeze(1);
+    const auto out = critic_(obs);
+    es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, &stats);
+    const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
+                           cfg_.component_ce_weight);
+    stats.loss_before = l.loss.item<double>();
+    if (cfg_.variant == EsVariant::kEsD3) {
+      const auto k = target.dist.size(1);
+      const auto ends = target.dist.select(1, 0) + target.dist.select(1, k - 1);
+      stats.end_atom_share = masked_mean(ends, active.any(1)).item<double>();
+    } else {
+      const auto beyond = ((l.prediction - target.value).abs() > cfg_.huber_delta).to(torch::kFloat32);
+      stats.huber_share = masked_mean(beyond, l.valid).item<double>();
+    }
+  }
   double loss_sum = 0.0, q_sum = 0.0, td_sum = 0.0;
   int64_t n_steps = 0;
   const auto aircraft = torch::arange(n_a, torch::kInt64);
@@ -300,6 +332,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     stats.target_synced = true;
   }
   const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
+  stats.grad_steps = n_steps;
   stats.loss = loss_sum / n;
   stats.q_mean = q_sum / n;
   stats.td_abs_mean = td_sum / n;

@@ -29,6 +29,7 @@
 // n_PPO,step = 32 LL steps per env per PPO update.
 #include <torch/torch.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -56,8 +57,11 @@ struct EsConfig {
   std::vector<int64_t> hidden{64, 64};
   int64_t n_bins = 7;     // paper Table I n_ES,bin
   int64_t n_atoms = 51;   // es_d3 only (C51)
-  double v_min = -10.0;   // es_d3 atom support [v_min, v_max]
-  double v_max = 10.0;
+  double v_min = -10.0;   // es_d3 atom support [v_min, v_max] (the trainer derives it, see
+  double v_max = 10.0;    // train::resolve_hl_scales)
+  // Factor on the HL reward summed over an interval, applied by the trainer (the agent sees the
+  // scaled reward). The trainer's default is dt_ll / dt_hl: the interval's mean reward.
+  double reward_scale = 1.0;
   double gamma = 0.99;    // per HL decision
   double epsilon = 0.1;   // paper Table I eps_ES
   int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
@@ -106,8 +110,21 @@ struct EsStats {
   double td_abs_mean = 0.0;
   double grad_norm = 0.0;    // before clipping, last gradient step
   int64_t update_index = 0;  // updates done, including this one
+  int64_t grad_steps = 0;    // gradient steps of this update
   bool target_synced = false;
+  // Diagnostics of the online critic on the batch before the update (rows that took the
+  // decision). Does the high level choose anything, and do its targets fit its critic?
+  double loss_before = 0.0;        // loss on the batch before any step of this update: new data, so held out
+  double q_spread = 0.0;           // mean over rows (and dimensions) of max_b Q - min_b Q
+  double greedy_entropy = 0.0;     // entropy of the greedy bins over the batch / log(n_bins), mean over dims
+  double off_center_share = 0.0;   // rows whose greedy bins differ from the middle bin on some axis
+  double end_atom_share = std::nan("");  // es_d3: mean target mass on the two end atoms
+  double huber_share = std::nan("");     // es, es_d1, es_d2: share of |TD error| > huber_delta
 };
+
+// Diagnostics of q (decoupled [N, 3, n_bins] or joint [N, n_bins^3]) over rows: fills q_spread,
+// greedy_entropy and off_center_share of `stats`.
+void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stats);
 
 // --- pure pieces of the update, exposed for tests -------------------------------------------
 // Expectation of q [N, n_bins^3] under the per-dimension eps-greedy policy of its joint argmax -> [N].

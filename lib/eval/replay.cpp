@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "eval/tournament.hpp"
 #include "race/race_env.hpp"
 #include "race/scripted_pilot.hpp"
 #include "train/obs_views.hpp"
@@ -20,18 +21,29 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// One team's pilots: a learned policy, or the built-in scripted pilot (policy empty).
+// One team's pilots: a learned policy (with its own HL, or a fixed HL rule as the tournament's
+// RUN@center / RUN@random controls), or the built-in scripted pilot (policy empty).
 struct Side {
   std::string name;
   std::optional<train::RunPolicy> policy;
+  HlOverride hl = HlOverride::none;
 };
 
+std::string with_rule(const std::string& name, HlOverride rule) {
+  return rule == HlOverride::none ? name : name + "@" + hl_override_name(rule);
+}
+
 Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint64_t seed) {
-  if (spec == "scripted") return Side{"scripted", std::nullopt};
-  if (spec == "untrained") return Side{"untrained", train::untrained_policy(blue->config, seed)};
-  train::RunPolicy p = train::load_run_policy(spec);
+  const auto [path, rule] = parse_entry_spec(spec);
+  if (path == "scripted") {
+    if (rule != HlOverride::none) throw std::runtime_error(spec + ": the scripted pilot has no high level to fix");
+    return Side{"scripted", std::nullopt};
+  }
+  if (path == "untrained") return Side{with_rule("untrained", rule), train::untrained_policy(blue->config, seed), rule};
+  train::RunPolicy p = train::load_run_policy(path);
   train::check_same_race_shape(*blue, p);
-  return Side{p.name, std::move(p)};
+  const std::string name = with_rule(p.name, rule);
+  return Side{name, std::move(p), rule};
 }
 
 std::string seconds(double t) {
@@ -44,8 +56,9 @@ std::string seconds(double t) {
 
 ReplayResult run_replay(const ReplayOptions& o) {
   torch::NoGradGuard no_grad;
-  Side blue{"", train::load_run_policy(o.run)};
-  blue.name = blue.policy->name;
+  const auto [blue_path, blue_rule] = parse_entry_spec(o.run);
+  Side blue{"", train::load_run_policy(blue_path), blue_rule};
+  blue.name = with_rule(blue.policy->name, blue_rule);
   const std::string opp = o.opponent.empty() || o.opponent == "self" ? o.run : o.opponent;
   Side red = make_side(opp, &*blue.policy, o.seed);
 
@@ -60,6 +73,7 @@ ReplayResult run_replay(const ReplayOptions& o) {
   race::ScriptedPilotConfig pilot;
   pilot.speed_ftps = rc.start_speed_ftps;
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
+  race::RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
   for (int a = 0; a < n_agent; ++a) learned[a] = (a < ts ? blue : red).policy.has_value();
   // Rows [first, last) of the aircraft a side flies.
@@ -76,7 +90,11 @@ ReplayResult run_replay(const ReplayOptions& o) {
       for (int team = 0; team < 2; ++team) {
         const Side& s = team == 0 ? blue : red;
         if (!s.policy) continue;  // the scripted pilot keeps the center-line goal
-        copy_rows(s.policy->hl->act(obs, o.epsilon, gen).bins, team * ts, (team + 1) * ts, bins.data());
+        if (s.hl != HlOverride::none)
+          fixed_hl_bins(s.hl, rc.hl_bins, ts, control_rng,
+                        bins.data() + static_cast<std::size_t>(team * ts) * race::kHlDims);
+        else
+          copy_rows(s.policy->hl->act(obs, o.epsilon, gen).bins, team * ts, (team + 1) * ts, bins.data());
       }
       env.set_hl_actions(bins.data());
       rec.record_goals(env, due.data(), learned.data());

@@ -9,8 +9,12 @@
 namespace f16race::eval {
 
 struct ReplayOptions {
-  std::string run;       // blue: a run folder written by `f16race train`
-  std::string opponent;  // red: a run folder, "self" (default: the same run), "untrained" or "scripted"
+  // blue: a run folder written by `f16race train`; "RUN@center" / "RUN@random" flies the run's
+  // low level under the tournament's fixed HL rules (see eval/tournament.hpp)
+  std::string run;
+  // red: a run folder (with an optional @center / @random), "self" (default: the same spec as
+  // `run`), "untrained" or "scripted"
+  std::string opponent;
   std::uint64_t seed = 1;  // track and starting positions
   double epsilon = 0.0;    // HL exploration of both teams
 };

@@ -65,4 +65,14 @@ Interval iqm_with_ci(const std::vector<std::vector<double>>& scores, int replica
   return out;
 }
 
+Interval wilson_interval(double successes, double trials, double z) {
+  if (!(trials > 0.0)) return Interval{std::nan(""), std::nan(""), std::nan("")};
+  const double p = successes / trials, z2 = z * z;
+  const double denom = 1.0 + z2 / trials;
+  const double centre = (p + z2 / (2.0 * trials)) / denom;
+  const double half = z * std::sqrt(p * (1.0 - p) / trials + z2 / (4.0 * trials * trials)) / denom;
+  // At p = 0 (1) the lower (upper) bound is exactly 0 (1); rounding would leave ~1e-19.
+  return Interval{p, p <= 0.0 ? 0.0 : std::max(0.0, centre - half), p >= 1.0 ? 1.0 : std::min(1.0, centre + half)};
+}
+
 }  // namespace f16race::eval

@@ -27,4 +27,9 @@ struct Interval {
 Interval iqm_with_ci(const std::vector<std::vector<double>>& scores, int replicates = 2000, double alpha = 0.05,
                      std::uint64_t seed = 0);
 
+// Wilson score interval of a binomial proportion: `successes` of `trials` (successes may be
+// fractional, e.g. draws counted half), z = 1.96 for 95 %. point = successes / trials; lo and
+// hi are clamped to [0, 1] (exactly 0 / 1 at p = 0 / 1). NaN everywhere when trials is 0.
+Interval wilson_interval(double successes, double trials, double z = 1.959963984540054);
+
 }  // namespace f16race::eval

@@ -1,18 +1,48 @@
 #pragma once
 // Round-robin tournaments between trained runs (and a built-in untrained entry), raced in large
-// batches on the batched simulator with both teams acting greedily.
+// batches on the batched simulator with both teams acting greedily. Optional control entries fly
+// a run's trained low level under a fixed high level, to show what the high level adds.
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "race/random_stream.hpp"
+
 namespace f16race::eval {
+
+// Where a team's HL goal bins come from: its run's trained HL policy, or a fixed rule.
+enum class HlOverride {
+  none,    // the run's HL policy (greedy unless --epsilon)
+  center,  // the middle bin (hl_bins / 2) on every axis: goals on the center-line
+  random,  // uniform random bins per aircraft and axis at each HL decision
+};
+
+// "policy", "center", "random"; the suffix of a control entry's name is "@" + this name.
+const char* hl_override_name(HlOverride rule);
+
+// Splits an entry spec "RUN@center" / "RUN@random" into the run folder and the rule; any other
+// spec (including one with another "@...") is a plain run folder with HlOverride::none.
+std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec);
+
+// The one place fixed HL rules are applied: writes the bins of `n_aircraft` aircraft (3 axes
+// each, aircraft-major) into `out`. center: hl_bins / 2 everywhere, `rng` untouched; random:
+// uniform in [0, hl_bins), three draws per aircraft from `rng` in aircraft order. `rule` must not
+// be none (that is the run's policy).
+void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, race::RandomStream& rng, std::int64_t* out);
+
+// The random stream of the @random rule in env `env` of a tournament (or replay) seeded `seed`:
+// independent of the track streams, and of the thread count (drawn serially, per env).
+race::RandomStream control_stream(std::uint64_t seed, int env);
 
 struct TournamentOptions {
   std::vector<std::string> runs;  // run folders written by `f16race train`
   bool include_untrained = true;  // adds the entry "untrained": the networks before any update
+  bool untrained_in_statistics = false;  // counts "untrained" in the per-variant statistics
+  bool controls = false;          // adds RUN@center and RUN@random for every run
   int races_per_pair = 64;        // half with each side
-  std::uint64_t seed = 1;         // tracks and starting positions
+  std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams
   double epsilon = 0.0;           // HL exploration during evaluation
   int batch_envs = 256;           // races run at once
   int bootstrap_replicates = 2000;
@@ -20,11 +50,21 @@ struct TournamentOptions {
 };
 
 struct Entry {
-  std::string name;     // folder name, or "untrained"
+  std::string name;     // folder name, "untrained", or "<run name>@center" / "@random"
   std::string path;
-  std::string variant;  // es, es_d1, es_d2, es_d3 (the untrained entry: "untrained")
+  std::string variant;  // es, es_d1, es_d2, es_d3 (the untrained entry: "untrained"); a
+                        // control entry keeps its run's variant
   std::uint64_t seed = 0;
+  HlOverride hl = HlOverride::none;  // control entries: the fixed HL rule
+  int policy = 0;                    // index of the loaded policy it flies (controls share their run's)
 };
+
+inline bool is_control(const Entry& e) { return e.hl != HlOverride::none; }
+inline bool is_untrained(const Entry& e) { return e.variant == "untrained" && !is_control(e); }
+// Whether the entry's games count in the per-variant statistics (and the variant-vs-variant
+// panel): trained runs always, "untrained" only with options.untrained_in_statistics, control
+// entries never.
+bool in_variant_statistics(const Entry& entry, const TournamentOptions& options);
 
 struct RaceRecord {
   int pair = 0, blue = 0, red = 0;  // entry indices
@@ -39,7 +79,7 @@ struct RaceRecord {
 };
 
 struct TournamentResult {
-  std::vector<Entry> entries;
+  std::vector<Entry> entries;  // runs in --runs order, then "untrained", then the controls
   std::vector<RaceRecord> races;
   // wins[i][j]: races entry i won against j (draws count half); games[i][j]: races played.
   std::vector<std::vector<double>> wins, games;
@@ -50,7 +90,8 @@ struct TournamentResult {
 TournamentResult run_tournament(const TournamentOptions& options,
                                 const std::function<void(long, long)>& progress = {});
 
-// Writes races.csv, pairings.csv, summary.json, summary.md and the three figures into out_dir.
+// Writes races.csv, pairings.csv, summary.json, summary.md, tournament.png (per-variant bars,
+// IQM, variant vs variant) and pairings.png (entry vs entry) with their data and scripts.
 void write_tournament_report(const TournamentResult& result, const TournamentOptions& options);
 
 }  // namespace f16race::eval

@@ -1,10 +1,13 @@
 #include "io/plot.hpp"
 
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 #include <string>
+
+#include <unistd.h>
 
 namespace f16race::io {
 
@@ -22,6 +25,14 @@ std::string base_of(const std::string& path) {
   const auto p = path.find_last_of('/');
   return p == std::string::npos ? path : path.substr(p + 1);
 }
+// One word for /bin/sh, whatever the text holds.
+std::string shell_quote(const std::string& s) {
+  std::string out = "'";
+  for (char ch : s) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return out + "'";
+}
+// gnuplot -e variable that redirects an atomic_output script to its temporary name.
+constexpr const char* kOutputVar = "f16race_output";
 }  // namespace
 
 bool gnuplot_available() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
@@ -34,7 +45,14 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
     gp << "# Written by f16race; run `gnuplot " << base_of(script_path) << "` in this folder to redraw.\n";
     gp << "set terminal " << (svg ? "svg" : "pngcairo") << " size " << spec.width_px << "," << spec.height_px
        << " font 'Sans,10'\n";
-    gp << "set output " << quote(base_of(spec.output)) << "\n";
+    if (spec.atomic_output) {
+      // render_plot passes a temporary name through -e and renames it afterwards; run by hand,
+      // the script writes the image directly.
+      gp << "if (!exists(\"" << kOutputVar << "\")) " << kOutputVar << " = " << quote(base_of(spec.output)) << "\n";
+      gp << "set output " << kOutputVar << "\n";
+    } else {
+      gp << "set output " << quote(base_of(spec.output)) << "\n";
+    }
     gp << "set datafile separator ','\n";
     gp << "set termoption noenhanced\n";  // names like es_d3 are text, not subscripts
     gp << "set grid lc rgb '#dddddd'\n";
@@ -46,7 +64,8 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
       gp << "set title " << quote(p.title) << "\nset xlabel " << quote(p.xlabel) << "\nset ylabel " << quote(p.ylabel)
          << "\n";
       if (!p.extra.empty()) gp << p.extra << "\n";
-      gp << "plot ";
+      if (p.series.empty()) gp << "plot [0:1] [0:1] -1 notitle";  // an empty frame, no error
+      else gp << "plot ";
       for (std::size_t k = 0; k < p.series.size(); ++k) {
         const PlotSeries& s = p.series[k];
         gp << (k ? ", \\\n     " : "") << quote(s.data_file) << " every " << (s.every.empty() ? "::1" : s.every)
@@ -62,7 +81,15 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
     if (message) *message = "gnuplot not found (install gnuplot-nox); data and " + script_path + " were written";
     return false;
   }
-  const std::string cmd = "cd " + quote(dir_of(script_path)) + " && gnuplot " + quote(base_of(script_path)) + " 2>&1";
+  const std::string dir = dir_of(script_path);
+  std::string tmp_base;  // atomic_output: the image gnuplot writes, renamed to the output on success
+  if (spec.atomic_output) {
+    static std::atomic<unsigned> counter{0};
+    tmp_base = "." + base_of(spec.output) + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  }
+  const std::string cmd = "cd " + shell_quote(dir) + " && gnuplot " +
+                          (tmp_base.empty() ? std::string() : "-e " + shell_quote(std::string(kOutputVar) + "=" + quote(tmp_base)) + " ") +
+                          shell_quote(base_of(script_path)) + " 2>&1";
   FILE* pipe = popen(cmd.c_str(), "r");
   std::string out;
   if (pipe) {
@@ -71,8 +98,18 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
   }
   const int rc = pipe ? pclose(pipe) : -1;
   if (rc != 0) {
+    if (!tmp_base.empty()) std::remove((dir + "/" + tmp_base).c_str());
     if (message) *message = "gnuplot failed on " + script_path + ": " + out;
     return false;
+  }
+  if (!tmp_base.empty()) {
+    // Same folder, so rename() replaces the old image in one step.
+    const std::string tmp = dir + "/" + tmp_base, final_path = dir + "/" + base_of(spec.output);
+    if (std::rename(tmp.c_str(), final_path.c_str()) != 0) {
+      std::remove(tmp.c_str());
+      if (message) *message = "gnuplot ran on " + script_path + " but " + tmp + " could not be renamed to " + final_path;
+      return false;
+    }
   }
   if (message) *message = spec.output;
   return true;

@@ -18,7 +18,7 @@ struct PlotSeries {
 
 struct PlotPanel {
   std::string title, xlabel, ylabel;
-  std::vector<PlotSeries> series;
+  std::vector<PlotSeries> series;  // empty: an empty [0:1]x[0:1] frame (say why with a label in `extra`)
   std::string extra;      // raw gnuplot commands for this panel (ranges, key position, ...)
 };
 
@@ -29,6 +29,10 @@ struct PlotSpec {
   int rows = 1, cols = 1; // multiplot layout, panels fill row by row
   std::string title;
   std::vector<PlotPanel> panels;
+  // Render to a temporary name in the output's folder, then rename over `output`, so a crash or a
+  // failed gnuplot never leaves a half-written image (an older image stays intact). The script
+  // still names `output`, so `gnuplot FILE.gp` by hand writes it directly.
+  bool atomic_output = false;
 };
 
 // Writes `script_path` and runs gnuplot on it. Returns true when the image was made; otherwise

@@ -18,6 +18,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("substeps", &c->substeps, 1, 1000);
   r.read("dt_hl_s", &c->dt_hl_s, 0.08, 600.0);
   r.read("time_limit_s", &c->time_limit_s, 1.0, 3600.0);
+  r.read("time_limit_terminal", &c->time_limit_terminal);
 
   auto t = r.child("track");
   t.read("n_waypoints", &c->track.n_waypoints, 4, 1000);
@@ -55,6 +56,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("hl_bins", &c->hl_bins, 1, 63);
   r.read("goal_ahead_ft", &c->goal_ahead_ft, 0.0, 1e6);
   r.read("goal_bin_scale", &c->goal_bin_scale, 0.0, 5.0);
+  r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
   r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
@@ -88,6 +90,9 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
     fail("the track band [track.alt_min_ft - radius, track.alt_max_ft + radius] must lie inside [alt_min_ft, alt_max_ft]");
   if (c.nz_ref_min_g >= c.nz_ref_max_g) fail("nz_ref_min_g must be < nz_ref_max_g");
   if (c.hl_bins % 2 == 0) fail("hl_bins must be odd so that the middle bin is the center-line");
+  if (c.goal_refresh_ft >= c.goal_ahead())
+    fail("goal_refresh_ft must be < goal_ahead_ft (or the preview horizon when goal_ahead_ft is 0), else the goal "
+         "would be placed again at every step");
   if (c.start_s_ft + c.finish_margin_ft + 1000.0 > c.track.leg_min_ft * (c.track.n_waypoints - 1))
     fail("start_s_ft + finish_margin_ft leaves no race on the shortest possible track");
 }

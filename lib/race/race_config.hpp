@@ -27,6 +27,9 @@ struct RaceConfig {
   int substeps = 8;                  // RK4 steps per LL step: 0.01 s
   double dt_hl_s = 8.0;
   double time_limit_s = 120.0;
+  // The race really ends at the time limit (time left is observed), so by default reaching it
+  // is a termination for both levels; false reports it as a truncation (bootstrapped).
+  bool time_limit_terminal = true;
 
   TrackConfig track;
 
@@ -54,10 +57,15 @@ struct RaceConfig {
   double ps_ref_max_radps = 2.5;
 
   // HL goals: 7 bins per axis around the center-line point goal_ahead_ft ahead; the outer bins
-  // sit at goal_bin_scale x the local tube radius.
+  // sit at goal_bin_scale x the local tube radius. goal_ahead_ft 0 puts the point at the end of
+  // the preview horizon (paper Sec. IV-B): preview_points x preview_spacing_ft.
   int hl_bins = 7;
-  double goal_ahead_ft = 6000.0;
+  double goal_ahead_ft = 0.0;
   double goal_bin_scale = 0.8;
+  // A goal the aircraft comes within this far of (along the track) is placed again at the
+  // horizon with the same bins, so a long HL interval (20 s covers ~16 000 ft) keeps a goal
+  // ahead instead of one it has flown past. 0: never.
+  double goal_refresh_ft = 3000.0;
 
   // Observations.
   int preview_points = 6;
@@ -74,6 +82,10 @@ struct RaceConfig {
   double w_rates = 0.01;             // p^2 + q^2 + r^2 [rad^2/s^2]
 
   int n_agent() const { return 2 * team_size; }
+  // Distance of the goal's center-line point ahead of the aircraft [ft].
+  double goal_ahead() const { return goal_ahead_ft > 0.0 ? goal_ahead_ft : preview_points * preview_spacing_ft; }
+  // The middle bin on every HL axis: the center-line point itself.
+  int hl_center_bin() const { return hl_bins / 2; }
 };
 
 // Reads the `race:` section (absent keys keep defaults) and checks cross-field consistency.

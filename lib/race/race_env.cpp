@@ -185,6 +185,8 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   start_lateral_ft_.assign(n, 0.0);
   start_vertical_ft_.assign(n, 0.0);
   goal_point_.assign(n, Vec3{});
+  goal_progress_ft_.assign(n, 0.0);
+  goal_bins_.assign(static_cast<std::size_t>(n) * kHlDims, config_.hl_center_bin());
   last_action_.assign(static_cast<std::size_t>(n) * kActionDim, 0.0f);
   const ObservationSizes sizes(config_);
   ego_.assign(sizes.ego, 0.0f);
@@ -292,7 +294,7 @@ void RaceEnv::reset_env(int env) {
   for (int a = 0; a < n_agent_; ++a) {
     const int i = base + a;
     prev_ego_rank_[i] = ego_rank_[i];
-    const std::int64_t mid[3] = {config_.hl_bins / 2, config_.hl_bins / 2, config_.hl_bins / 2};
+    const std::int64_t mid[3] = {config_.hl_center_bin(), config_.hl_center_bin(), config_.hl_center_bin()};
     place_goal(i, mid);  // until the HL policy decides (hl_due is up)
   }
 }
@@ -320,7 +322,10 @@ void RaceEnv::compute_ranks(int env) {
 
 void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   const int env = i / n_agent_;
-  const TrackFrame fr = tracks_[env].frame_at(progress_ft_[i] + config_.goal_ahead_ft);
+  goal_progress_ft_[i] = progress_ft_[i] + config_.goal_ahead();
+  for (int k = 0; k < kHlDims; ++k)  // clamped as the offsets below are
+    goal_bins_[static_cast<std::size_t>(i) * kHlDims + k] = std::clamp<std::int64_t>(bins[k], 0, config_.hl_bins - 1);
+  const TrackFrame fr = tracks_[env].frame_at(goal_progress_ft_[i]);
   const double half = 0.5 * (config_.hl_bins - 1);
   const double step = half > 0 ? config_.goal_bin_scale * fr.radius_ft / half : 0.0;
   auto offset = [&](std::int64_t b) {
@@ -489,12 +494,24 @@ void RaceEnv::step_env(int e) {
   }
   compute_ranks(e);
 
-  // Rewards for every aircraft that acted this step.
+  // A goal the aircraft has (nearly) reached is placed again at the horizon with the same bins:
+  // the decision holds for the whole HL interval, whatever its length. The placement resets the
+  // distance the progress reward is measured from, so the jump itself pays nothing.
+  if (c.goal_refresh_ft > 0.0) {
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = base + a;
+      if (alive_[i] && progress_ft_[i] + c.goal_refresh_ft >= goal_progress_ft_[i])
+        place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims]);
+    }
+  }
+
+  // Rewards for every aircraft that acted this step. The HL team term goes to every aircraft of
+  // the race, also after it was taken out: being eliminated must never raise a team's return.
   for (int a = 0; a < n_agent_; ++a) {
     const int i = base + a;
     if (!acted_[i]) {
       ll_reward_[i] = 0.0f;
-      hl_reward_[i] = 0.0f;
+      hl_reward_[i] = static_cast<float>(race::hl_team_term(team_rank_[i]));
       continue;
     }
     hl_reward_[i] = static_cast<float>(race::hl_reward(team_rank_[i], prev_ego_rank_[i], ego_rank_[i]));
@@ -539,10 +556,10 @@ void RaceEnv::step_env(int e) {
       const int i = base + a;
       if (!alive_[i]) continue;
       st.aircraft_alive_at_end += 1;
-      if (finished || eliminated) terminated_[i] = 1;
+      if (finished || eliminated || c.time_limit_terminal) terminated_[i] = 1;
       else truncated_[i] = 1;
     }
-    if (st.races_by_time_limit) {
+    if (st.races_by_time_limit && !c.time_limit_terminal) {
       write_observations(e);
       copy_final_observations(e);
     }
@@ -561,7 +578,7 @@ void RaceEnv::write_goal_observation(int i) {
   const Vec3 d = goal_point_[i] - position(sim_, i);
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
   goal_features(static_cast<float>(d.n), static_cast<float>(d.e), static_cast<float>(d.u), cos_psi, sin_psi,
-                static_cast<float>(1.0 / config_.goal_ahead_ft), &g[0], &g[1], &g[2]);
+                static_cast<float>(1.0 / config_.goal_ahead()), &g[0], &g[1], &g[2]);
 }
 
 void RaceEnv::write_observations(int env) {
@@ -612,7 +629,7 @@ void RaceEnv::write_observations(int env) {
     for (int a = 0; a < na_pad; ++a) vmath::sincosf(ang[k][a], &sn[k][a], &cs[k][a]);
   }
   float goal[kGoalDim][kMaxAgents];
-  const float inv_ahead = static_cast<float>(1.0 / c.goal_ahead_ft);
+  const float inv_ahead = static_cast<float>(1.0 / c.goal_ahead());
   const float* cos_psi = cs[4];
   const float* sin_psi = sn[4];
 #pragma omp simd
@@ -772,7 +789,7 @@ void RaceEnv::save_state(std::ostream& out) const {
   put_vec(out, prev_ego_rank_); put_vec(out, progress_ft_); put_vec(out, lateral_ft_); put_vec(out, vertical_ft_);
   put_vec(out, dist_ft_); put_vec(out, radius_ft_); put_vec(out, tube_out_s_); put_vec(out, team_rank_);
   put_vec(out, goal_dist_ft_); put_vec(out, start_lateral_ft_); put_vec(out, start_vertical_ft_);
-  put_vec(out, goal_point_); put_vec(out, last_action_); put_vec(out, ego_); put_vec(out, prev_action_);
+  put_vec(out, goal_point_); put_vec(out, goal_progress_ft_); put_vec(out, goal_bins_); put_vec(out, last_action_); put_vec(out, ego_); put_vec(out, prev_action_);
   put_vec(out, goal_obs_); put_vec(out, ado_); put_vec(out, task_); put_vec(out, ado_alive_);
   put_vec(out, ll_reward_); put_vec(out, hl_reward_); put_vec(out, race_winner_); put_vec(out, race_end_);
 }
@@ -802,6 +819,7 @@ void RaceEnv::load_state(std::istream& in) {
   get_vec(in, &radius_ft_, "radius"); get_vec(in, &tube_out_s_, "tube timer"); get_vec(in, &team_rank_, "team rank");
   get_vec(in, &goal_dist_ft_, "goal distance"); get_vec(in, &start_lateral_ft_, "start lateral");
   get_vec(in, &start_vertical_ft_, "start vertical"); get_vec(in, &goal_point_, "goal point");
+  get_vec(in, &goal_progress_ft_, "goal progress"); get_vec(in, &goal_bins_, "goal bins");
   get_vec(in, &last_action_, "last action"); get_vec(in, &ego_, "ego obs"); get_vec(in, &prev_action_, "prev action obs");
   get_vec(in, &goal_obs_, "goal obs"); get_vec(in, &ado_, "ado obs"); get_vec(in, &task_, "task obs");
   get_vec(in, &ado_alive_, "ado alive"); get_vec(in, &ll_reward_, "ll reward"); get_vec(in, &hl_reward_, "hl reward");

@@ -118,6 +118,8 @@ class RaceEnv {
   int ego_rank(int i) const { return ego_rank_[i]; }
   double team_rank(int i) const { return team_rank_[i]; }
   const Vec3& goal_point(int i) const { return goal_point_[i]; }
+  // The HL bins [3] aircraft i's goal was last placed with (the middle bins after a reset).
+  const std::int64_t* goal_bins(int i) const { return &goal_bins_[static_cast<std::size_t>(i) * kHlDims]; }
   // Start offsets in the tube cross-section (used by the scripted pilot to keep its lane).
   double start_lateral_ft(int i) const { return start_lateral_ft_[i]; }
   double start_vertical_ft(int i) const { return start_vertical_ft_[i]; }
@@ -169,6 +171,8 @@ class RaceEnv {
   std::vector<double> tube_out_s_, team_rank_, goal_dist_ft_;
   std::vector<double> start_lateral_ft_, start_vertical_ft_;
   std::vector<Vec3> goal_point_;
+  std::vector<double> goal_progress_ft_;   // [N] center-line progress of the goal's point
+  std::vector<std::int64_t> goal_bins_;    // [N, 3] the HL bins the goal was placed with
   std::vector<float> last_action_;  // [N, 3]
 
   // Outputs. The observation buffers (megabytes, rewritten every step) share one huge-page

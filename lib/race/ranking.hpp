@@ -12,10 +12,14 @@ namespace f16race::race {
 void compute_ranks(int n_agent, int team_size, const std::uint8_t* alive, const double* progress_ft, int* ego_rank,
                    double* team_rank);
 
+// The team term of r_HL, 1 - 2 lambda_T: +1 leading, -1 trailing, 0 on a tie. An aircraft taken
+// out of a race keeps earning it to the race's end (docs/learning.md: elimination never pays).
+inline double hl_team_term(double team_rank) { return 1.0 - 2.0 * team_rank; }
+
 // r_HL = (1 - 2 lambda_T) + 0.1 (lambda_E_prev - lambda_E) / (1 + min(lambda_E_prev, lambda_E)).
 inline double hl_reward(double team_rank, int prev_ego_rank, int ego_rank) {
   const double lp = prev_ego_rank, lc = ego_rank;
-  return (1.0 - 2.0 * team_rank) + 0.1 * (lp - lc) / (1.0 + (lp < lc ? lp : lc));
+  return hl_team_term(team_rank) + 0.1 * (lp - lc) / (1.0 + (lp < lc ? lp : lc));
 }
 
 }  // namespace f16race::race

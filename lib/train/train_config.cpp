@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -60,6 +61,7 @@ void bind_hl(R& r, agents::EsConfig* c) {
   read_i64(r, "n_atoms", &c->n_atoms, 2, 1001);
   r.read("v_min", &c->v_min, -1e6, 1e6);
   r.read("v_max", &c->v_max, -1e6, 1e6);
+  r.read("reward_scale", &c->reward_scale, 0.0, 1e6);
   r.read("gamma", &c->gamma, 0.0, 1.0);
   r.read("epsilon", &c->epsilon, 0.0, 1.0);
   read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
@@ -69,6 +71,7 @@ void bind_hl(R& r, agents::EsConfig* c) {
   r.read("learning_rate", &c->learning_rate, 0.0, 1.0);
   r.read("max_grad_norm", &c->max_grad_norm, 0.0, 1e6);
   r.read("huber_delta", &c->huber_delta, 1e-6, 1e6);
+  r.read("component_ce_weight", &c->component_ce_weight, 0.0, 1e3);
   r.finish();
 }
 
@@ -112,7 +115,9 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   bind_pool(pool, &c.pool);
   top.finish();
   if (c.loop.total_env_steps <= 0) throw io::ConfigError(source + ": train.total_env_steps must be > 0");
-  if (c.hl.v_min >= c.hl.v_max) throw io::ConfigError(source + ": hl.v_min must be < hl.v_max");
+  resolve_hl_scales(&c);
+  if (c.hl.v_min >= c.hl.v_max)
+    throw io::ConfigError(source + ": hl.v_min must be < hl.v_max (or both 0: derived from the race)");
   if (c.ll.n_steps * c.race.n_env * c.race.team_size % c.ll.n_minibatches != 0)
     throw io::ConfigError(source + ": ll.n_minibatches must divide ll.n_steps x race.n_env x race.team_size");
   // One seed drives everything; the race and both learners get their own streams from it.
@@ -120,6 +125,34 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   c.ll.seed = c.seed * 2 + 11;
   c.hl.seed = c.seed * 2 + 12;
   return c;
+}
+
+namespace {
+// Team term 1 plus the ego term, "an order of magnitude lower" (paper Sec. IV-A): 10 % headroom.
+constexpr double kHlRewardPerStepBound = 1.1;
+}  // namespace
+
+double hl_interval_reward_bound(const TrainConfig& c) {
+  const double steps_per_interval = std::ceil(c.race.dt_hl_s / c.race.dt_ll_s - 1e-9);
+  return kHlRewardPerStepBound * c.hl.reward_scale * steps_per_interval;
+}
+
+double hl_return_bound(const TrainConfig& c) {
+  const double decisions = std::ceil(c.race.time_limit_s / c.race.dt_hl_s - 1e-9);
+  const double g = c.hl.gamma;
+  const double horizon = g < 1.0 ? (1.0 - std::pow(g, decisions)) / (1.0 - g) : decisions;
+  return hl_interval_reward_bound(c) * horizon;
+}
+
+void resolve_hl_scales(TrainConfig* c) {
+  if (c->hl.reward_scale == 0.0) c->hl.reward_scale = c->race.dt_ll_s / c->race.dt_hl_s;
+  if (c->hl.v_min == 0.0 && c->hl.v_max == 0.0) {
+    // Rounded up to 3 significant digits so the resolved config.yaml reads cleanly.
+    const double b = hl_return_bound(*c);
+    const double p = std::pow(10.0, std::floor(std::log10(b)) - 2);
+    c->hl.v_max = std::ceil(b / p) * p;
+    c->hl.v_min = -c->hl.v_max;
+  }
 }
 
 std::string train_config_yaml(const TrainConfig& config) {

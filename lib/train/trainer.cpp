@@ -14,6 +14,7 @@
 
 #include "agents/checkpoint.hpp"
 #include "io/csv_table.hpp"
+#include "io/learning_curves.hpp"
 #include "race/race_env.hpp"
 #include "race/random_stream.hpp"
 #include "train/obs_views.hpp"
@@ -99,7 +100,7 @@ struct Trainer::State {
   models::ObsDims dims;
 
   // Counters.
-  std::int64_t env_steps = 0, ppo_updates = 0, es_updates = 0;
+  std::int64_t env_steps = 0, ppo_updates = 0, es_updates = 0, hl_grad_steps = 0;
   int phase = 0;               // 0: low level learns, 1: high level learns
   int phase_updates = 0;       // updates done in the current phase
   std::int64_t opponent = -1;  // pool snapshot (its env_steps) the pool envs play, -1: none
@@ -114,7 +115,7 @@ struct Trainer::State {
 
   // Metrics accumulators since the last row.
   std::vector<double> ll_ret, hl_ret;  // [n_env * ts] running returns of learner aircraft
-  double sum_ll_ret = 0, sum_hl_ret = 0, n_ret = 0, sum_goal = 0, n_goal = 0;
+  double sum_ll_ret = 0, sum_hl_ret = 0, n_ret = 0, n_hl_ret = 0, sum_goal = 0, n_goal = 0;
   double races = 0, wins = 0, finishes = 0, term[race::kNumCauses] = {};
   std::int64_t steps_at_row = 0;
   double wall_at_row = 0.0, wall_offset = 0.0;
@@ -122,6 +123,7 @@ struct Trainer::State {
   agents::PpoStats last_ppo;
   agents::EsStats last_es;
   TimeBreakdown timing;
+  std::string curves_problem;  // why the last curves.png could not be made (empty: it was)
   using Clock = std::chrono::steady_clock;
   static double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
@@ -129,6 +131,16 @@ struct Trainer::State {
     return wall_offset + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   int learner_agent(int e, int j) const { return e * n_agent + side[e] * ts + j; }
+  // Which learner aircraft of env e count in an HL transition (docs/learning.md, "Elimination"):
+  // the egoistic critics (es, es_d1) keep an eliminated aircraft in its own transitions to the
+  // race's end (it is paid the team term; its bins have no effect); the team critics count the
+  // aircraft alive at the decision and value the team's future through its living members.
+  torch::Tensor hl_members(int e) const {
+    auto m = torch::ones({ts}, torch::kBool);
+    if (agents::es_is_team(cfg.hl.variant))
+      for (int j = 0; j < ts; ++j) m.data_ptr<bool>()[j] = env->alive(learner_agent(e, j));
+    return m;
+  }
   bool is_learner(int e, int agent) const { return agent / ts == side[e]; }
 
   void build(bool fresh);
@@ -195,6 +207,7 @@ void Trainer::State::build(bool fresh) {
   n_agent = env->n_agent();
   ts = cfg.race.team_size;
   dims = obs_dims(*env);
+  resolve_hl_scales(&cfg);
   cfg.ll.net.dims = dims;
   cfg.hl.dims = dims;
   // Planned PPO updates for the learning-rate schedule: the LL share of the step budget.
@@ -309,8 +322,7 @@ void Trainer::State::hl_decisions() {
       if (!due[e]) continue;
       auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
       const auto idx = learner.index_select(0, rows);
-      auto alive = torch::empty({ts}, torch::kBool);
-      for (int j = 0; j < ts; ++j) alive.data_ptr<bool>()[j] = env->alive(learner_agent(e, j));
+      const auto alive = hl_members(e);
       const HlObs next = models::index_rows(obs, idx);
       close_open(e, false, HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
                                  next.task.clone()},
@@ -389,17 +401,19 @@ void Trainer::State::ll_step(bool learn) {
       tr[k] = env->truncated()[i] != 0;
       va[k] = env->acted()[i] != 0;
       any_trunc = any_trunc || env->truncated()[i];
-      if (env->acted()[i]) {
-        ll_ret[k] += env->ll_reward()[i];
-        hl_ret[k] += env->hl_reward()[i];
-        if (phase == 1 && open.open[e]) open_reward[k] += env->hl_reward()[i];
-      }
+      if (env->acted()[i]) ll_ret[k] += env->ll_reward()[i];
+      // The HL reward runs to the race's end, also for an aircraft already taken out.
+      hl_ret[k] += env->hl_reward()[i];
+      if (phase == 1 && open.open[e]) open_reward[k] += static_cast<float>(cfg.hl.reward_scale * env->hl_reward()[i]);
       if (env->step_cause()[i] != race::kCauseNone) term[env->step_cause()[i]] += 1;
       if (env->terminated()[i] || env->truncated()[i]) {
         sum_ll_ret += ll_ret[k];
-        sum_hl_ret += hl_ret[k];
         n_ret += 1;
         ll_ret[k] = 0.0;
+      }
+      if (env->env_done()[e]) {
+        sum_hl_ret += hl_ret[k];
+        n_hl_ret += 1;
         hl_ret[k] = 0.0;
       }
     }
@@ -418,14 +432,20 @@ void Trainer::State::ll_step(bool learn) {
     wins += winner < 0 ? 0.5 : (winner == side[e] ? 1.0 : 0.0);
     finishes += env->race_end()[e] == race::RaceEnv::kEndFinishLine;
     if (phase == 1 && open.open[e]) {
-      const bool time_limit = env->race_end()[e] == race::RaceEnv::kEndTimeLimit;
+      // The race really ends at the time limit too (time left is observed): terminal, unless
+      // the config reports it as a truncation.
+      const bool truncation = env->race_end()[e] == race::RaceEnv::kEndTimeLimit && !cfg.race.time_limit_terminal;
       auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
       const auto idx = learner.index_select(0, rows);
-      const HlObs src = hl_view(time_limit);
+      const HlObs src = hl_view(truncation);
       const HlObs next = models::index_rows(src, idx);
       auto alive = torch::zeros({ts}, torch::kBool);
-      for (int j = 0; j < ts; ++j) alive.data_ptr<bool>()[j] = time_limit && env->truncated()[learner_agent(e, j)] != 0;
-      close_open(e, !time_limit,
+      if (truncation) {
+        alive.fill_(true);
+        if (agents::es_is_team(cfg.hl.variant))
+          for (int j = 0; j < ts; ++j) alive.data_ptr<bool>()[j] = env->truncated()[learner_agent(e, j)] != 0;
+      }
+      close_open(e, !truncation,
                  HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
                        next.task.clone()},
                  alive);
@@ -466,6 +486,7 @@ void Trainer::State::es_update() {
   batch.next_active = torch::stack(done_next_active);
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
+  hl_grad_steps += last_es.grad_steps;
   done_obs.clear();
   done_next.clear();
   done_actions.clear();
@@ -486,7 +507,7 @@ MetricsRow Trainer::State::make_row(const char* phase_name) {
   const double dt = std::max(r.wall_s - wall_at_row, 1e-9);
   r.samples_per_s = static_cast<double>(env_steps - steps_at_row) * n_agent / dt;
   r.ll_return = n_ret > 0 ? sum_ll_ret / n_ret : std::nan("");
-  r.hl_return = n_ret > 0 ? sum_hl_ret / n_ret : std::nan("");
+  r.hl_return = n_hl_ret > 0 ? sum_hl_ret / n_hl_ret : std::nan("");
   r.goal_dist_ft = n_goal > 0 ? sum_goal / n_goal : std::nan("");
   r.races = races;
   r.winrate = races > 0 ? wins / races : std::nan("");
@@ -500,7 +521,16 @@ MetricsRow Trainer::State::make_row(const char* phase_name) {
   r.es_loss = last_es.loss;
   r.q_mean = last_es.q_mean;
   r.epsilon = cfg.hl.epsilon;
-  sum_ll_ret = sum_hl_ret = n_ret = sum_goal = n_goal = races = wins = finishes = 0;
+  r.hl_grad_steps = hl_grad_steps;
+  if (es_updates > 0) {
+    r.es_loss_heldout = last_es.loss_before;
+    r.es_end_atom_share = last_es.end_atom_share;
+    r.es_huber_share = last_es.huber_share;
+    r.q_spread = last_es.q_spread;
+    r.greedy_entropy = last_es.greedy_entropy;
+    r.off_center_share = last_es.off_center_share;
+  }
+  sum_ll_ret = sum_hl_ret = n_ret = n_hl_ret = sum_goal = n_goal = races = wins = finishes = 0;
   std::fill(std::begin(term), std::end(term), 0.0);
   steps_at_row = env_steps;
   wall_at_row = r.wall_s;
@@ -513,14 +543,16 @@ const std::vector<std::string>& metrics_header() {
       "update", "phase_hl", "env_steps", "wall_s", "samples_per_s", "ll_return", "hl_return", "goal_dist_ft",
       "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
       "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
-      "q_mean", "epsilon"};
+      "q_mean", "epsilon", "hl_grad_steps", "es_loss_heldout", "es_end_atom_share", "es_huber_share", "q_spread", "greedy_entropy",
+      "off_center_share"};
   return h;
 }
 std::vector<double> metrics_values(const MetricsRow& r) {
   return {static_cast<double>(r.update), r.phase == "hl" ? 1.0 : 0.0, static_cast<double>(r.env_steps), r.wall_s,
           r.samples_per_s, r.ll_return, r.hl_return, r.goal_dist_ft, r.winrate, r.finish_rate, r.races, r.term[1],
           r.term[2], r.term[3], r.term[4], r.term[5], r.term[6], r.policy_loss, r.value_loss, r.entropy, r.approx_kl,
-          r.lr, r.es_loss, r.q_mean, r.epsilon};
+          r.lr, r.es_loss, r.q_mean, r.epsilon, static_cast<double>(r.hl_grad_steps), r.es_loss_heldout, r.es_end_atom_share,
+          r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share};
 }
 }  // namespace
 
@@ -578,7 +610,7 @@ void Trainer::State::save_checkpoint() {
   env->save_state(env_bytes);
   a.write("env", bytes_tensor(env_bytes.str()));
   a.write("counters", torch::tensor({env_steps, ppo_updates, es_updates, static_cast<std::int64_t>(phase),
-                                     static_cast<std::int64_t>(phase_updates), opponent}));
+                                     static_cast<std::int64_t>(phase_updates), opponent, hl_grad_steps}));
   a.write("pool", torch::tensor(pool.empty() ? std::vector<std::int64_t>{-1} : pool));
   std::vector<std::int64_t> sides(side.begin(), side.end()), vp(vs_pool.begin(), vs_pool.end());
   a.write("side", torch::tensor(sides));
@@ -599,7 +631,9 @@ void Trainer::State::save_checkpoint() {
   a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end()), torch::kFloat64));
   // The last updates' statistics, so metrics rows after a resume match an unbroken run.
   a.write("last_stats", torch::tensor({last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
-                                       last_ppo.learning_rate, last_es.loss, last_es.q_mean},
+                                       last_ppo.learning_rate, last_es.loss, last_es.q_mean, last_es.end_atom_share,
+                                       last_es.huber_share, last_es.q_spread, last_es.greedy_entropy,
+                                       last_es.off_center_share, last_es.loss_before},
                                       torch::kFloat64));
   a.write("wall", torch::tensor({wall()}, torch::kFloat64));
   agents::save_archive_atomic(a, (dir / "trainer.pt").string());
@@ -612,6 +646,9 @@ void Trainer::State::save_checkpoint() {
       fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST") ? read_text(run_dir + "/checkpoint/LATEST") : "";
   write_text_atomic(run_dir + "/checkpoint/LATEST", name);
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
+  // The learning-curve figure follows the checkpoints; without gnuplot only its data and script.
+  std::string message;
+  if (!io::write_learning_curves(run_dir, &message)) curves_problem = message;
 }
 
 std::string checkpoint_error_reason(const std::exception& e) {
@@ -663,6 +700,7 @@ void Trainer::State::load_checkpoint() {
     phase = static_cast<int>(t[3].item<std::int64_t>());
     phase_updates = static_cast<int>(t[4].item<std::int64_t>());
     opponent = t[5].item<std::int64_t>();
+    hl_grad_steps = t[6].item<std::int64_t>();
     t = get("pool");
     pool.clear();
     for (std::int64_t k = 0; k < t.numel(); ++k)
@@ -698,6 +736,12 @@ void Trainer::State::load_checkpoint() {
     last_ppo.learning_rate = t[4].item<double>();
     last_es.loss = t[5].item<double>();
     last_es.q_mean = t[6].item<double>();
+    last_es.end_atom_share = t[7].item<double>();
+    last_es.huber_share = t[8].item<double>();
+    last_es.q_spread = t[9].item<double>();
+    last_es.greedy_entropy = t[10].item<double>();
+    last_es.off_center_share = t[11].item<double>();
+    last_es.loss_before = t[12].item<double>();
     t = get("wall");
     wall_offset = t.item<double>();
     t0 = std::chrono::steady_clock::now();
@@ -783,6 +827,8 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   }
   summary.updates = s.ppo_updates + s.es_updates;
   summary.env_steps = s.env_steps;
+  summary.hl_grad_steps = s.hl_grad_steps;
+  summary.curves_problem = s.curves_problem;
   s.timing.total = State::since(t_run);
   s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io;
   summary.time = s.timing;

@@ -7,7 +7,10 @@
 //   RUN/checkpoint/LATEST    name of the newest complete checkpoint folder
 //   RUN/checkpoint/step_N/   ll.pt, hl.pt, trainer.pt (env, streams, counters), meta.yaml
 //   RUN/pool/step_N/         self-play snapshots (ll.pt, hl.pt)
+//   RUN/curves.png           learning curves from metrics.csv, redrawn at every checkpoint
+//                            (curves.gp, curves_data.csv beside it)
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -20,7 +23,8 @@
 
 namespace f16race::train {
 
-inline constexpr int kCheckpointFormat = 1;
+// 2: HL reward scale, elimination rule and HL diagnostics (a format-1 run learned other targets).
+inline constexpr int kCheckpointFormat = 2;
 
 // Reads CHECKPOINT_DIR/meta.yaml and returns its env_steps; throws std::runtime_error (the caller
 // adds the path) unless it has this build's format and was written under `expected_config_hash`.
@@ -55,6 +59,11 @@ struct MetricsRow {
   double term[7] = {};            // per cause, learner aircraft per race
   double policy_loss = 0.0, value_loss = 0.0, entropy = 0.0, approx_kl = 0.0, lr = 0.0;
   double es_loss = 0.0, q_mean = 0.0, epsilon = 0.0;
+  // High level: gradient steps so far and the last ES update's diagnostics (agents::EsStats).
+  std::int64_t hl_grad_steps = 0;
+  double es_loss_heldout = std::nan("");  // the ES loss on its batch before the update's steps
+  double es_end_atom_share = std::nan(""), es_huber_share = std::nan("");
+  double q_spread = std::nan(""), greedy_entropy = std::nan(""), off_center_share = std::nan("");
 };
 
 // Where the wall time of run() went [s].
@@ -72,6 +81,8 @@ struct TrainSummary {
   TimeBreakdown time;
   std::int64_t updates = 0;
   std::int64_t env_steps = 0;
+  std::int64_t hl_grad_steps = 0;  // ES gradient steps of the whole run
+  std::string curves_problem;      // why RUN/curves.png was not drawn at the last checkpoint, if not
   bool interrupted = false;
   std::vector<MetricsRow> rows;  // every row written by this process
 };

@@ -197,3 +197,80 @@ TEST(EsLoss, DistributionalTeamMixtureCrossEntropy) {
 
 }  // namespace
 }  // namespace f16race::agents
+
+// --- diagnostics of the high level (metrics.csv: q_spread, greedy_entropy, off_center_share,
+// es_end_atom_share, es_huber_share) ------------------------------------------------------------
+namespace f16race::agents {
+namespace {
+
+TEST(EsDiagnostics, SpreadEntropyAndOffCenterShareOfHandMadeUtilities) {
+  // 2 rows, 3 dims, 3 bins (middle bin 1). Greedy: row 0 (2, 1, 0), row 1 (1, 1, 1).
+  const auto q = torch::tensor({0.f, 1.f, 3.f, /**/ 0.f, 2.f, 0.f, /**/ 5.f, 1.f, 4.f,  //
+                                0.f, 1.f, 0.f, /**/ 1.f, 4.f, 3.f, /**/ 0.f, 2.f, 1.f})
+                       .view({2, 3, 3});
+  EsStats s;
+  es_policy_diagnostics(q, 3, &s);
+  // Spreads: row 0: 3, 2, 4; row 1: 1, 3, 2 -> mean 15/6.
+  EXPECT_NEAR(s.q_spread, 2.5, 1e-6);
+  // Greedy bins per dim over the 2 rows: {2, 1}, {1, 1}, {0, 1} -> ln2, 0, ln2, / ln3, mean.
+  EXPECT_NEAR(s.greedy_entropy, (2.0 * std::log(2.0) / std::log(3.0)) / 3.0, 1e-9);
+  EXPECT_NEAR(s.off_center_share, 0.5, 1e-12);
+  // Joint utilities: greedy decoded from the argmax over n_bins^3.
+  auto joint = torch::zeros({2, 27});
+  joint[0][1 * 9 + 1 * 3 + 1] = 1.0;  // (1, 1, 1): the middle
+  joint[1][2 * 9 + 1 * 3 + 1] = 3.0;  // (2, 1, 1)
+  es_policy_diagnostics(joint, 3, &s);
+  EXPECT_NEAR(s.q_spread, 2.0, 1e-6);
+  EXPECT_NEAR(s.off_center_share, 0.5, 1e-12);
+  EXPECT_NEAR(s.greedy_entropy, (std::log(2.0) / std::log(3.0)) / 3.0, 1e-9);
+}
+
+// Terminal single-decision teams with known team rewards {-2, -0.5, 0, 0.5, 2}: with the
+// support [-1, 1] (21 atoms, 0.1 apart) the two outer rewards are clipped onto the end atoms,
+// the others land on inner atoms, so 2 / 5 of the target mass is on the end atoms; a support
+// that holds every return ([-3, 3]) puts none there. The value variants' share of TD errors
+// beyond the Huber delta (1) counts the same two teams, the critic starting near 0.
+EsStats toy_update(EsVariant v, double v_bound) {
+  torch::manual_seed(5);
+  EsConfig cfg;
+  cfg.variant = v;
+  cfg.dims = models::ObsDims{4, 2, 2, 1};
+  cfg.d_model = 8;
+  cfg.n_heads = 2;
+  cfg.hidden = {16, 16};
+  cfg.n_atoms = 21;
+  cfg.v_min = -v_bound;
+  cfg.v_max = v_bound;
+  EsAgent agent(cfg);
+  const int64_t t = 5, n = 2;
+  auto obs = [&] {
+    return models::HlObs{torch::randn({t, n, 4}), torch::zeros({t, n, 3}), torch::randn({t, n, 1, 2}),
+                         torch::ones({t, n, 1}, torch::kBool), torch::randn({t, n, 2})};
+  };
+  EsBatch b;
+  b.obs = obs();
+  b.next_obs = obs();
+  b.actions = torch::full({t, n, 3}, 3, torch::kInt64);
+  b.reward = torch::tensor({-2.f, -0.5f, 0.f, 0.5f, 2.f}).view({t, 1}).expand({t, n}).contiguous();
+  b.done = torch::ones({t}, torch::kBool);
+  return agent.update(b);
+}
+
+TEST(EsDiagnostics, EndAtomShareCountsTargetsOutsideTheSupport) {
+  EXPECT_NEAR(toy_update(EsVariant::kEsD3, 1.0).end_atom_share, 0.4, 1e-6);
+  EXPECT_NEAR(toy_update(EsVariant::kEsD3, 3.0).end_atom_share, 0.0, 1e-6);
+  EXPECT_TRUE(std::isnan(toy_update(EsVariant::kEsD3, 3.0).huber_share));
+}
+
+TEST(EsDiagnostics, HuberShareCountsTdErrorsBeyondDelta) {
+  for (const EsVariant v : {EsVariant::kEs, EsVariant::kEsD1, EsVariant::kEsD2}) {
+    const EsStats s = toy_update(v, 3.0);
+    EXPECT_NEAR(s.huber_share, 0.4, 1e-6) << es_variant_name(v);
+    EXPECT_TRUE(std::isnan(s.end_atom_share));
+    EXPECT_EQ(s.grad_steps, 1);
+    EXPECT_GT(s.loss_before, 0.0);
+  }
+}
+
+}  // namespace
+}  // namespace f16race::agents

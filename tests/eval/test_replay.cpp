@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "eval/replay.hpp"
@@ -60,6 +62,38 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
   const ReplayResult a = run_replay(o), b = run_replay(o);
   ASSERT_EQ(a.trace.rows[1].size(), b.trace.rows[1].size());
   EXPECT_EQ(a.trace.rows[1].back().pn_ft, b.trace.rows[1].back().pn_ft);
+}
+
+TEST(Replay, FixedHighLevelControls) {
+  const std::string run = tiny_run("ctl");
+  ReplayOptions o;
+  o.run = run + "@center";
+  o.opponent = run + "@random";
+  o.seed = 4;
+  const ReplayResult r = run_replay(o);
+  EXPECT_EQ(r.blue, "f16race_replay_ctl@center");
+  EXPECT_EQ(r.red, "f16race_replay_ctl@random");
+  ASSERT_EQ(r.trace.goals.size(), 4u);
+  // Blue's goals are the middle bin: on the center-line. Red's random bins leave it.
+  double red_off = 0.0;
+  for (int a = 0; a < 4; ++a) {
+    ASSERT_FALSE(r.trace.goals[a].empty()) << a;
+    for (const race::GoalMark& g : r.trace.goals[a]) {
+      if (a < 2) {
+        EXPECT_NEAR(g.lateral_ft, 0.0, 1.0) << a;
+        EXPECT_NEAR(g.vertical_ft, 0.0, 1.0) << a;
+      } else {
+        red_off = std::max(red_off, std::hypot(g.lateral_ft, g.vertical_ft));
+      }
+    }
+  }
+  EXPECT_GT(red_off, 10.0);
+  // Deterministic for a seed.
+  const ReplayResult again = run_replay(o);
+  ASSERT_EQ(again.trace.goals[2].size(), r.trace.goals[2].size());
+  EXPECT_EQ(again.trace.goals[2].back().lateral_ft, r.trace.goals[2].back().lateral_ft);
+  o.opponent = "scripted@center";
+  EXPECT_THROW(run_replay(o), std::runtime_error);
 }
 
 TEST(Replay, RefusesMissingRuns) {

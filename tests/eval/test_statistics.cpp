@@ -37,5 +37,25 @@ TEST(Statistics, BootstrapIntervalBracketsThePointAndShrinksWithData) {
   EXPECT_DOUBLE_EQ(c.hi, 0.7);
 }
 
+TEST(Statistics, WilsonIntervalMatchesHandValues) {
+  // 8 of 10, z = 1.96: centre (0.8 + 0.19208) / 1.38416 = 0.716738, half width
+  // 1.96 sqrt(0.016 + 0.009604) / 1.38416 = 0.226581: [0.490157, 0.943319].
+  const Interval a = wilson_interval(8, 10, 1.96);
+  EXPECT_DOUBLE_EQ(a.point, 0.8);
+  EXPECT_NEAR(a.lo, 0.490157, 1e-6);
+  EXPECT_NEAR(a.hi, 0.943319, 1e-6);
+  // 0 of n: [0, z^2 / (n + z^2)]; 768 races (the README's untrained entry): [0, 0.004977].
+  const Interval b = wilson_interval(0, 768);
+  EXPECT_EQ(b.lo, 0.0);
+  EXPECT_NEAR(b.hi, 3.841459 / (768 + 3.841459), 1e-6);
+  // n of n mirrors it; draws counted half keep it symmetric around 0.5.
+  const Interval c = wilson_interval(768, 768);
+  EXPECT_EQ(c.hi, 1.0);
+  EXPECT_NEAR(c.lo, 1.0 - b.hi, 1e-12);
+  const Interval d = wilson_interval(2.5, 5);
+  EXPECT_NEAR(d.lo + d.hi, 1.0, 1e-12);
+  EXPECT_TRUE(std::isnan(wilson_interval(0, 0).point));
+}
+
 }  // namespace
 }  // namespace f16race::eval

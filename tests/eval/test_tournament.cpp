@@ -1,10 +1,14 @@
 // Tournament bookkeeping on two tiny trained runs plus the untrained entry: every race counted
-// once, sides swapped in half, wins and losses consistent, reports written, bad runs refused.
+// once, sides swapped in half, wins and losses consistent, reports written, bad runs refused;
+// the fixed-HL control entries (RUN@center, RUN@random) and who counts in the variant statistics.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <set>
 
 #include "eval/tournament.hpp"
 #include "io/yaml_config.hpp"
@@ -15,7 +19,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string trained_run(const std::string& name, int seed, int team_size = 2) {
+// Each test trains its own runs (ctest runs the tests of this file in parallel).
+std::string trained_run(const std::string& name, int seed, int team_size = 2, const std::string& agent = "") {
   const fs::path dir = fs::temp_directory_path() / ("f16race_tour_" + name);
   fs::remove_all(dir);
   YAML::Node root = YAML::Load(R"(
@@ -26,6 +31,7 @@ train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
 )");
   io::apply_override(root, "seed=" + std::to_string(seed));
   io::apply_override(root, "race.team_size=" + std::to_string(team_size));
+  if (!agent.empty()) io::apply_override(root, "hl.agent=" + agent);
   train::Trainer t(train::read_train_config(root, "test"), dir.string());
   t.run(nullptr, 2);
   return dir.string();
@@ -64,12 +70,185 @@ TEST(Tournament, CountsEveryRaceOnceWithSidesSwapped) {
     const std::string text((std::istreambuf_iterator<char>(md)), {});
     EXPECT_NE(text.find("| untrained | untrained | 1 | 12 |"), std::string::npos) << text;  // 6 races x 2 opponents
   }
+  // Both runs are es_d3 and the untrained entry is only listed by default: no variant has an
+  // opponent of another variant. Counting the untrained entry makes two variants.
+  EXPECT_EQ(YAML::LoadFile(o.out_dir + "/summary.json")["variants"].size(), 0u);
+  o.untrained_in_statistics = true;
+  write_tournament_report(r, o);
   const YAML::Node js = YAML::LoadFile(o.out_dir + "/summary.json");
   ASSERT_EQ(js["variants"].size(), 2u);  // es_d3 (2 runs) and untrained
   for (const auto& v : js["variants"]) {
     const double lo = v["iqm_ci95"][0].as<double>(), hi = v["iqm_ci95"][1].as<double>();
     EXPECT_LE(lo, v["iqm"].as<double>() + 1e-12);
     EXPECT_GE(hi, v["iqm"].as<double>() - 1e-12);
+  }
+}
+
+TEST(TournamentControls, CenterRuleIsTheMiddleBinEverywhere) {
+  for (int hl_bins : {1, 5, 7, 63}) {
+    race::RandomStream rng = control_stream(3, 0);
+    const std::uint64_t before = rng.state();
+    std::vector<std::int64_t> bins(4 * 3, -1);
+    fixed_hl_bins(HlOverride::center, hl_bins, 4, rng, bins.data());
+    for (std::int64_t b : bins) EXPECT_EQ(b, hl_bins / 2) << hl_bins;
+    EXPECT_EQ(rng.state(), before);  // no draws
+  }
+  race::RandomStream rng(1, 2);
+  std::int64_t b[3];
+  EXPECT_THROW(fixed_hl_bins(HlOverride::none, 7, 1, rng, b), std::invalid_argument);
+}
+
+TEST(TournamentControls, RandomRuleIsUniformAndDeterministic) {
+  // 20 000 aircraft x 3 axes over 7 bins: chi-square with 6 degrees of freedom below its 0.999
+  // quantile (22.46), every bin drawn, every axis and aircraft position alike.
+  const int n_aircraft = 20000, hl_bins = 7;
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(n_aircraft) * 3);
+  race::RandomStream rng = control_stream(5, 1);
+  fixed_hl_bins(HlOverride::random, hl_bins, n_aircraft, rng, bins.data());
+  std::vector<std::vector<double>> count(3, std::vector<double>(hl_bins, 0.0));
+  for (std::size_t k = 0; k < bins.size(); ++k) {
+    ASSERT_GE(bins[k], 0);
+    ASSERT_LT(bins[k], hl_bins);
+    count[k % 3][bins[k]] += 1;
+  }
+  for (int axis = 0; axis < 3; ++axis) {
+    const double expected = static_cast<double>(n_aircraft) / hl_bins;
+    double chi2 = 0.0;
+    for (double c : count[axis]) chi2 += (c - expected) * (c - expected) / expected;
+    EXPECT_LT(chi2, 22.46) << "axis " << axis;
+  }
+  // Same seed and env: the same bins, also when drawn a team (2 aircraft) at a time.
+  std::vector<std::int64_t> again(bins.size());
+  race::RandomStream rng2 = control_stream(5, 1);
+  for (int a = 0; a < n_aircraft; a += 2) fixed_hl_bins(HlOverride::random, hl_bins, 2, rng2, again.data() + 3 * a);
+  EXPECT_EQ(again, bins);
+  // Another env or another seed: other bins.
+  for (auto other : {control_stream(5, 2), control_stream(6, 1)}) {
+    std::vector<std::int64_t> x(bins.size());
+    fixed_hl_bins(HlOverride::random, hl_bins, n_aircraft, other, x.data());
+    EXPECT_NE(x, bins);
+  }
+}
+
+TEST(TournamentControls, EntrySpecs) {
+  EXPECT_EQ(parse_entry_spec("runs/a@center"), std::make_pair(std::string("runs/a"), HlOverride::center));
+  EXPECT_EQ(parse_entry_spec("runs/a@random"), std::make_pair(std::string("runs/a"), HlOverride::random));
+  EXPECT_EQ(parse_entry_spec("runs/a"), std::make_pair(std::string("runs/a"), HlOverride::none));
+  EXPECT_EQ(parse_entry_spec("runs/a@other"), std::make_pair(std::string("runs/a@other"), HlOverride::none));
+  EXPECT_EQ(parse_entry_spec("@center"), std::make_pair(std::string("@center"), HlOverride::none));
+  EXPECT_STREQ(hl_override_name(HlOverride::none), "policy");
+}
+
+TEST(TournamentControls, ListedButKeptOutOfVariantStatistics) {
+  TournamentOptions o;
+  o.runs = {trained_run("ctl_a", 1, 2, "es_d3"), trained_run("ctl_b", 2, 2, "es_d1")};
+  o.controls = true;
+  o.races_per_pair = 2;
+  o.batch_envs = 16;
+  o.bootstrap_replicates = 200;
+  o.out_dir = (fs::temp_directory_path() / "f16race_tour_ctl_out").string();
+  fs::remove_all(o.out_dir);
+  const TournamentResult r = run_tournament(o);
+  // The runs, the untrained networks, then each run's two controls on its own policy.
+  const std::vector<std::string> names = {"f16race_tour_ctl_a",        "f16race_tour_ctl_b",        "untrained",
+                                          "f16race_tour_ctl_a@center", "f16race_tour_ctl_a@random", "f16race_tour_ctl_b@center",
+                                          "f16race_tour_ctl_b@random"};
+  ASSERT_EQ(r.entries.size(), names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(r.entries[i].name, names[i]);
+  const HlOverride rules[] = {HlOverride::none,   HlOverride::none,   HlOverride::none,  HlOverride::center,
+                              HlOverride::random, HlOverride::center, HlOverride::random};
+  const int policy[] = {0, 1, 2, 0, 0, 1, 1};
+  const bool counted[] = {true, true, false, false, false, false, false};
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    EXPECT_EQ(r.entries[i].hl, rules[i]) << i;
+    EXPECT_EQ(r.entries[i].policy, policy[i]) << i;
+    EXPECT_EQ(in_variant_statistics(r.entries[i], o), counted[i]) << i;
+  }
+  EXPECT_EQ(r.entries[3].variant, "es_d3");  // a control keeps its run's variant and seed
+  EXPECT_EQ(r.entries[6].variant, "es_d1");
+  EXPECT_EQ(r.entries[6].seed, 2u);
+  EXPECT_EQ(r.races.size(), 21u * 2u);  // 7 entries: 21 pairs
+  for (int i = 0; i < 7; ++i)
+    for (int j = 0; j < 7; ++j)
+      if (i != j) {
+        EXPECT_EQ(r.games[i][j], 2.0);
+      }
+
+  write_tournament_report(r, o);
+  for (const char* f : {"summary.json", "summary.md", "tournament.gp", "pairings.gp", "variant_matrix.csv"})
+    EXPECT_TRUE(fs::exists(fs::path(o.out_dir) / f)) << f;
+  {
+    const YAML::Node js = YAML::LoadFile(o.out_dir + "/summary.json");
+    EXPECT_FALSE(js["untrained_in_statistics"].as<bool>());
+    EXPECT_EQ(js["excluded_from_variant_statistics"].size(), 5u);
+    // Entries: every one listed, 6 opponents x 2 races each, winrate inside its Wilson interval.
+    ASSERT_EQ(js["entries"].size(), 7u);
+    double win_sum = 0.0;
+    for (std::size_t i = 0; i < 7; ++i) {
+      const YAML::Node e = js["entries"][i];
+      EXPECT_EQ(e["name"].as<std::string>(), names[i]);
+      EXPECT_EQ(e["hl"].as<std::string>(), hl_override_name(rules[i]));
+      EXPECT_EQ(e["in_variant_statistics"].as<bool>(), counted[i]);
+      EXPECT_EQ(e["races"].as<double>(), 12.0);
+      const double w = e["winrate"].as<double>(), lo = e["wilson95"][0].as<double>(), hi = e["wilson95"][1].as<double>();
+      EXPECT_LE(lo, w);
+      EXPECT_GE(hi, w);
+      EXPECT_LT(lo, hi);
+      win_sum += w * 12.0;
+    }
+    EXPECT_NEAR(win_sum, 42.0, 1e-9);  // every race won by someone, draws half each
+    // Pairings: every ordered pair that played, row's winrate + column's = 1.
+    ASSERT_EQ(js["pairings"].size(), 42u);
+    std::map<std::pair<std::string, std::string>, double> rate;
+    for (const auto& p : js["pairings"]) {
+      EXPECT_EQ(p["races"].as<double>(), 2.0);
+      rate[{p["row"].as<std::string>(), p["col"].as<std::string>()}] = p["winrate"].as<double>();
+    }
+    EXPECT_EQ(rate.size(), 42u);
+    for (const auto& [k, v] : rate) EXPECT_DOUBLE_EQ(v + rate.at({k.second, k.first}), 1.0);
+    // Variants: only the two runs' games against each other (2 races), nothing with a control
+    // or the untrained networks.
+    ASSERT_EQ(js["variants"].size(), 2u);
+    for (const auto& v : js["variants"]) {
+      EXPECT_EQ(v["runs"].as<int>(), 1);
+      EXPECT_EQ(v["races"].as<double>(), 2.0);
+    }
+    EXPECT_EQ(js["variants"][0]["variant"].as<std::string>(), "es_d1");
+    const double ab = rate.at({names[1], names[0]});
+    EXPECT_DOUBLE_EQ(js["variants"][0]["winrate_mean"].as<double>(), ab);
+    // Variant vs variant: es_d1 vs es_d3 is the one pairing; one run per variant leaves the
+    // diagonal without pairings (null).
+    const YAML::Node vv = js["variant_vs_variant"];
+    ASSERT_EQ(vv["variants"].size(), 2u);
+    EXPECT_DOUBLE_EQ(vv["winrate"][0][1].as<double>(), ab);
+    EXPECT_DOUBLE_EQ(vv["winrate"][1][0].as<double>(), 1.0 - ab);
+    EXPECT_TRUE(vv["winrate"][0][0].IsNull());
+    EXPECT_EQ(vv["pairings"][0][1].as<int>(), 1);
+  }
+  {
+    std::ifstream md(o.out_dir + "/summary.md");
+    const std::string text((std::istreambuf_iterator<char>(md)), {});
+    EXPECT_NE(text.find("Excluded from the variant statistics"), std::string::npos) << text;
+    EXPECT_NE(text.find("| f16race_tour_ctl_b@random | es_d1 | 2 | 12 |"), std::string::npos) << text;
+    EXPECT_NE(text.find("| untrained | untrained | 1 | 12 |"), std::string::npos) << text;
+  }
+  // --with-untrained: the untrained entry becomes a variant of its own; controls stay out.
+  o.untrained_in_statistics = true;
+  write_tournament_report(r, o);
+  {
+    const YAML::Node js = YAML::LoadFile(o.out_dir + "/summary.json");
+    EXPECT_EQ(js["excluded_from_variant_statistics"].size(), 4u);
+    EXPECT_TRUE(js["entries"][2]["in_variant_statistics"].as<bool>());
+    ASSERT_EQ(js["variants"].size(), 3u);  // es_d1, es_d3, untrained
+    for (const auto& v : js["variants"]) EXPECT_EQ(v["races"].as<double>(), 4.0) << v["variant"].as<std::string>();
+    EXPECT_EQ(js["variant_vs_variant"]["variants"].size(), 3u);
+  }
+  // Same options, same races: the @random streams are seeded.
+  const TournamentResult again = run_tournament(o);
+  ASSERT_EQ(again.races.size(), r.races.size());
+  for (std::size_t k = 0; k < r.races.size(); ++k) {
+    EXPECT_EQ(again.races[k].winner, r.races[k].winner) << k;
+    EXPECT_EQ(again.races[k].duration_s, r.races[k].duration_s) << k;
   }
 }
 

@@ -12,6 +12,7 @@
 
 #include "dynamics/inner_loop.hpp"
 #include "race/race_env.hpp"
+#include "race/ranking.hpp"
 #include "race/random_stream.hpp"
 #include "race/scripted_pilot.hpp"
 
@@ -320,6 +321,121 @@ TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
   for (int i = 0; i < a.n_aircraft(); ++i) EXPECT_EQ(a.sim().state(kAlt)[i], b.sim().state(kAlt)[i]);
   std::stringstream bad("short");
   EXPECT_THROW(b.load_state(bad), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace f16race::race
+
+// --- the high level's reward, goal and race end (issue: "the high level must learn") ---------
+namespace f16race::race {
+namespace {
+
+// Blue aircraft 0 is flown out of the tube at once (a 6 g rolling pull, tube exits terminate)
+// and blue 1 flies at low throttle, so red leads: from its elimination to the race's end aircraft 0 must be paid its
+// team's term, -1 per step while trailing, exactly what a teammate holding its rank gets. Today's
+// code before this rule paid it 0, so leaving the race raised a trailing team's return.
+TEST(RaceEnv, EliminatedAircraftKeepsTheTeamTermToTheRaceEnd) {
+  RaceConfig c = small_config(1, 2);
+  c.tube_exit = TubeExit::kTerminate;
+  c.time_limit_s = 40.0;
+  RaceEnv env(c);
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+  int died_at = -1, steps_after = 0;
+  double after_death = 0.0, team_after_death = 0.0;
+  bool done = false;
+  for (int s = 0; s < 2000 && !done; ++s) {
+    env.set_hl_actions(bins.data());
+    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    a[0] = 0.0f, a[1] = 1.0f, a[2] = 0.3f;  // aircraft 0: rolling pull out of the tube
+    a[kActionDim] = -0.8f;                  // aircraft 1: throttle 0.1
+    env.step(a.data());
+    done = env.env_done()[0] != 0;
+    if (died_at < 0 && env.step_cause()[0] != kCauseNone) {
+      died_at = s;
+      EXPECT_EQ(env.step_cause()[0], kCauseTube);
+      // The elimination step itself: the team term plus an ego term that cannot be positive.
+      EXPECT_LE(env.hl_reward()[0], hl_team_term(env.team_rank(0)) + 1e-6);
+      continue;
+    }
+    if (died_at < 0) continue;
+    // Ranks are those of the new race after the final step's reset; the winner says the last term.
+    const double team = done ? (env.race_winner()[0] == 0 ? 1.0 : env.race_winner()[0] == 1 ? -1.0 : 0.0)
+                             : hl_team_term(env.team_rank(0));
+    EXPECT_FLOAT_EQ(env.hl_reward()[0], static_cast<float>(team)) << "step " << s;
+    EXPECT_EQ(env.acted()[0], 0);
+    after_death += env.hl_reward()[0];
+    team_after_death += team;
+    ++steps_after;
+  }
+  ASSERT_TRUE(done);
+  ASSERT_GE(died_at, 0);
+  ASSERT_GT(steps_after, 100);
+  EXPECT_NEAR(after_death, team_after_death, 1e-3);
+  EXPECT_LT(after_death, -50.0);  // blue trailed: being out did not spare it the team's loss
+}
+
+TEST(RaceEnv, TimeLimitEndsTheRaceAsATerminationUnlessConfiguredAsTruncation) {
+  for (const bool terminal : {true, false}) {
+    RaceConfig c = small_config(2, 2);
+    c.time_limit_s = 2.0;
+    c.time_limit_terminal = terminal;
+    RaceEnv env(c);
+    std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+    int ended = -1;
+    for (int s = 0; s < 100 && ended < 0; ++s) {
+      env.set_hl_actions(bins.data());
+      scripted_actions(env, ScriptedPilotConfig{}, a.data());
+      const StepStats st = env.step(a.data());
+      if (st.races_finished > 0) ended = s;
+    }
+    ASSERT_EQ(ended, 24) << "2 s at 0.08 s per step";
+    for (int e = 0; e < c.n_env; ++e) {
+      ASSERT_EQ(env.race_end()[e], RaceEnv::kEndTimeLimit);
+      for (int k = 0; k < env.n_agent(); ++k) {
+        const int i = e * env.n_agent() + k;
+        EXPECT_EQ(env.terminated()[i], terminal ? 1 : 0);
+        EXPECT_EQ(env.truncated()[i], terminal ? 0 : 1);
+      }
+    }
+  }
+}
+
+// The goal's center-line point is at the end of the preview horizon (12 000 ft) when placed, and
+// with a 20 s interval (~15 000 ft of flight) it is placed again before the aircraft reaches it:
+// the goal is never behind and never closer than ~goal_refresh_ft, with the bins of the decision.
+TEST(RaceEnv, GoalSitsAtThePreviewHorizonAndStaysAheadThroughA20sInterval) {
+  RaceConfig c = small_config(4, 4);
+  c.dt_hl_s = 20.0;
+  RaceEnv env(c);
+  EXPECT_DOUBLE_EQ(c.goal_ahead(), 12000.0);
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims);
+  for (std::size_t k = 0; k < bins.size(); ++k) bins[k] = static_cast<std::int64_t>((k * 5 + 1) % c.hl_bins);
+  double min_ahead = 1e9, max_ahead = 0.0;
+  int checked = 0;
+  for (int s = 0; s < 250; ++s) {  // one whole 20 s interval
+    env.set_hl_actions(bins.data());
+    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    env.step(a.data());
+    for (int i = 0; i < env.n_aircraft(); ++i) {
+      if (!env.alive(i) || env.env_done()[i / env.n_agent()]) continue;
+      const Track& tr = env.track(i / env.n_agent());
+      const double goal_s = tr.project(env.goal_point(i), -1).s_ft;
+      min_ahead = std::min(min_ahead, goal_s - env.progress_ft(i));
+      max_ahead = std::max(max_ahead, goal_s - env.progress_ft(i));
+      for (int k = 0; k < kHlDims; ++k) ASSERT_EQ(env.goal_bins(i)[k], bins[static_cast<std::size_t>(i) * kHlDims + k]);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 4000);
+  // Offsets move the goal off the center-line point by up to 0.8 R (<= 1440 ft), partly along
+  // it, and the projection of an offset point on a bend shifts a little more: R as the slack.
+  const double slack = c.track.radius_max_ft;
+  EXPECT_GT(min_ahead, c.goal_refresh_ft - slack);
+  EXPECT_LT(max_ahead, c.goal_ahead() + slack);
+  EXPECT_GT(max_ahead, c.goal_ahead() - slack);
 }
 
 }  // namespace

@@ -1,0 +1,36 @@
+#pragma once
+// The learning-curve figure of a training run, from RUN/metrics.csv alone (no LibTorch), so it can
+// be redrawn at any time, also while the run is still writing rows.
+//
+// Writes into the run folder:
+//   curves_data.csv  env_steps_M, then per plotted metric NAME the raw value (NaN where the row
+//                    gives none) and NAME_smooth, the running mean of the last
+//                    kLearningCurveWindow valid values of NAME up to and including that row (NaN on
+//                    rows where NAME itself is not valid, so the line runs across them)
+//   curves.gp        the gnuplot script (kept so the figure can be restyled: `gnuplot curves.gp`)
+//   curves.png       1600x1000, six panels against env steps: finish rate and winrate; LL return;
+//                    HL return; HL diagnostics (q_spread left axis, greedy_entropy and
+//                    off_center_share right axis 0..1); ES end-atom and Huber shares (HL-phase rows
+//                    only, or every row when there is no phase_hl column; y from 0 up to the
+//                    data); goal distance. Raw points faint, running mean as a line; the metrics
+//                    of a panel with no data are named in an empty frame.
+//
+// A metric column that is missing, or has no finite value, is left out of the figure; empty,
+// nan and inf cells are skipped points. Rows without a finite env_steps are skipped. A last line
+// without its newline and with too few cells is a row still being appended and is ignored.
+#include <string>
+
+namespace f16race::io {
+
+// Rows in the running mean of each metric (fewer at the start of a run).
+inline constexpr int kLearningCurveWindow = 20;
+
+// Reads RUN/metrics.csv and writes RUN/curves_data.csv, RUN/curves.gp and RUN/curves.png (the
+// PNG atomically: a crash never leaves half an image). Returns true with `message` = the PNG path
+// when the figure was made; false with `message` saying why when gnuplot is missing or failed
+// (data and script are written anyway). Throws std::runtime_error (io::CsvError) naming the file
+// when metrics.csv cannot be read or is malformed (no env_steps column, rows with the wrong
+// number of cells, non-numeric text).
+bool write_learning_curves(const std::string& run_dir, std::string* message);
+
+}  // namespace f16race::io
