@@ -62,6 +62,8 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
   r.read("w_goal_proximity", &c->w_goal_proximity, -1e6, 1e6);
   r.read("goal_scale_ft", &c->goal_scale_ft, 1.0, 1e6);
+  r.read("w_goal_lane", &c->w_goal_lane, -1e6, 1e6);
+  r.read("goal_lane_scale_ft", &c->goal_lane_scale_ft, 1.0, 1e6);
   r.read("w_tube", &c->w_tube, -1e6, 1e6);
   r.read("w_collision", &c->w_collision, -1e6, 1e6);
   r.read("w_termination", &c->w_termination, -1e6, 1e6);

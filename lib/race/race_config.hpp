@@ -75,6 +75,11 @@ struct RaceConfig {
   double w_goal_progress = 1.0;      // closing speed toward the goal, per goal_scale_ft
   double w_goal_proximity = 0.05;    // exp(-distance / goal_scale_ft)
   double goal_scale_ft = 2000.0;
+  // Lane: exp(-e / goal_lane_scale_ft), e the distance in the tube's cross-section between the
+  // aircraft and its goal (the paper's "proximity reward for being close to the current
+  // high-level waypoint", measured where the high level's offsets act: across the track).
+  double w_goal_lane = 0.05;
+  double goal_lane_scale_ft = 500.0;
   double w_tube = 0.5;               // per second outside the tube, scaled by how far outside
   double w_collision = 5.0;          // once, when taken out by a collision
   double w_termination = 5.0;        // once, for any other termination

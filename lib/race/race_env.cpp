@@ -25,32 +25,6 @@ constexpr double kG = 32.17;
 
 float clampf(double v, double lo, double hi) { return static_cast<float>(std::min(std::max(v, lo), hi)); }
 
-// atan2 to ~1e-5 rad (a minimax polynomial on [0, 1] plus octant logic): observations do not
-// need libm's last bits, and it is several times cheaper than the library call.
-F16_INLINE float fast_atan2(float y, float x) {  // always inlined: called in vector loops
-  const float ax = std::fabs(x), ay = std::fabs(y);
-  const float mx = std::max(ax, ay), mn = std::min(ax, ay);
-  const float a = mx > 0.0f ? mn / mx : 0.0f;
-  const float s = a * a;
-  float r = ((((-0.0117212f * s + 0.05265332f) * s - 0.11643287f) * s + 0.19354346f) * s - 0.33262347f) * s + 0.99997726f;
-  r *= a;
-  if (ay > ax) r = 1.57079637f - r;
-  if (x < 0.0f) r = 3.14159274f - r;
-  return y < 0.0f ? -r : r;
-}
-
-// The HL goal as the LL policy sees it, from the goal's offset from the aircraft (north, east,
-// up [ft]) and the ego heading: range / goal_ahead_ft (<= 10), azimuth / pi, elevation / (pi/2).
-// Inline: write_observations evaluates it in one vector loop over the env's aircraft.
-F16_INLINE void goal_features(float dn, float de, float du, float cos_psi, float sin_psi, float inv_ahead_ft,
-                          float* range, float* azimuth, float* elevation) {
-  const float x = cos_psi * dn + sin_psi * de, y = -sin_psi * dn + cos_psi * de;
-  const float rh = std::sqrt(x * x + y * y);
-  *range = std::min(std::sqrt(rh * rh + du * du) * inv_ahead_ft, 10.0f);
-  *azimuth = fast_atan2(y, x) * static_cast<float>(1.0 / kPi);
-  *elevation = fast_atan2(du, rh) * static_cast<float>(2.0 / kPi);
-}
-
 Vec3 position(const F16Batch& sim, int i) { return {sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]}; }
 
 // Heading-aligned ego frame: x forward along psi, y to the right, z up.
@@ -186,6 +160,8 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   start_vertical_ft_.assign(n, 0.0);
   goal_point_.assign(n, Vec3{});
   goal_progress_ft_.assign(n, 0.0);
+  goal_lateral_ft_.assign(n, 0.0);
+  goal_vertical_ft_.assign(n, 0.0);
   goal_bins_.assign(static_cast<std::size_t>(n) * kHlDims, config_.hl_center_bin());
   last_action_.assign(static_cast<std::size_t>(n) * kActionDim, 0.0f);
   const ObservationSizes sizes(config_);
@@ -341,6 +317,8 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
   if (c > limit) off = along + (limit / c) * cross;
   goal_point_[i] = fr.center + off;
+  goal_lateral_ft_[i] = dot(off, fr.right);
+  goal_vertical_ft_[i] = dot(off, fr.up);
   const Vec3 d = goal_point_[i] - position(sim_, i);
   goal_dist_ft_[i] = std::sqrt(dot(d, d));
 }
@@ -520,6 +498,7 @@ void RaceEnv::step_env(int e) {
     double r = ll_reward_[i];  // already holds the action-change penalty
     r += c.w_goal_progress * (goal_dist_ft_[i] - gd) / c.goal_scale_ft;
     r += c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
+    r += c.w_goal_lane * std::exp(-goal_lane_error_ft(i) / c.goal_lane_scale_ft);
     goal_dist_ft_[i] = gd;
     if (dist_ft_[i] > radius_ft_[i]) r -= c.w_tube * c.dt_ll_s * (dist_ft_[i] - radius_ft_[i]) / radius_ft_[i];
     const double p = sim_.state(kP)[i], q = sim_.state(kQ)[i], rr = sim_.state(kR)[i];
@@ -571,14 +550,19 @@ void RaceEnv::step_env(int e) {
   write_observations(e);
 }
 
+double RaceEnv::goal_lane_error_ft(int i) const {
+  return std::hypot(lateral_ft_[i] - goal_lateral_ft_[i], vertical_ft_[i] - goal_vertical_ft_[i]);
+}
+
+// The HL goal as the LL policy sees it: how far ahead along the track (/ goal_ahead, in [0, 10])
+// and how far across it, right and up in the tube's cross-section (/ the local radius, +-10): the
+// lane the high level chose, relative to the aircraft's own.
 void RaceEnv::write_goal_observation(int i) {
-  // The same float arithmetic as write_observations' pass, so both write the same values.
-  float sin_psi, cos_psi;
-  vmath::sincosf(static_cast<float>(sim_.state(kPsi)[i]), &sin_psi, &cos_psi);
-  const Vec3 d = goal_point_[i] - position(sim_, i);
+  const double ahead = std::min(goal_progress_ft_[i], tracks_[i / n_agent_].length_ft()) - progress_ft_[i];
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
-  goal_features(static_cast<float>(d.n), static_cast<float>(d.e), static_cast<float>(d.u), cos_psi, sin_psi,
-                static_cast<float>(1.0 / config_.goal_ahead()), &g[0], &g[1], &g[2]);
+  g[0] = static_cast<float>(std::clamp(ahead / config_.goal_ahead(), 0.0, 10.0));
+  g[1] = static_cast<float>(std::clamp((goal_lateral_ft_[i] - lateral_ft_[i]) / radius_ft_[i], -10.0, 10.0));
+  g[2] = static_cast<float>(std::clamp((goal_vertical_ft_[i] - vertical_ft_[i]) / radius_ft_[i], -10.0, 10.0));
 }
 
 void RaceEnv::write_observations(int env) {
@@ -598,12 +582,8 @@ void RaceEnv::write_observations(int env) {
   float px[kMaxAgents] = {}, py[kMaxAgents] = {}, pz[kMaxAgents] = {}, vx[kMaxAgents] = {}, vy[kMaxAgents] = {};
   float vz[kMaxAgents] = {}, prog[kMaxAgents] = {}, alive_f[kMaxAgents] = {};
   float ang[5][kMaxAgents] = {};
-  float gdn[kMaxAgents] = {}, gde[kMaxAgents] = {}, gdu[kMaxAgents] = {};  // goal offsets [ft]
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
-    gdn[a] = static_cast<float>(goal_point_[i].n - sim_.state(kPn)[i]);
-    gde[a] = static_cast<float>(goal_point_[i].e - sim_.state(kPe)[i]);
-    gdu[a] = static_cast<float>(goal_point_[i].u - sim_.state(kAlt)[i]);
     px[a] = static_cast<float>(sim_.state(kPn)[i] - sim_.state(kPn)[base]);
     py[a] = static_cast<float>(sim_.state(kPe)[i] - sim_.state(kPe)[base]);
     pz[a] = static_cast<float>(sim_.state(kAlt)[i] - sim_.state(kAlt)[base]);
@@ -628,24 +608,11 @@ void RaceEnv::write_observations(int env) {
 #pragma omp simd
     for (int a = 0; a < na_pad; ++a) vmath::sincosf(ang[k][a], &sn[k][a], &cs[k][a]);
   }
-  float goal[kGoalDim][kMaxAgents];
-  const float inv_ahead = static_cast<float>(1.0 / c.goal_ahead());
   const float* cos_psi = cs[4];
   const float* sin_psi = sn[4];
-#pragma omp simd
-  for (int a = 0; a < na_pad; ++a) {
-    float r, az, el;
-    goal_features(gdn[a], gde[a], gdu[a], cos_psi[a], sin_psi[a], inv_ahead, &r, &az, &el);
-    goal[0][a] = r;
-    goal[1][a] = az;
-    goal[2][a] = el;
-  }
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
-    float* gl = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
-    gl[0] = goal[0][a];
-    gl[1] = goal[1][a];
-    gl[2] = goal[2][a];
+    write_goal_observation(i);
     float* o = &ego_[static_cast<std::size_t>(i) * kEgoDim];
     o[0] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
     for (int k = 0; k < 5; ++k) {
@@ -789,7 +756,8 @@ void RaceEnv::save_state(std::ostream& out) const {
   put_vec(out, prev_ego_rank_); put_vec(out, progress_ft_); put_vec(out, lateral_ft_); put_vec(out, vertical_ft_);
   put_vec(out, dist_ft_); put_vec(out, radius_ft_); put_vec(out, tube_out_s_); put_vec(out, team_rank_);
   put_vec(out, goal_dist_ft_); put_vec(out, start_lateral_ft_); put_vec(out, start_vertical_ft_);
-  put_vec(out, goal_point_); put_vec(out, goal_progress_ft_); put_vec(out, goal_bins_); put_vec(out, last_action_); put_vec(out, ego_); put_vec(out, prev_action_);
+  put_vec(out, goal_point_); put_vec(out, goal_progress_ft_); put_vec(out, goal_lateral_ft_);
+  put_vec(out, goal_vertical_ft_); put_vec(out, goal_bins_); put_vec(out, last_action_); put_vec(out, ego_); put_vec(out, prev_action_);
   put_vec(out, goal_obs_); put_vec(out, ado_); put_vec(out, task_); put_vec(out, ado_alive_);
   put_vec(out, ll_reward_); put_vec(out, hl_reward_); put_vec(out, race_winner_); put_vec(out, race_end_);
 }
@@ -819,7 +787,8 @@ void RaceEnv::load_state(std::istream& in) {
   get_vec(in, &radius_ft_, "radius"); get_vec(in, &tube_out_s_, "tube timer"); get_vec(in, &team_rank_, "team rank");
   get_vec(in, &goal_dist_ft_, "goal distance"); get_vec(in, &start_lateral_ft_, "start lateral");
   get_vec(in, &start_vertical_ft_, "start vertical"); get_vec(in, &goal_point_, "goal point");
-  get_vec(in, &goal_progress_ft_, "goal progress"); get_vec(in, &goal_bins_, "goal bins");
+  get_vec(in, &goal_progress_ft_, "goal progress"); get_vec(in, &goal_lateral_ft_, "goal lateral");
+  get_vec(in, &goal_vertical_ft_, "goal vertical"); get_vec(in, &goal_bins_, "goal bins");
   get_vec(in, &last_action_, "last action"); get_vec(in, &ego_, "ego obs"); get_vec(in, &prev_action_, "prev action obs");
   get_vec(in, &goal_obs_, "goal obs"); get_vec(in, &ado_, "ado obs"); get_vec(in, &task_, "task obs");
   get_vec(in, &ado_alive_, "ado alive"); get_vec(in, &ll_reward_, "ll reward"); get_vec(in, &hl_reward_, "hl reward");

@@ -24,7 +24,7 @@ namespace f16race::race {
 // Observation widths (see docs/race.md for the order of every entry).
 inline constexpr int kEgoDim = 20;   // s-bar: state with angles as sin/cos, scaled to O(1)
 inline constexpr int kAdoDim = 10;   // one other aircraft
-inline constexpr int kGoalDim = 3;   // HL goal in spherical ego coordinates
+inline constexpr int kGoalDim = 3;   // HL goal: distance ahead along the track, lane error across it
 inline constexpr int kActionDim = 3; // LL action: throttle, Nz_ref, ps_ref in [-1, 1]
 inline constexpr int kHlDims = 3;    // HL action: bins for (d_north, d_east, d_up)
 int task_dim(const RaceConfig& config);
@@ -145,6 +145,7 @@ class RaceEnv {
   void compute_ranks(int env);
   void write_observations(int env);
   void write_goal_observation(int i);
+  double goal_lane_error_ft(int i) const;
   void place_goal(int i, const std::int64_t* bins3);
 
   RaceConfig config_;
@@ -172,6 +173,7 @@ class RaceEnv {
   std::vector<double> start_lateral_ft_, start_vertical_ft_;
   std::vector<Vec3> goal_point_;
   std::vector<double> goal_progress_ft_;   // [N] center-line progress of the goal's point
+  std::vector<double> goal_lateral_ft_, goal_vertical_ft_;  // [N] the goal's offset in its tube cross-section
   std::vector<std::int64_t> goal_bins_;    // [N, 3] the HL bins the goal was placed with
   std::vector<float> last_action_;  // [N, 3]
 

@@ -647,8 +647,13 @@ void Trainer::State::save_checkpoint() {
   write_text_atomic(run_dir + "/checkpoint/LATEST", name);
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
   // The learning-curve figure follows the checkpoints; without gnuplot only its data and script.
+  // A figure that cannot be drawn never stops training: the reason goes to the final summary.
   std::string message;
-  if (!io::write_learning_curves(run_dir, &message)) curves_problem = message;
+  try {
+    if (!io::write_learning_curves(run_dir, &message)) curves_problem = message;
+  } catch (const std::exception& e) {
+    curves_problem = e.what();
+  }
 }
 
 std::string checkpoint_error_reason(const std::exception& e) {

@@ -174,8 +174,13 @@ TEST(RaceEnv, ObservationBuffersHaveTheDocumentedShapes) {
     for (int k = 1; k < 11; k += 2) EXPECT_NEAR(e[k] * e[k] + e[k + 1] * e[k + 1], 1.0, 1e-6);
     for (int j = 0; j < env.n_agent() - 1; ++j) EXPECT_EQ(env.obs_ado_alive()[i * (env.n_agent() - 1) + j], 1);
     const float* g = env.obs_goal() + static_cast<std::size_t>(i) * kGoalDim;
-    EXPECT_GT(g[0], 0.5f);                        // the goal is ~goal_ahead_ft ahead
-    EXPECT_LT(std::fabs(g[1]), 0.25f);            // and roughly in front
+    // After a reset the goal is the center-line point at the horizon: one horizon ahead, and the
+    // lane error is the aircraft's own start offset, reversed, in tube radii.
+    EXPECT_NEAR(g[0], 1.0f, 1e-6);
+    const double radius = env.track(i / env.n_agent()).radius_at(env.progress_ft(i));
+    EXPECT_NEAR(g[1], -env.lateral_ft(i) / radius, 0.02);
+    EXPECT_NEAR(g[2], -env.vertical_ft(i) / radius, 0.02);
+    EXPECT_GT(std::fabs(g[1]) + std::fabs(g[2]), 0.0f);
   }
 }
 
@@ -413,7 +418,7 @@ TEST(RaceEnv, GoalSitsAtThePreviewHorizonAndStaysAheadThroughA20sInterval) {
   std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims);
   for (std::size_t k = 0; k < bins.size(); ++k) bins[k] = static_cast<std::int64_t>((k * 5 + 1) % c.hl_bins);
-  double min_ahead = 1e9, max_ahead = 0.0;
+  double min_ahead = 1e9, max_ahead = 0.0, max_lane_err = 0.0;
   int checked = 0;
   for (int s = 0; s < 250; ++s) {  // one whole 20 s interval
     env.set_hl_actions(bins.data());
@@ -422,7 +427,13 @@ TEST(RaceEnv, GoalSitsAtThePreviewHorizonAndStaysAheadThroughA20sInterval) {
     for (int i = 0; i < env.n_aircraft(); ++i) {
       if (!env.alive(i) || env.env_done()[i / env.n_agent()]) continue;
       const Track& tr = env.track(i / env.n_agent());
-      const double goal_s = tr.project(env.goal_point(i), -1).s_ft;
+      const TrackQuery gq = tr.project(env.goal_point(i), -1);
+      const double goal_s = gq.s_ft;
+      // The goal observation's lane error is the goal's tube offset minus the aircraft's.
+      const float* g = env.obs_goal() + static_cast<std::size_t>(i) * kGoalDim;
+      const double radius = tr.radius_at(env.progress_ft(i));
+      max_lane_err = std::max(max_lane_err, std::fabs(g[1] * radius + env.lateral_ft(i) - gq.lateral_ft));
+      max_lane_err = std::max(max_lane_err, std::fabs(g[2] * radius + env.vertical_ft(i) - gq.vertical_ft));
       min_ahead = std::min(min_ahead, goal_s - env.progress_ft(i));
       max_ahead = std::max(max_ahead, goal_s - env.progress_ft(i));
       for (int k = 0; k < kHlDims; ++k) ASSERT_EQ(env.goal_bins(i)[k], bins[static_cast<std::size_t>(i) * kHlDims + k]);
@@ -430,6 +441,7 @@ TEST(RaceEnv, GoalSitsAtThePreviewHorizonAndStaysAheadThroughA20sInterval) {
     }
   }
   EXPECT_GT(checked, 4000);
+  EXPECT_LT(max_lane_err, 150.0);  // ft: the radius at the aircraft and the projection onto a bend differ a little
   // Offsets move the goal off the center-line point by up to 0.8 R (<= 1440 ft), partly along
   // it, and the projection of an offset point on a bend shifts a little more: R as the slack.
   const double slack = c.track.radius_max_ft;

@@ -57,7 +57,7 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
       const GoalMark& g = t.goals[a].front();
       EXPECT_NEAR(g.lateral_ft, 0.0, 1.0);
       EXPECT_NEAR(g.vertical_ft, 0.0, 1.0);
-      EXPECT_NEAR(g.s_ft, rows.front().s_ft + c.goal_ahead_ft, 5.0);
+      EXPECT_NEAR(g.s_ft, rows.front().s_ft + c.goal_ahead(), 5.0);
     }
   }
   const std::string dir = (fs::temp_directory_path() / "f16race_recorder").string();

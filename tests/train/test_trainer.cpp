@@ -154,6 +154,15 @@ TEST(Trainer, AtomicCheckpointsLeaveNoTemporaryFilesAndPruneOldOnes) {
   int pool = 0;
   for (const auto& e : fs::directory_iterator(fs::path(dir) / "pool")) pool += e.is_directory();
   EXPECT_EQ(pool, 2);  // max_snapshots
+  // The learning curves follow the checkpoints: data and script always, the figure with gnuplot.
+  const TrainSummary more = t.run(nullptr, 1);
+  EXPECT_TRUE(fs::exists(fs::path(dir) / "curves_data.csv"));
+  EXPECT_TRUE(fs::exists(fs::path(dir) / "curves.gp"));
+  if (more.curves_problem.empty()) {
+    EXPECT_GT(fs::file_size(fs::path(dir) / "curves.png"), 1000u);
+  }
+  for (const auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+  EXPECT_GT(more.hl_grad_steps, 0);  // smoke: 1 ES update in every 3, 8 x 8 steps on 3 teams each
 }
 
 TEST(SelfPlay, MatchupAndPoolDrawFrequencies) {
