@@ -191,7 +191,7 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   o << "## Inputs\n\n| name | shape | dtype | meaning |\n|---|---|---|---|\n"
     << "| ego | [B, " << d.d_ego << "] | float32 | own state s̄, angles as sin/cos (table below) |\n"
     << "| prev_action | [B, 3] | float32 | HL only: the aircraft's last LL action in [-1, 1] |\n"
-    << "| goal | [B, 3] | float32 | LL only: the HL goal point in spherical heading-frame coordinates |\n"
+    << "| goal | [B, 3] | float32 | LL only: the HL goal as a lane, ahead along the track and across it |\n"
     << "| ado | [B, " << d.n_other << ", " << d.d_ado
     << "] | float32 | one row per other aircraft, in agent order with self skipped (teammates first for blue) |\n"
     << "| ado_alive | [B, " << d.n_other << "] | bool | false = that aircraft is out (its row is ignored) |\n"
@@ -199,7 +199,8 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   o << "ego: 0 vt/1000 ft/s; 1-10 sin, cos of α, β, φ, θ, ψ; 11-13 p/2, q, r [rad/s] (±10); 14 altitude/10 000 ft;\n"
     << "15 engine power/100; 16-18 inner-loop integrators ∫(Nz−Nz_ref)/5, ∫(ps−ps_ref)/2, ∫(Ny+r)/2 (±10);\n"
     << "19 Nz/5 g.\n\n"
-    << "goal: 0 distance/" << rc.goal_ahead_ft << " ft (≤ 10); 1 azimuth/π (+ right); 2 elevation/(π/2).\n\n"
+    << "goal: 0 distance ahead along the track/" << rc.goal_ahead() << " ft (0..10); 1, 2 the goal's offset in its tube "
+       "cross-section minus the aircraft's, right and up, / the local tube radius (±10).\n\n"
     << "ado row: 0 range/5 000 ft (≤ 10); 1, 2 sin, cos of azimuth; 3 sin of elevation; 4-6 relative velocity\n"
     << "x, y, up / 500 ft/s; 7 progress difference/5 000 ft; 8 same team (1/0); 9 alive (1/0).\n\n"
     << "task: for p = 0.." << rc.preview_points - 1 << ", entries 5p..5p+4 describe the center-line point "
@@ -222,7 +223,7 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     o << "| probs | [B, 3, " << nb << ", " << hl.n_atoms << "] | C51 return distribution per axis and bin over "
       << hl.n_atoms << " atoms evenly spaced in [" << hl.v_min << ", " << hl.v_max << "] |\n";
   const double half = 0.5 * (nb - 1);
-  o << "\nThe goal point is the center-line point " << rc.goal_ahead_ft << " ft ahead of the aircraft, offset along world\n"
+  o << "\nThe goal point is the center-line point " << rc.goal_ahead() << " ft ahead of the aircraft, offset along world\n"
     << "north, east and up by (b − " << half << ") · " << rc.goal_bin_scale << " R / " << half
     << " for the local tube radius R, with the cross-track part clipped to " << rc.goal_bin_scale << " R.\n\n";
   o << "## ll_policy.pt: forward(ego, goal, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"

@@ -78,7 +78,7 @@ struct RaceConfig {
   // Lane: exp(-e / goal_lane_scale_ft), e the distance in the tube's cross-section between the
   // aircraft and its goal (the paper's "proximity reward for being close to the current
   // high-level waypoint", measured where the high level's offsets act: across the track).
-  double w_goal_lane = 0.05;
+  double w_goal_lane = 0.15;        // measured against 0.05: docs/learning.md
   double goal_lane_scale_ft = 500.0;
   double w_tube = 0.5;               // per second outside the tube, scaled by how far outside
   double w_collision = 5.0;          // once, when taken out by a collision
