@@ -24,8 +24,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "f16race 0.1.0");
   int threads = 0;
-  app.add_option("--threads", threads, "OpenMP threads for the simulator (0 = all cores)")
-      ->check(CLI::NonNegativeNumber);
+  // Bounded: a huge count spawns hundreds of threads that spin against each other for minutes.
+  app.add_option("--threads", threads, "OpenMP threads for the simulator (0 = all cores, at most 256)")
+      ->check(CLI::Range(0, 256));
   // Thread count is set once, before any parallel region; subcommands never change it
   // (except `bench`, which measures 1 thread and all threads on purpose).
   app.parse_complete_callback([&]() {

@@ -89,6 +89,10 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   TournamentResult res;
   std::vector<train::RunPolicy> pol;
   for (const std::string& r : o.runs) {
+    // The same folder twice would count one run as two seeds of its variant.
+    for (const std::string& q : o.runs)
+      if (&q != &r && std::filesystem::weakly_canonical(q) == std::filesystem::weakly_canonical(r))
+        throw std::runtime_error("tournament: " + r + " is given twice in --runs; list each run folder once");
     pol.push_back(train::load_run_policy(r));
     // Races use the first run's race; every entry must have been trained for the same shapes.
     train::check_same_race_shape(pol.front(), pol.back());

@@ -37,10 +37,9 @@ RunPolicy make_policy(TrainConfig cfg) {
 
 RunPolicy load_run_policy(const std::string& run_dir) {
   const RunConfig run = read_run_config(run_dir);
-  const std::string latest = run_dir + "/checkpoint/LATEST";
-  std::ifstream f(latest);
-  std::string name;
-  if (!(f >> name)) throw std::runtime_error(latest + ": missing, so the run has no checkpoint yet; train it first");
+  const std::string name = latest_checkpoint_name(run_dir);
+  if (name.empty())
+    throw std::runtime_error(run_dir + "/checkpoint/LATEST: missing, so the run has no checkpoint yet; train it first");
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
   RunPolicy p = make_policy(run.config);
   p.name = folder_name(run_dir);

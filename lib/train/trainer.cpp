@@ -642,8 +642,7 @@ void Trainer::State::save_checkpoint() {
        << "\nupdates: " << ppo_updates + es_updates << "\n";
   write_text_atomic((dir / "meta.yaml").string(), meta.str());
   // The pointer flips only once the folder is complete; then older checkpoints go.
-  const std::string previous =
-      fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST") ? read_text(run_dir + "/checkpoint/LATEST") : "";
+  const std::string previous = latest_checkpoint_name(run_dir);
   write_text_atomic(run_dir + "/checkpoint/LATEST", name);
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
   // The learning-curve figure follows the checkpoints; without gnuplot only its data and script.
@@ -654,6 +653,13 @@ void Trainer::State::save_checkpoint() {
   } catch (const std::exception& e) {
     curves_problem = e.what();
   }
+}
+
+std::string latest_checkpoint_name(const std::string& run_dir) {
+  std::ifstream f(run_dir + "/checkpoint/LATEST");
+  std::string name;
+  f >> name;
+  return name;
 }
 
 std::string checkpoint_error_reason(const std::exception& e) {
@@ -674,9 +680,9 @@ std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint6
 }
 
 void Trainer::State::load_checkpoint() {
-  const std::string latest = run_dir + "/checkpoint/LATEST";
-  if (!fs::exists(latest)) throw std::runtime_error(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing)");
-  const std::string name = read_text(latest);
+  const std::string name = latest_checkpoint_name(run_dir);
+  if (name.empty())
+    throw std::runtime_error(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing or empty)");
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
   fs::path file = dir / "meta.yaml";  // the file being read, for the error message
   try {

@@ -30,6 +30,10 @@ inline constexpr int kCheckpointFormat = 2;
 // adds the path) unless it has this build's format and was written under `expected_config_hash`.
 std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash);
 
+// The checkpoint folder RUN/checkpoint/LATEST names (surrounding whitespace ignored, so a file
+// edited by hand reads the same everywhere); "" when LATEST is missing or empty.
+std::string latest_checkpoint_name(const std::string& run_dir);
+
 // The one-line reason of a failed checkpoint read, for a message that names the file and the fix:
 // LibTorch's errors carry a C++ backtrace after their first line. Cut to 160 characters.
 std::string checkpoint_error_reason(const std::exception& e);

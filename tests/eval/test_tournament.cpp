@@ -268,6 +268,15 @@ TEST(Tournament, RefusesMissingAndMismatchedRuns) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("f16race_tour_d: trained on 1 vs 1"), std::string::npos) << e.what();
   }
+  // One run given twice (also as another spelling of the same path) would be counted as two seeds.
+  const std::string c = trained_run("c", 3, 2);
+  o.runs = {c, c + "/."};
+  try {
+    run_tournament(o);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("is given twice in --runs"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -126,6 +126,22 @@ TEST(Trainer, RefusesToOverwriteARunAndRefusesACorruptCheckpoint) {
   EXPECT_EQ(fs::file_size(ck), size / 2);  // nothing was overwritten by the failed attempt
 }
 
+TEST(Trainer, LatestEditedByHandWithATrailingNewlineStillResumes) {
+  const std::string dir = fresh_dir("latest_newline");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  const std::string name = latest_checkpoint_name(dir);
+  ASSERT_FALSE(name.empty());
+  std::ofstream(dir + "/checkpoint/LATEST", std::ios::trunc) << name << "\n";
+  EXPECT_EQ(latest_checkpoint_name(dir), name);
+  EXPECT_EQ(Trainer::resume(dir)->updates(), 3);
+  fs::remove(fs::path(dir) / "checkpoint" / "LATEST");
+  EXPECT_EQ(latest_checkpoint_name(dir), "");
+  EXPECT_THROW(Trainer::resume(dir), std::runtime_error);
+}
+
 TEST(Trainer, RefusesACheckpointWrittenWithAnotherConfig) {
   const std::string dir = fresh_dir("mismatch");
   {
