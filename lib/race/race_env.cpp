@@ -551,7 +551,9 @@ void RaceEnv::step_env(int e) {
 }
 
 double RaceEnv::goal_lane_error_ft(int i) const {
-  return std::hypot(lateral_ft_[i] - goal_lateral_ft_[i], vertical_ft_[i] - goal_vertical_ft_[i]);
+  // sqrt, not hypot: offsets are a few thousand feet, and hypot's overflow care costs per step.
+  const double dl = lateral_ft_[i] - goal_lateral_ft_[i], dv = vertical_ft_[i] - goal_vertical_ft_[i];
+  return std::sqrt(dl * dl + dv * dv);
 }
 
 // The HL goal as the LL policy sees it: how far ahead along the track (/ goal_ahead, in [0, 10])
