@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace f16race::io {
@@ -66,6 +67,19 @@ ConfigReader::ConfigReader(YAML::Node node, std::string source, std::string path
   if (node_ && !node_.IsNull() && !node_.IsMap()) {
     throw ConfigError(source_ + ": '" + (path_.empty() ? std::string("(top level)") : path_) +
                       "' must be a mapping of key: value pairs");
+  }
+  // yaml-cpp keeps both entries of a repeated key and lookups see only the first, so
+  // `n_env: 6` then `n_env: 4` would silently train 6 envs.
+  if (node_ && node_.IsMap()) {
+    std::set<std::string> seen;
+    for (const auto& kv : node_) {
+      if (!kv.first.IsScalar()) continue;
+      if (!seen.insert(kv.first.Scalar()).second) {
+        const int line = kv.first.Mark().line;
+        throw ConfigError(source_ + (line >= 0 ? ":" + std::to_string(line + 1) : std::string()) + ": " +
+                          key_path(kv.first.Scalar().c_str()) + " is given twice; keep one of them");
+      }
+    }
   }
 }
 

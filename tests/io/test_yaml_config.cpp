@@ -55,6 +55,14 @@ TEST(YamlConfig, UnknownKeyNamesItsPath) {
   EXPECT_NE(e.find("inner"), std::string::npos) << e;  // lists what is known
 }
 
+TEST(YamlConfig, RepeatedKeyIsRefusedWithItsLineInsteadOfFirstWins) {
+  std::string e = error_of("n: 6\ndt: 0.1\nn: 4\n");
+  EXPECT_NE(e.find("cfg.yaml:3: n is given twice; keep one of them"), std::string::npos) << e;
+  e = error_of("sub:\n  inner: 1\n  inner: 2\n");
+  EXPECT_NE(e.find("cfg.yaml:3: sub.inner is given twice"), std::string::npos) << e;
+  EXPECT_EQ(error_of("n: 6\nsub: {inner: 2}\n"), "");
+}
+
 TEST(YamlConfig, WrongTypeAndOutOfRangeNameKeyValueAndRange) {
   std::string e = error_of("n: lots\n");
   EXPECT_NE(e.find("cfg.yaml: n: expected an integer, got 'lots'"), std::string::npos) << e;
