@@ -138,6 +138,11 @@ void run_trajectory(const SimulateOptions& o) {
     }
     req.x0 = trim.x0;
     if (!(o.duration_s > 0.0) || !(o.sample_s > 0.0)) throw UserError("--duration and --sample must be > 0");
+    // Checked before the cast: a huge ratio would overflow int and simulate nothing.
+    constexpr double kMaxSamples = 1e7;
+    if (o.duration_s / o.sample_s > kMaxSamples)
+      throw UserError("--duration " + std::to_string(o.duration_s) + " s at --sample " + std::to_string(o.sample_s) +
+                      " s would write more than 10 000 000 samples; shorten --duration or raise --sample");
     const int n = static_cast<int>(std::floor(o.duration_s / o.sample_s + 1e-9));
     for (int k = 0; k <= n; ++k) req.output_times_s.push_back(k * o.sample_s);
     if (!o.commands.empty()) {
