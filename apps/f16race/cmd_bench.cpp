@@ -137,7 +137,7 @@ void run_bench_env(const EnvBenchOptions& o) {
     race::RaceEnv env(cfg);
     const int n = env.n_aircraft();
     std::vector<float> actions(static_cast<std::size_t>(n) * race::kActionDim);
-    std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * race::kHlDims, cfg.hl_bins / 2);
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * race::kHlDims, cfg.hl_center_bin());
     std::vector<double> env_rates, sim_rates;
     F16BatchConfig bc;
     bc.n_env = cfg.n_env;

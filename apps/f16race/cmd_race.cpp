@@ -49,7 +49,7 @@ void run_race(const RaceOptions& o) {
   for (int e = 0; e < cfg.n_env; ++e) env.track(e).save_csv(o.out + "/race" + std::to_string(e) + "_track.csv");
 
   std::vector<float> actions(static_cast<std::size_t>(n) * kActionDim);
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * kHlDims, cfg.hl_bins / 2);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * kHlDims, cfg.hl_center_bin());
   ScriptedPilotConfig pilot;
   pilot.speed_ftps = cfg.start_speed_ftps;
   RaceRecorder rec(env);

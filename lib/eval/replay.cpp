@@ -68,7 +68,7 @@ ReplayResult run_replay(const ReplayOptions& o) {
   race::RaceEnv env(rc);
   race::RaceRecorder rec(env);
   const int n_agent = env.n_agent(), ts = rc.team_size;
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(n_agent) * race::kHlDims, rc.hl_bins / 2);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(n_agent) * race::kHlDims, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(n_agent) * race::kActionDim, 0.0f);
   race::ScriptedPilotConfig pilot;
   pilot.speed_ftps = rc.start_speed_ftps;

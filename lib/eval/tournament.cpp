@@ -91,7 +91,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   for (const std::string& r : o.runs) {
     // The same folder twice would count one run as two seeds of its variant.
     for (const std::string& q : o.runs)
-      if (&q != &r && std::filesystem::weakly_canonical(q) == std::filesystem::weakly_canonical(r))
+      if (&q != &r && fs::weakly_canonical(q) == fs::weakly_canonical(r))
         throw std::runtime_error("tournament: " + r + " is given twice in --runs; list each run folder once");
     pol.push_back(train::load_run_policy(r));
     // Races use the first run's race; every entry must have been trained for the same shapes.
@@ -160,7 +160,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     for (int id = 0; id < n_entries; ++id) rows[id] = torch::tensor(r[id], torch::kInt64);
   };
   rebuild_rows();
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_bins / 2);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3, 0.0f);
   // Writes rows `idx` of `values` [M, 3] into the flat [N, 3] array `dst`.
   auto scatter = [](const torch::Tensor& idx, const torch::Tensor& values, auto* dst) {

@@ -135,10 +135,14 @@ struct Trainer::State {
   // the egoistic critics (es, es_d1) keep an eliminated aircraft in its own transitions to the
   // race's end (it is paid the team term; its bins have no effect); the team critics count the
   // aircraft alive at the decision and value the team's future through its living members.
-  torch::Tensor hl_members(int e) const {
+  // At a race's end the env has already reset, so who was alive is read from `truncated`.
+  torch::Tensor hl_members(int e, bool at_race_end = false) const {
     auto m = torch::ones({ts}, torch::kBool);
     if (agents::es_is_team(cfg.hl.variant))
-      for (int j = 0; j < ts; ++j) m.data_ptr<bool>()[j] = env->alive(learner_agent(e, j));
+      for (int j = 0; j < ts; ++j) {
+        const int i = learner_agent(e, j);
+        m.data_ptr<bool>()[j] = at_race_end ? env->truncated()[i] != 0 : env->alive(i);
+      }
     return m;
   }
   bool is_learner(int e, int agent) const { return agent / ts == side[e]; }
@@ -439,12 +443,8 @@ void Trainer::State::ll_step(bool learn) {
       const auto idx = learner.index_select(0, rows);
       const HlObs src = hl_view(truncation);
       const HlObs next = models::index_rows(src, idx);
-      auto alive = torch::zeros({ts}, torch::kBool);
-      if (truncation) {
-        alive.fill_(true);
-        if (agents::es_is_team(cfg.hl.variant))
-          for (int j = 0; j < ts; ++j) alive.data_ptr<bool>()[j] = env->truncated()[learner_agent(e, j)] != 0;
-      }
+      // Terminal: no next state counts. Truncated: as at a decision, from the final state.
+      const auto alive = truncation ? hl_members(e, true) : torch::zeros({ts}, torch::kBool);
       close_open(e, !truncation,
                  HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
                        next.task.clone()},
