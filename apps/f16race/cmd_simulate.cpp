@@ -148,6 +148,10 @@ void run_trajectory(const SimulateOptions& o) {
     if (!o.commands.empty()) {
       const io::CsvTable cmd = io::CsvTable::read(o.commands);
       req.refs.t_s = require_column(cmd, "t_s");
+      // No rows would fly every reference at 0 instead of the trim values.
+      if (req.refs.t_s.empty())
+        throw UserError(o.commands + ": has a header but no rows; give at least one row (t_s = 0 and the deltas "
+                                     "from trim), or leave out --commands to fly at trim");
       for (std::size_t j = 1; j < req.refs.t_s.size(); ++j)
         if (!(req.refs.t_s[j] > req.refs.t_s[j - 1]))
           throw UserError(o.commands + ": t_s must increase strictly (line " + std::to_string(j + 2) + ")");

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <csignal>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "io/run_folder.hpp"
 #include "io/yaml_config.hpp"
 #include "train/trainer.hpp"
 
@@ -32,6 +34,7 @@ struct TrainOptions {
   long long seed = -1;
   long long max_updates = -1;
   bool quiet = false;
+  bool overwrite = false;
   std::string log_level = "info";
 };
 
@@ -42,20 +45,23 @@ std::string fmt_time(double s) {
   return b;
 }
 
-// Change of a metric between the first and last tenth of the rows (NaN rows skipped).
+// Change of a metric between the first and last tenth of the rows that have it (an update in
+// which no race ended has no finish rate).
 struct Trend {
   double first = NAN, last = NAN;
 };
 Trend trend(const std::vector<train::MetricsRow>& rows, double train::MetricsRow::*field) {
+  std::vector<double> v;
+  for (const auto& r : rows)
+    if (std::isfinite(r.*field)) v.push_back(r.*field);
   Trend t;
-  const std::size_t n = rows.size(), k = std::max<std::size_t>(1, n / 10);
+  if (v.empty()) return t;
+  const std::size_t n = v.size(), k = std::max<std::size_t>(1, n / 10);
   auto mean = [&](std::size_t a, std::size_t b) {
-    double s = 0, c = 0;
-    for (std::size_t i = a; i < b; ++i)
-      if (std::isfinite(rows[i].*field)) s += rows[i].*field, c += 1;
-    return c > 0 ? s / c : NAN;
+    double s = 0;
+    for (std::size_t i = a; i < b; ++i) s += v[i];
+    return s / static_cast<double>(b - a);
   };
-  if (n == 0) return t;
   t.first = mean(0, k);
   t.last = mean(n - k, n);
   return t;
@@ -69,8 +75,8 @@ void run_train(const TrainOptions& o) {
   std::unique_ptr<train::Trainer> trainer;
   try {
     if (!o.resume.empty()) {
-      if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0)
-        throw UserError("--resume continues a run exactly as configured: drop --set/--agent/--seed");
+      if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0 || o.overwrite)
+        throw UserError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
       trainer = train::Trainer::resume(o.resume);
       spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
     } else {
@@ -81,6 +87,14 @@ void run_train(const TrainOptions& o) {
       std::string run = o.run;
       if (run.empty()) {
         run = "runs/" + std::string(agents::es_variant_name(cfg.hl.variant)) + "_seed" + std::to_string(cfg.seed);
+      }
+      if (o.overwrite && !io::run_data_in(run).empty()) {
+        std::string aside;
+        {
+          const io::RunFolderLock lock(run);  // not while another train writes it
+          aside = io::move_run_aside(run);
+        }
+        spdlog::info("moved the run that was in {} aside to {}", run, aside);
       }
       trainer = std::make_unique<train::Trainer>(cfg, run);
       spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads", run, cfg.race.n_env,
@@ -123,7 +137,7 @@ void run_train(const TrainOptions& o) {
   if (sum.interrupted) {
     std::printf("interrupted: checkpoint written at update %lld; continue with --resume\n",
                 static_cast<long long>(sum.updates));
-    return;
+    throw ExitStatus{130};  // as a shell reports a command ended by SIGINT, after the checkpoint
   }
   // What improved, between the first and last tenth of this process's rows.
   const Trend goal = trend(sum.rows, &train::MetricsRow::goal_dist_ft);
@@ -149,9 +163,11 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--resume", o->resume, "Continue the run in this folder from its latest checkpoint");
   cmd->add_option("--agent", o->agent, "High-level agent: es, es_d1, es_d2, es_d3")
       ->check(CLI::IsMember({"es", "es_d1", "es_d2", "es_d3"}));
-  cmd->add_option("--seed", o->seed, "Seed (overrides the config's)");
+  cmd->add_option("--seed", o->seed, "Seed (overrides the config's)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--max-updates", o->max_updates, "Stop (with a checkpoint) after this many updates");
   cmd->add_flag("--quiet", o->quiet, "No progress output");
+  cmd->add_flag("--overwrite", o->overwrite,
+                "Start afresh in a --run folder that holds a run, moving the old one aside to RUN.old-N");
   cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
   cmd->callback([o]() { run_train(*o); });

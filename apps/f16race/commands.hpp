@@ -16,6 +16,12 @@ class UserError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Ends the program with this status after a complete, orderly stop (e.g. 130 for a run
+// interrupted by a signal once its checkpoint is written); main returns it without a message.
+struct ExitStatus {
+  int code;
+};
+
 void add_simulate_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 void add_race_command(CLI::App& app);

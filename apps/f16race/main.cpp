@@ -4,9 +4,11 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <exception>
 
 #include "commands.hpp"
+#include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/yaml_config.hpp"
 
@@ -45,6 +47,8 @@ int main(int argc, char** argv) {
     // --help and --version are "errors" with code 0; real parse errors exit 2 like bad input.
     const int rc = app.exit(e);
     return rc == 0 ? 0 : 2;
+  } catch (const f16race::app::ExitStatus& e) {
+    return e.code;
   } catch (const f16race::app::UserError& e) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
@@ -52,6 +56,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
   } catch (const f16race::io::CsvError& e) {
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 2;
+  } catch (const f16race::io::FileWriteError& e) {  // the user's disk or folder, not our bug
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 2;
+  } catch (const std::filesystem::filesystem_error& e) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {

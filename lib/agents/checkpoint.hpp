@@ -2,21 +2,20 @@
 // Checkpoint helpers shared by the agents: atomic archive writes and generator state.
 #include <torch/torch.h>
 
-#include <cstdio>
+#include <sstream>
 #include <string>
-#include <unistd.h>
+
+#include "io/atomic_file.hpp"
 
 namespace f16race::agents {
 
-// Writes `archive` to a temporary file in the same folder, then renames it over `path`: a crash
-// mid-write leaves the old checkpoint (or none), never a truncated one.
+// Serialises `archive` in memory, then writes it with io::write_file_atomic: a crash or a full
+// disk mid-write leaves the old checkpoint (or none) and an io::FileWriteError, never a
+// truncated file or LibTorch's backtrace.
 inline void save_archive_atomic(torch::serialize::OutputArchive& archive, const std::string& path) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  archive.save_to(tmp);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    TORCH_CHECK(false, "cannot rename ", tmp, " to ", path);
-  }
+  std::ostringstream bytes;
+  archive.save_to(bytes);
+  io::write_file_atomic(path, bytes.str());
 }
 
 inline void write_module(torch::serialize::OutputArchive& root, const std::string& key, const torch::nn::Module& m) {

@@ -6,13 +6,16 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <vector>
 
 #include "eval/tournament.hpp"
+#include "io/atomic_file.hpp"
 #include "race/race_env.hpp"
 #include "race/scripted_pilot.hpp"
 #include "train/obs_views.hpp"
+#include "train/policy_rows.hpp"
 #include "train/run_policy.hpp"
 
 namespace f16race::eval {
@@ -76,13 +79,18 @@ ReplayResult run_replay(const ReplayOptions& o) {
   race::RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
   for (int a = 0; a < n_agent; ++a) learned[a] = (a < ts ? blue : red).policy.has_value();
-  // Rows [first, last) of the aircraft a side flies.
-  auto copy_rows = [](const torch::Tensor& t, int first, int last, auto* dst) {
-    const auto c = t.contiguous();
-    const auto* p = c.data_ptr<std::remove_pointer_t<decltype(dst)>>();
-    const int w = static_cast<int>(c.size(1));
-    std::copy(p + first * w, p + last * w, dst + first * w);
-  };
+  // Each side's networks act on its own team's rows only: policy 0 is blue's, 1 red's; the
+  // scripted pilot flies no network, a fixed-HL control none at the high level.
+  train::PolicyRows ll_rows(2, n_agent), hl_rows(2, n_agent);
+  std::vector<int> ll_owner(n_agent, -1), hl_owner(n_agent, -1);
+  for (int a = 0; a < n_agent; ++a) {
+    const int team = a < ts ? 0 : 1;
+    const Side& s = team == 0 ? blue : red;
+    ll_owner[a] = s.policy ? team : -1;
+    hl_owner[a] = s.policy && s.hl == HlOverride::none ? team : -1;
+  }
+  ll_rows.assign(ll_owner);
+  hl_rows.assign(hl_owner);
   while (rec.remaining() > 0) {
     const std::vector<std::uint8_t> due(env.hl_due(), env.hl_due() + 1);
     if (due[0]) {
@@ -94,7 +102,9 @@ ReplayResult run_replay(const ReplayOptions& o) {
           fixed_hl_bins(s.hl, rc.hl_bins, ts, control_rng,
                         bins.data() + static_cast<std::size_t>(team * ts) * race::kHlDims);
         else
-          copy_rows(s.policy->hl->act(obs, o.epsilon, gen).bins, team * ts, (team + 1) * ts, bins.data());
+          train::scatter_rows(hl_rows.rows(team),
+                              s.policy->hl->act(models::index_rows(obs, hl_rows.rows(team)), o.epsilon, gen).bins,
+                              bins.data());
       }
       env.set_hl_actions(bins.data());
       rec.record_goals(env, due.data(), learned.data());
@@ -103,7 +113,10 @@ ReplayResult run_replay(const ReplayOptions& o) {
     const models::LlObs obs = train::ll_obs_view(env);
     for (int team = 0; team < 2; ++team) {
       const Side& s = team == 0 ? blue : red;
-      if (s.policy) copy_rows(s.policy->ll->act(obs, gen, false).mean, team * ts, (team + 1) * ts, actions.data());
+      if (s.policy)
+        train::scatter_rows(ll_rows.rows(team),
+                            s.policy->ll->act(models::index_rows(obs, ll_rows.rows(team)), gen, false).mean,
+                            actions.data());
     }
     rec.before_step(env);
     env.step(actions.data());
@@ -120,7 +133,7 @@ bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string
   const std::string winner = t.winner < 0 ? "draw" : (t.winner == 0 ? blue : red);
   const std::string title = blue + " vs " + red + " - " + race::end_reason_name(t.end) + ", winner " + winner;
   race::write_trace_acmi(t, out_dir + "/replay.acmi", title, {blue, red});
-  std::ofstream md(out_dir + "/replay.md");
+  std::ostringstream md;
   md << "# Replay: " << r.blue << " (blue) vs " << r.red << " (red)\n\n"
      << "Ended by " << race::end_reason_name(t.end) << " after " << t.duration_s << " s; winner: " << winner
      << ". Track " << static_cast<long>(t.track.length_ft()) << " ft.\n\n| aircraft | team | fate | HL decisions |\n|---|---|---|---|\n";
@@ -131,6 +144,7 @@ bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string
                                           : "out at " + seconds(t.out_s[a]) + " s (" + race::cause_name(t.cause[a]) + ")")
        << " | " << t.goals[a].size() << " |\n";
   }
+  io::write_file_atomic(out_dir + "/replay.md", md.str());
   return race::plot_trace(t, out_dir, "replay", title, message);
 }
 

@@ -14,11 +14,13 @@
 #include <stdexcept>
 
 #include "eval/statistics.hpp"
+#include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/plot.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "train/obs_views.hpp"
+#include "train/policy_rows.hpp"
 #include "train/run_policy.hpp"
 #include "train/train_config.hpp"
 
@@ -115,6 +117,10 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
         res.entries.push_back(c);
       }
   const int n_entries = static_cast<int>(res.entries.size());
+  if (n_entries < 2)
+    throw std::runtime_error("tournament: " + res.entries.front().name +
+                             " is the only entry and has no opponent; give a second run, keep the untrained entry "
+                             "(drop --no-untrained) or add --controls");
   res.wins.assign(n_entries, std::vector<double>(n_entries, 0.0));
   res.games.assign(n_entries, std::vector<double>(n_entries, 0.0));
 
@@ -151,33 +157,28 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     }
   };
   for (int e = 0; e < n; ++e) assign(e);
-  // Aircraft rows per entry, rebuilt when a game changes.
-  std::vector<torch::Tensor> rows(n_entries);
-  auto rebuild_rows = [&]() {
-    std::vector<std::vector<std::int64_t>> r(n_entries);
-    for (std::size_t i = 0; i < owner.size(); ++i)
-      if (owner[i] >= 0) r[owner[i]].push_back(static_cast<std::int64_t>(i));
-    for (int id = 0; id < n_entries; ++id) rows[id] = torch::tensor(r[id], torch::kInt64);
-  };
-  rebuild_rows();
+  // Aircraft rows per entry: every network acts only on the aircraft it flies.
+  train::PolicyRows rows(n_entries, n * n_agent), hl_rows(n_entries, n * n_agent);
+  rows.assign(owner);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3, 0.0f);
-  // Writes rows `idx` of `values` [M, 3] into the flat [N, 3] array `dst`.
-  auto scatter = [](const torch::Tensor& idx, const torch::Tensor& values, auto* dst) {
-    const auto v = values.contiguous();
-    const auto* p = v.data_ptr<std::remove_pointer_t<decltype(dst)>>();
-    const auto* r = idx.data_ptr<std::int64_t>();
-    for (std::int64_t k = 0; k < idx.numel(); ++k) std::copy(p + 3 * k, p + 3 * k + 3, dst + 3 * r[k]);
-  };
-  // Every team's HL bins from its entry's rule: the run's HL policy on all the rows it flies
-  // (envs that are not due ignore theirs), or, for a control entry, its fixed rule per team of
-  // a due env (drawn in env and team order, so independent of the thread count).
+  // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
+  // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
+  // env and team order, so independent of the thread count).
   auto choose_hl_bins = [&]() {
     const HlObs obs = train::hl_obs_view(env);
+    std::vector<int> hl_owner(owner);
+    for (std::size_t i = 0; i < hl_owner.size(); ++i) {
+      const int e = static_cast<int>(i) / n_agent;
+      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || is_control(res.entries[hl_owner[i]]))) hl_owner[i] = -1;
+    }
+    hl_rows.assign(hl_owner);
     for (int id = 0; id < n_entries; ++id)
-      if (!is_control(res.entries[id]) && rows[id].numel() > 0)
-        scatter(rows[id], pol[res.entries[id].policy].hl->act(models::index_rows(obs, rows[id]), o.epsilon, gen).bins,
-                bins.data());
+      if (hl_rows.rows(id).numel() > 0)
+        train::scatter_rows(
+            hl_rows.rows(id),
+            pol[res.entries[id].policy].hl->act(models::index_rows(obs, hl_rows.rows(id)), o.epsilon, gen).bins,
+            bins.data());
     for (int e = 0; e < n; ++e) {
       if (env_game[e] < 0 || !env.hl_due()[e]) continue;
       for (int team = 0; team < 2; ++team) {
@@ -199,9 +200,11 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     }
     const LlObs obs = train::ll_obs_view(env);
     for (int id = 0; id < n_entries; ++id)
-      if (rows[id].numel() > 0)  // greedy: the Gaussian's mean, not a sample
-        scatter(rows[id], pol[res.entries[id].policy].ll->act(models::index_rows(obs, rows[id]), gen, false).mean,
-                actions.data());
+      if (rows.rows(id).numel() > 0)  // greedy: the Gaussian's mean, not a sample
+        train::scatter_rows(
+            rows.rows(id),
+            pol[res.entries[id].policy].ll->act(models::index_rows(obs, rows.rows(id)), gen, false).mean,
+            actions.data());
     std::vector<double> t_before(n);
     for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);
     env.step(actions.data());
@@ -239,7 +242,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       active -= env_game[e] < 0;
       changed = true;
     }
-    if (changed) rebuild_rows();
+    if (changed) rows.assign(owner);
     // Progress about every 1 % of the games.
     if (progress && (done_games - reported >= std::max<long>(1, static_cast<long>(games.size()) / 100) ||
                      (active == 0 && done_games != reported))) {
@@ -440,7 +443,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       if (!s.empty()) vrate[a][b] = mean(s);
     }
   {
-    std::ofstream js(o.out_dir + "/summary.json");
+    std::ostringstream js;
     js << "{\n  \"races_per_pair\": " << o.races_per_pair << ",\n  \"epsilon\": " << o.epsilon
        << ",\n  \"bootstrap_replicates\": " << o.bootstrap_replicates << ",\n  \"seed\": " << o.seed
        << ",\n  \"untrained_in_statistics\": " << (o.untrained_in_statistics ? "true" : "false")
@@ -491,8 +494,9 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       js << "]";
     }
     js << "]}\n}\n";
+    io::write_file_atomic(o.out_dir + "/summary.json", js.str());
 
-    std::ofstream md(o.out_dir + "/summary.md");
+    std::ostringstream md;
     md << "# Tournament\n\n" << o.races_per_pair << " races per pair (sides swapped in half), HL epsilon " << o.epsilon
        << ", " << r.races.size() << " races in all.\n\n"
        << "| variant | runs | races | total winrate (mean +- std over runs) | IQM of pairing winrates [95% CI] |\n"
@@ -572,6 +576,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
         md << buf;
       }
     }
+    io::write_file_atomic(o.out_dir + "/summary.md", md.str());
   }
   // tournament.png in the layout of the paper's Fig. 3: bars with std, IQM with CI, variant vs
   // variant; pairings.png: entry vs entry, controls and untrained included.

@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <unistd.h>
 
+#include "io/atomic_file.hpp"
 #include "models/running_norm.hpp"
 #include "race/race_env.hpp"
 
@@ -132,27 +133,15 @@ torch::jit::Module start_module(const char* class_name, const torch::nn::Module&
   return m;
 }
 
+// Serialised in memory and written by io::write_file_atomic: a full disk is one line, no
+// temporary is left and an earlier export keeps its file.
 void save_atomic(const torch::jit::Module& m, const std::string& path) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  m.save(tmp);
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot rename " + tmp + " to " + path);
-  }
+  std::ostringstream bytes;
+  m.save(bytes);
+  io::write_file_atomic(path, bytes.str());
 }
 
-void write_text_atomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    f << text;
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot rename " + tmp + " to " + path);
-  }
-}
+void write_text_atomic(const std::string& path, const std::string& text) { io::write_file_atomic(path, text); }
 
 double max_abs_diff(const torch::Tensor& a, const torch::Tensor& b) {
   if (!a.defined() && !b.defined()) return 0.0;

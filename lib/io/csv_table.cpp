@@ -1,5 +1,7 @@
 #include "io/csv_table.hpp"
 
+#include "io/atomic_file.hpp"
+
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -69,6 +71,9 @@ CsvTable CsvTable::read(const std::string& path) {
   if (std::filesystem::is_directory(path, ec)) {
     throw CsvError(path + ": is a directory, not a CSV file; pass the path of a .csv file");
   }
+  // A device or pipe may never end (/dev/zero): CSV inputs are files.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw CsvError(path + ": is not a regular file; pass the path of a .csv file");
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     int err = errno;
@@ -244,46 +249,11 @@ void write_csv(const std::string& path, const std::vector<std::string>& header,
     out += '\n';
   }
 
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  if (target.has_parent_path()) {
-    std::error_code ec;
-    fs::create_directories(target.parent_path(), ec);
-    if (ec) {
-      throw CsvError(path + ": cannot create directory '" + target.parent_path().string() +
-                     "' (" + ec.message() + ")");
-    }
+  try {
+    write_file_atomic(path, out);
+  } catch (const FileWriteError& e) {
+    throw CsvError(e.what());
   }
-
-  // Temp file in the same folder so rename() is atomic (same filesystem).
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    int err = errno;
-    throw CsvError(path + ": cannot create temp file '" + tmp + "' (" + errno_text(err) +
-                   "); check the folder is writable");
-  }
-  auto fail = [&](const std::string& what) {
-    int err = errno;
-    if (fd >= 0) ::close(fd);
-    ::unlink(tmp.c_str());
-    throw CsvError(path + ": " + what + " (" + errno_text(err) + ")");
-  };
-  const char* p = out.data();
-  std::size_t left = out.size();
-  while (left > 0) {
-    ssize_t n = ::write(fd, p, left);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail("write to temp file '" + tmp + "' failed");
-    }
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) fail("fsync of temp file '" + tmp + "' failed");
-  if (::close(fd) != 0) { fd = -1; fail("close of temp file '" + tmp + "' failed"); }
-  fd = -1;
-  if (::rename(tmp.c_str(), path.c_str()) != 0) fail("rename of '" + tmp + "' over the target failed");
 }
 
 }  // namespace f16race::io

@@ -1,9 +1,12 @@
 #include "io/plot.hpp"
 
+#include "io/atomic_file.hpp"
+
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -39,8 +42,7 @@ bool gnuplot_available() { return std::system("command -v gnuplot >/dev/null 2>&
 
 bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message) {
   {
-    std::ofstream gp(script_path);
-    if (!gp) throw std::runtime_error(script_path + ": cannot write the gnuplot script");
+    std::ostringstream gp;
     const bool svg = spec.output.size() > 4 && spec.output.substr(spec.output.size() - 4) == ".svg";
     gp << "# Written by f16race; run `gnuplot " << base_of(script_path) << "` in this folder to redraw.\n";
     gp << "set terminal " << (svg ? "svg" : "pngcairo") << " size " << spec.width_px << "," << spec.height_px
@@ -76,6 +78,7 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
       if (!p.extra.empty()) gp << "unset arrow; unset label; unset object; set autoscale\n";
     }
     gp << "unset multiplot\n";
+    write_file_atomic(script_path, gp.str());
   }
   if (!gnuplot_available()) {
     if (message) *message = "gnuplot not found (install gnuplot-nox); data and " + script_path + " were written";

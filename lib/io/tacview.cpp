@@ -3,10 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <map>
+#include <sstream>
 #include <stdexcept>
-#include <unistd.h>
+
+#include "io/atomic_file.hpp"
 
 namespace f16race::io {
 
@@ -43,9 +44,7 @@ void write_acmi(const std::string& path, const AcmiScene& scene) {
   std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
     return a.t != b.t ? a.t < b.t : a.kind < b.kind;
   });
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  std::ofstream f(tmp, std::ios::binary);
-  if (!f) throw std::runtime_error(path + ": cannot write (does the folder exist?)");
+  std::ostringstream f;
   // Tacview requires the UTF-8 byte order mark on text ACMI files.
   f << "\xEF\xBB\xBF" << "FileType=text/acmi/tacview\nFileVersion=2.2\n";
   char buf[512];
@@ -92,11 +91,7 @@ void write_acmi(const std::string& path, const AcmiScene& scene) {
     }
     f << "\n";
   }
-  f.close();
-  if (!f || std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot write");
-  }
+  write_file_atomic(path, f.str());
 }
 
 }  // namespace f16race::io

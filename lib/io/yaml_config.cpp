@@ -12,6 +12,9 @@ YAML::Node load_yaml_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw ConfigError(path + ": is a directory, not a config file; pass the path of a .yaml file");
+  // A device or a pipe may never end (/dev/zero) or be read once only: configs are files.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw ConfigError(path + ": is not a regular file; pass the path of a .yaml file");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw ConfigError(path + ": cannot open the config file (check the path)");
   std::stringstream text;

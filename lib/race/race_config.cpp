@@ -56,6 +56,9 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("hl_bins", &c->hl_bins, 1, 63);
   r.read("goal_ahead_ft", &c->goal_ahead_ft, 0.0, 1e6);
   r.read("goal_bin_scale", &c->goal_bin_scale, 0.0, 5.0);
+  std::string frame = c->goal_frame == GoalFrame::kTrack ? "track" : "world";
+  r.read("goal_frame", &frame, {"world", "track"});
+  c->goal_frame = frame == "track" ? GoalFrame::kTrack : GoalFrame::kWorld;
   r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
@@ -84,6 +87,9 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
   auto fail = [&](const std::string& what) { throw io::ConfigError(source + ": race: " + what); };
   if (c.team_size < 1 || c.team_size > 8) fail("team_size must be in [1, 8] (1 vs 1 up to 8 vs 8)");
   if (c.n_env < 1) fail("n_env must be >= 1");
+  if (c.dt_hl_s > c.time_limit_s)
+    fail("dt_hl_s (" + std::to_string(c.dt_hl_s) + ") must be <= time_limit_s (" + std::to_string(c.time_limit_s) +
+         "): a race must see at least one high-level interval end");
   if (c.track.leg_min_ft > c.track.leg_max_ft) fail("track.leg_min_ft must be <= track.leg_max_ft");
   if (c.track.alt_min_ft >= c.track.alt_max_ft) fail("track.alt_min_ft must be < track.alt_max_ft");
   if (c.track.radius_min_ft > c.track.radius_max_ft) fail("track.radius_min_ft must be <= track.radius_max_ft");

@@ -15,6 +15,9 @@ class ConfigWriter;
 namespace f16race::race {
 
 enum class TubeExit { kTerminate, kGrace };
+// Axes of the HL goal offsets: world north/east/up (the paper's d_pn, d_pe, d_pa) or the track
+// frame at the goal (along, right, up), where each axis is one kind of lane change.
+enum class GoalFrame { kWorld, kTrack };
 
 struct RaceConfig {
   int n_env = 64;
@@ -62,6 +65,8 @@ struct RaceConfig {
   int hl_bins = 7;
   double goal_ahead_ft = 0.0;
   double goal_bin_scale = 0.8;
+  // Track: measured to win more, and more reliably, than world axes (docs/learning.md, "Goal axes").
+  GoalFrame goal_frame = GoalFrame::kTrack;
   // A goal the aircraft comes within this far of (along the track) is placed again at the
   // horizon with the same bins, so a long HL interval (20 s covers ~16 000 ft) keeps a goal
   // ahead instead of one it has flown past. 0: never.

@@ -308,10 +308,12 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
     const double bb = std::clamp(static_cast<double>(b), 0.0, static_cast<double>(config_.hl_bins - 1));
     return (bb - half) * step;
   };
-  // Offsets along north, east and up (the paper's d_pn, d_pe, d_pa). A corner bin would sit
-  // sqrt(3) x further out than an axis bin, so the cross-track part is clipped to the outer
-  // bin's radius: every goal the HL can choose lies inside the tube.
+  // Offsets along north, east and up (the paper's d_pn, d_pe, d_pa), or along the track frame at
+  // the goal (tangent, right, up). A corner bin would sit sqrt(3) x further out than an axis
+  // bin, so the cross-track part is clipped to the outer bin's radius: every goal the HL can
+  // choose lies inside the tube.
   Vec3 off{offset(bins[0]), offset(bins[1]), offset(bins[2])};
+  if (config_.goal_frame == GoalFrame::kTrack) off = off.n * fr.tangent + off.e * fr.right + off.u * fr.up;
   const Vec3 along = dot(off, fr.tangent) * fr.tangent;
   const Vec3 cross = off - along;
   const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;

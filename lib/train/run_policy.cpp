@@ -60,6 +60,10 @@ RunPolicy load_run_policy(const std::string& run_dir) {
 }
 
 void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
+  // The same bins mean other goals in another frame: such a run would fly other lanes than it learned.
+  if (reference.config.race.goal_frame != other.config.race.goal_frame)
+    throw std::runtime_error(other.run_dir + ": trained with another race.goal_frame than " + reference.run_dir +
+                             "; race runs trained with the same goal frame");
   const auto& a = reference.dims;
   const auto& b = other.dims;
   if (reference.config.race.team_size == other.config.race.team_size && a.d_task == b.d_task && a.d_ego == b.d_ego &&

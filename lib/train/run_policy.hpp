@@ -30,7 +30,8 @@ struct RunPolicy {
 RunPolicy load_run_policy(const std::string& run_dir);
 
 // Throws std::runtime_error naming `other`'s folder unless it was trained for the same race
-// shapes (team size, observation sizes) as `reference`, so their policies can share races.
+// shapes (team size, observation sizes) and goal frame as `reference`, so their policies can
+// share races.
 void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other);
 
 // The networks of `config` before any update (initial weights from `seed`), as the

@@ -13,11 +13,14 @@
 #include <stdexcept>
 
 #include "agents/checkpoint.hpp"
+#include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/learning_curves.hpp"
+#include "io/run_folder.hpp"
 #include "race/race_env.hpp"
 #include "race/random_stream.hpp"
 #include "train/obs_views.hpp"
+#include "train/policy_rows.hpp"
 
 namespace f16race::train {
 
@@ -31,19 +34,6 @@ std::string step_name(std::int64_t steps) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "step_%010lld", static_cast<long long>(steps));
   return buf;
-}
-
-// Writes text to PATH atomically (temporary file in the same folder, fsync via close, rename).
-void write_text_atomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw std::runtime_error(path + ": cannot write (check permissions and free space)");
-    f << text;
-    f.flush();
-    if (!f) throw std::runtime_error(path + ": write failed (disk full?)");
-  }
-  fs::rename(tmp, path);
 }
 
 std::string read_text(const std::string& path) {
@@ -86,6 +76,8 @@ struct OpenHl {
 };
 
 struct Trainer::State {
+  // Declared first, so released last: no other process writes the folder while this one lives.
+  std::unique_ptr<io::RunFolderLock> lock;
   TrainConfig cfg;
   std::string run_dir;
   std::string resolved_yaml;
@@ -94,6 +86,7 @@ struct Trainer::State {
   std::unique_ptr<agents::PpoAgent> ppo, opp_ppo;
   std::unique_ptr<agents::EsAgent> es, opp_es;
   std::unique_ptr<agents::RolloutBuffer> buffer;
+  PolicyRows ll_rows{2, 0}, hl_rows{2, 0};  // [n_env * n_agent] learner (0) and pool (1) rows
   at::Generator gen;
   race::RandomStream stream{1, 0xC0FFEE};
   int n_env = 0, n_agent = 0, ts = 0;
@@ -146,6 +139,16 @@ struct Trainer::State {
     return m;
   }
   bool is_learner(int e, int agent) const { return agent / ts == side[e]; }
+  // Who flies each aircraft: 0 the learner's networks (its team, and both teams in self-play
+  // envs), 1 the pool snapshot (the other team in pool envs); -1 where `only` is given and
+  // its env's flag is down (an HL decision only for the envs that are due).
+  std::vector<int> owners(const std::uint8_t* only = nullptr) const {
+    std::vector<int> o(static_cast<std::size_t>(n_env) * n_agent);
+    for (int e = 0; e < n_env; ++e)
+      for (int a = 0; a < n_agent; ++a)
+        o[e * n_agent + a] = only && !only[e] ? -1 : (vs_pool[e] && !is_learner(e, a) ? 1 : 0);
+    return o;
+  }
 
   void build(bool fresh);
   torch::Tensor learner_index() const;
@@ -171,24 +174,31 @@ Trainer::~Trainer() = default;
 Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std::make_unique<State>()) {
   s_->cfg = config;
   s_->run_dir = run_dir;
-  if (fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST"))
-    throw std::runtime_error(run_dir + " already holds a training run: continue it with --resume " + run_dir +
-                             ", or choose another --run folder");
+  s_->lock = std::make_unique<io::RunFolderLock>(run_dir);
+  // Anything in the folder may be a run whose LATEST was lost: never write over it.
+  if (const std::vector<std::string> data = io::run_data_in(run_dir); !data.empty()) {
+    std::string names;
+    for (const std::string& n : data) names += (names.empty() ? "" : ", ") + n;
+    throw std::runtime_error(run_dir + " already holds a run (" + names + "): continue it with --resume " + run_dir +
+                             ", move it aside with --overwrite, or choose another --run folder");
+  }
   fs::create_directories(fs::path(run_dir) / "checkpoint");
   fs::create_directories(fs::path(run_dir) / "pool");
   s_->resolved_yaml = train_config_yaml(config);
   s_->hash = config_hash(s_->resolved_yaml);
-  write_text_atomic(run_dir + "/config.yaml", s_->resolved_yaml);
+  io::write_file_atomic(run_dir + "/config.yaml", s_->resolved_yaml);
   s_->build(true);
-  fs::remove(fs::path(run_dir) / "metrics.csv");  // a run folder without checkpoint restarts clean
   // The untrained policy is the first pool snapshot, so pool matches exist from the start.
   s_->snapshot_pool();
   s_->load_opponent();
 }
 
 std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir) {
+  if (!fs::is_directory(run_dir)) throw std::runtime_error(run_dir + ": no such run folder to resume");
+  auto lock = std::make_unique<io::RunFolderLock>(run_dir);
   RunConfig run = read_run_config(run_dir);
   auto st = std::make_unique<State>();
+  st->lock = std::move(lock);
   st->cfg = run.config;
   st->run_dir = run_dir;
   st->resolved_yaml = std::move(run.yaml);
@@ -231,6 +241,8 @@ void Trainer::State::build(bool fresh) {
   stream = race::RandomStream(cfg.seed, 0xC0FFEE);
   side.assign(n_env, 0);
   vs_pool.assign(n_env, 0);
+  ll_rows = PolicyRows(2, n_env * n_agent);
+  hl_rows = PolicyRows(2, n_env * n_agent);
   ll_ret.assign(static_cast<std::size_t>(n_env) * ts, 0.0);
   hl_ret.assign(static_cast<std::size_t>(n_env) * ts, 0.0);
   open.open.assign(n_env, 0);
@@ -292,25 +304,19 @@ void Trainer::State::hl_decisions() {
   const HlObs obs = hl_view(false);
   const bool learn = phase == 1;
   const auto t_act = Clock::now();
-  const auto act = es->act(obs, cfg.hl.epsilon, gen);
-  torch::Tensor bins = act.bins.contiguous().clone();
-  const auto learner = learner_index();
-  bool any_pool = false;
-  for (int e = 0; e < n_env; ++e) any_pool = any_pool || (due[e] && vs_pool[e]);
-  if (any_pool) {
-    const auto opp = opp_es->act(obs, cfg.loop.hl_epsilon_eval, gen).bins;
-    auto* b = bins.data_ptr<std::int64_t>();
-    const auto* o = opp.data_ptr<std::int64_t>();
-    for (int e = 0; e < n_env; ++e) {
-      if (!due[e] || !vs_pool[e]) continue;
-      for (int a = 0; a < n_agent; ++a) {
-        if (is_learner(e, a)) continue;
-        const int i = e * n_agent + a;
-        for (int k = 0; k < 3; ++k) b[i * 3 + k] = o[i * 3 + k];
-      }
-    }
-  }
+  // Each critic decides for the aircraft it flies in the envs that are due, nothing else; the
+  // other rows keep the middle bin, which set_hl_actions ignores outside due envs.
+  hl_rows.assign(owners(due));
+  torch::Tensor bins =
+      torch::full({static_cast<std::int64_t>(n_env) * n_agent, race::kHlDims}, cfg.race.hl_center_bin(), torch::kInt64);
+  auto* b = bins.data_ptr<std::int64_t>();
+  if (hl_rows.rows(0).numel() > 0)
+    scatter_rows(hl_rows.rows(0), es->act(models::index_rows(obs, hl_rows.rows(0)), cfg.hl.epsilon, gen).bins, b);
+  if (hl_rows.rows(1).numel() > 0)
+    scatter_rows(hl_rows.rows(1),
+                 opp_es->act(models::index_rows(obs, hl_rows.rows(1)), cfg.loop.hl_epsilon_eval, gen).bins, b);
   timing.inference += since(t_act);
+  const auto learner = learner_index();
   // Distance left to the old goals: how well the low level reached them.
   for (int e = 0; e < n_env; ++e) {
     if (!due[e] || env->race_time_s(e) <= 0.0) continue;
@@ -350,33 +356,30 @@ void Trainer::State::ll_step(bool learn) {
   hl_decisions();
   const LlObs obs = ll_view(false);
   const auto t_act = Clock::now();
-  const auto act = ppo->act(obs, gen, /*update_stats=*/learn);
-  torch::Tensor actions = act.action.contiguous().clone();
-  bool any_pool = false;
-  for (int e = 0; e < n_env; ++e) any_pool = any_pool || vs_pool[e];
-  if (any_pool) {
-    const auto opp = opp_ppo->act(obs, gen, false).action.contiguous();
-    auto* a = actions.data_ptr<float>();
-    const auto* o = opp.data_ptr<float>();
-    for (int e = 0; e < n_env; ++e) {
-      if (!vs_pool[e]) continue;
-      for (int k = 0; k < n_agent; ++k) {
-        if (is_learner(e, k)) continue;
-        const int i = e * n_agent + k;
-        for (int q = 0; q < 3; ++q) a[i * 3 + q] = o[i * 3 + q];
-      }
-    }
-  }
+  // Each policy acts only on the aircraft it flies (the pool snapshot on the other team of pool
+  // envs, the learner on the rest); the learner's normaliser sees the rows it flies.
+  ll_rows.assign(owners());
+  const torch::Tensor& mine = ll_rows.rows(0);
+  const auto act = ppo->act(ll_rows.owns_all(0) ? obs : models::index_rows(obs, mine), gen, /*update_stats=*/learn);
+  torch::Tensor actions = torch::empty({static_cast<std::int64_t>(n_env) * n_agent, race::kActionDim});
+  scatter_rows(mine, act.action, actions.data_ptr<float>());
+  if (ll_rows.rows(1).numel() > 0)
+    scatter_rows(ll_rows.rows(1), opp_ppo->act(models::index_rows(obs, ll_rows.rows(1)), gen, false).action,
+                 actions.data_ptr<float>());
   timing.inference += since(t_act);
   const auto learner = learner_index();  // before the step: sides change at resets
-  // Samples of the learner team, taken before the env overwrites its buffers.
+  // Samples of the learner team, taken before the env overwrites its buffers: their positions
+  // in the learner's rows.
   LlObs sample_obs;
   torch::Tensor sample_action, sample_logp, sample_value;
   if (learn) {
-    sample_obs = models::index_rows(act.obs, learner);
-    sample_action = act.action.index_select(0, learner);
-    sample_logp = act.log_prob.index_select(0, learner);
-    sample_value = act.value.index_select(0, learner);
+    auto pos = torch::empty_like(learner);
+    for (std::int64_t k = 0; k < learner.numel(); ++k)
+      pos.data_ptr<std::int64_t>()[k] = ll_rows.position(static_cast<int>(learner.data_ptr<std::int64_t>()[k]));
+    sample_obs = models::index_rows(act.obs, pos);
+    sample_action = act.action.index_select(0, pos);
+    sample_logp = act.log_prob.index_select(0, pos);
+    sample_value = act.value.index_select(0, pos);
   }
   const auto t_env = Clock::now();
   env->step(actions.data_ptr<float>());
@@ -560,24 +563,31 @@ void Trainer::State::write_row(const MetricsRow& r) {
   // Appended line by line: a crash loses at most the row being written, and resume drops rows
   // past the checkpoint it continues from.
   const std::string path = run_dir + "/metrics.csv";
-  const bool fresh = !fs::exists(path);
-  std::ofstream f(path, std::ios::app);
-  if (!f) throw std::runtime_error(path + ": cannot append (check permissions and free space)");
-  if (fresh) {
+  std::string line;
+  if (!fs::exists(path)) {
     const auto& h = metrics_header();
-    for (std::size_t k = 0; k < h.size(); ++k) f << (k ? "," : "") << h[k];
-    f << "\n";
+    for (std::size_t k = 0; k < h.size(); ++k) line += (k ? "," : "") + h[k];
+    line += "\n";
   }
   const auto v = metrics_values(r);
-  for (std::size_t k = 0; k < v.size(); ++k) f << (k ? "," : "") << io::format_double(v[k]);
-  f << "\n";
+  // An update without the event a column averages (no race ended, no ES update yet) leaves the
+  // cell empty: gnuplot and the curves skip it, and nobody reads "nan" as a diverged run.
+  for (std::size_t k = 0; k < v.size(); ++k) line += (k ? "," : "") + (std::isnan(v[k]) ? "" : io::format_double(v[k]));
+  line += "\n";
+  io::append_file(path, line);
 }
 
 void Trainer::State::snapshot_pool() {
   const fs::path dir = fs::path(run_dir) / "pool" / step_name(env_steps);
-  fs::create_directories(dir);
-  ppo->save((dir / "ll.pt").string());
-  es->save((dir / "hl.pt").string());
+  try {
+    fs::create_directories(dir);
+    ppo->save((dir / "ll.pt").string());
+    es->save((dir / "hl.pt").string());
+  } catch (...) {
+    std::error_code ec;  // a half snapshot would be drawn as an opponent after a resume
+    fs::remove_all(dir, ec);
+    throw;
+  }
   pool.push_back(env_steps);
   while (static_cast<int>(pool.size()) > cfg.pool.max_snapshots) {
     // Oldest first, but never the snapshot the current phase is playing against.
@@ -602,48 +612,56 @@ void Trainer::State::load_opponent() {
 void Trainer::State::save_checkpoint() {
   const std::string name = step_name(env_steps) + "_u" + std::to_string(ppo_updates + es_updates);
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
-  fs::create_directories(dir);
-  ppo->save((dir / "ll.pt").string());
-  es->save((dir / "hl.pt").string());
-  torch::serialize::OutputArchive a;
-  std::ostringstream env_bytes;
-  env->save_state(env_bytes);
-  a.write("env", bytes_tensor(env_bytes.str()));
-  a.write("counters", torch::tensor({env_steps, ppo_updates, es_updates, static_cast<std::int64_t>(phase),
-                                     static_cast<std::int64_t>(phase_updates), opponent, hl_grad_steps}));
-  a.write("pool", torch::tensor(pool.empty() ? std::vector<std::int64_t>{-1} : pool));
-  std::vector<std::int64_t> sides(side.begin(), side.end()), vp(vs_pool.begin(), vs_pool.end());
-  a.write("side", torch::tensor(sides));
-  a.write("vs_pool", torch::tensor(vp));
-  a.write("stream", torch::tensor({static_cast<std::int64_t>(stream.state())}));
-  a.write("generator", gen.get_state());
-  a.write("open_ego", open.obs.ego);
-  a.write("open_prev_action", open.obs.prev_action);
-  a.write("open_ado", open.obs.ado);
-  a.write("open_alive", open.obs.ado_alive);
-  a.write("open_task", open.obs.task);
-  a.write("open_actions", open.actions);
-  a.write("open_reward", open.reward);
-  a.write("open_active", open.active);
-  a.write("open_flag", torch::tensor(std::vector<std::int64_t>(open.open.begin(), open.open.end())));
-  // Double precision explicitly: torch::tensor of doubles would default to float32.
-  a.write("returns", torch::tensor(std::vector<double>(ll_ret.begin(), ll_ret.end()), torch::kFloat64));
-  a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end()), torch::kFloat64));
-  // The last updates' statistics, so metrics rows after a resume match an unbroken run.
-  a.write("last_stats", torch::tensor({last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
-                                       last_ppo.learning_rate, last_es.loss, last_es.q_mean, last_es.end_atom_share,
-                                       last_es.huber_share, last_es.q_spread, last_es.greedy_entropy,
-                                       last_es.off_center_share, last_es.loss_before},
-                                      torch::kFloat64));
-  a.write("wall", torch::tensor({wall()}, torch::kFloat64));
-  agents::save_archive_atomic(a, (dir / "trainer.pt").string());
-  std::ostringstream meta;
-  meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
-       << "\nupdates: " << ppo_updates + es_updates << "\n";
-  write_text_atomic((dir / "meta.yaml").string(), meta.str());
-  // The pointer flips only once the folder is complete; then older checkpoints go.
   const std::string previous = latest_checkpoint_name(run_dir);
-  write_text_atomic(run_dir + "/checkpoint/LATEST", name);
+  // A checkpoint that cannot be completed (full disk) is removed whole; LATEST still names the
+  // previous one, which stays intact.
+  try {
+    fs::create_directories(dir);
+    ppo->save((dir / "ll.pt").string());
+    es->save((dir / "hl.pt").string());
+    torch::serialize::OutputArchive a;
+    std::ostringstream env_bytes;
+    env->save_state(env_bytes);
+    a.write("env", bytes_tensor(env_bytes.str()));
+    a.write("counters", torch::tensor({env_steps, ppo_updates, es_updates, static_cast<std::int64_t>(phase),
+                                       static_cast<std::int64_t>(phase_updates), opponent, hl_grad_steps}));
+    a.write("pool", torch::tensor(pool.empty() ? std::vector<std::int64_t>{-1} : pool));
+    std::vector<std::int64_t> sides(side.begin(), side.end()), vp(vs_pool.begin(), vs_pool.end());
+    a.write("side", torch::tensor(sides));
+    a.write("vs_pool", torch::tensor(vp));
+    a.write("stream", torch::tensor({static_cast<std::int64_t>(stream.state())}));
+    a.write("generator", gen.get_state());
+    a.write("open_ego", open.obs.ego);
+    a.write("open_prev_action", open.obs.prev_action);
+    a.write("open_ado", open.obs.ado);
+    a.write("open_alive", open.obs.ado_alive);
+    a.write("open_task", open.obs.task);
+    a.write("open_actions", open.actions);
+    a.write("open_reward", open.reward);
+    a.write("open_active", open.active);
+    a.write("open_flag", torch::tensor(std::vector<std::int64_t>(open.open.begin(), open.open.end())));
+    // Double precision explicitly: torch::tensor of doubles would default to float32.
+    a.write("returns", torch::tensor(std::vector<double>(ll_ret.begin(), ll_ret.end()), torch::kFloat64));
+    a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end()), torch::kFloat64));
+    // The last updates' statistics, so metrics rows after a resume match an unbroken run.
+    a.write("last_stats", torch::tensor({last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
+                                         last_ppo.learning_rate, last_es.loss, last_es.q_mean, last_es.end_atom_share,
+                                         last_es.huber_share, last_es.q_spread, last_es.greedy_entropy,
+                                         last_es.off_center_share, last_es.loss_before},
+                                        torch::kFloat64));
+    a.write("wall", torch::tensor({wall()}, torch::kFloat64));
+    agents::save_archive_atomic(a, (dir / "trainer.pt").string());
+    std::ostringstream meta;
+    meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
+         << "\nupdates: " << ppo_updates + es_updates << "\n";
+    io::write_file_atomic((dir / "meta.yaml").string(), meta.str());
+    // The pointer flips only once the folder is complete; then older checkpoints go.
+    io::write_file_atomic(run_dir + "/checkpoint/LATEST", name);
+  } catch (...) {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+    throw;
+  }
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
   // The learning-curve figure follows the checkpoints; without gnuplot only its data and script.
   // A figure that cannot be drawn never stops training: the reason goes to the final summary.
@@ -782,7 +800,7 @@ void Trainer::State::load_checkpoint() {
       if (header || std::stoll(line.substr(0, line.find(','))) <= upd) out += line + "\n";
       header = false;
     }
-    write_text_atomic(mpath, out);
+    io::write_file_atomic(mpath, out);
   }
 }
 

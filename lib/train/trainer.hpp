@@ -93,7 +93,8 @@ struct TrainSummary {
 
 class Trainer {
  public:
-  // Fresh run: creates `run_dir` (refused if it already holds a checkpoint).
+  // Fresh run: creates `run_dir` and locks it for this object's lifetime; refused if the folder
+  // holds anything of a run (io::run_data_in) or another process holds its lock.
   Trainer(const TrainConfig& config, const std::string& run_dir);
   // Resume: reads RUN/config.yaml and the LATEST checkpoint; refuses a corrupt or mismatched one.
   static std::unique_ptr<Trainer> resume(const std::string& run_dir);

@@ -20,7 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 
 // Each test trains its own runs (ctest runs the tests of this file in parallel).
-std::string trained_run(const std::string& name, int seed, int team_size = 2, const std::string& agent = "") {
+std::string trained_run(const std::string& name, int seed, int team_size = 2, const std::string& agent = "",
+                        const std::string& extra = "") {
   const fs::path dir = fs::temp_directory_path() / ("f16race_tour_" + name);
   fs::remove_all(dir);
   YAML::Node root = YAML::Load(R"(
@@ -32,6 +33,7 @@ train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
   io::apply_override(root, "seed=" + std::to_string(seed));
   io::apply_override(root, "race.team_size=" + std::to_string(team_size));
   if (!agent.empty()) io::apply_override(root, "hl.agent=" + agent);
+  if (!extra.empty()) io::apply_override(root, extra);
   train::Trainer t(train::read_train_config(root, "test"), dir.string());
   t.run(nullptr, 2);
   return dir.string();
@@ -276,6 +278,24 @@ TEST(Tournament, RefusesMissingAndMismatchedRuns) {
     FAIL();
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("is given twice in --runs"), std::string::npos) << e.what();
+  }
+  // One run without the untrained entry or controls has nobody to race (was an internal error).
+  o.runs = {c};
+  o.include_untrained = false;
+  try {
+    run_tournament(o);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("is the only entry and has no opponent"), std::string::npos) << e.what();
+  }
+  // The same bins mean other lanes in another goal frame.
+  o.runs = {c, trained_run("e", 5, 2, "", "race.goal_frame=world")};
+  try {
+    run_tournament(o);
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("f16race_tour_e: trained with another race.goal_frame"), std::string::npos)
+        << e.what();
   }
 }
 

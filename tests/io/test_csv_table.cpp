@@ -242,6 +242,16 @@ TEST_F(CsvTableTest, WriteFailureNamesPathAndErrno) {
   EXPECT_TRUE(contains(msg, "(")) << msg;
 }
 
+TEST(CsvRead, DevicesAndFoldersAreRefusedInOneLine) {
+  try {
+    CsvTable::read("/dev/zero");  // would be read forever
+    FAIL() << "a device was read as a CSV file";
+  } catch (const CsvError& e) {
+    EXPECT_NE(std::string(e.what()).find("/dev/zero: is not a regular file"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(CsvTable::read("/"), CsvError);
+}
+
 TEST(CsvParse, LargeTableParses) {
   // ~1000 rows x 50 columns, the expected working size.
   std::string text;

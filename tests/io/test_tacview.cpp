@@ -89,7 +89,8 @@ TEST(Tacview, RefusesZeroIdsAndUnwritablePaths) {
   scene.objects.push_back(AcmiObject{});
   EXPECT_THROW(write_acmi("/tmp/f16race_zero_id.acmi", scene), std::runtime_error);
   scene.objects.clear();
-  EXPECT_THROW(write_acmi("/nonexistent/dir/x.acmi", scene), std::runtime_error);
+  // A folder that cannot be created (its parent is a device, not a folder).
+  EXPECT_THROW(write_acmi("/dev/null/dir/x.acmi", scene), std::runtime_error);
 }
 
 }  // namespace

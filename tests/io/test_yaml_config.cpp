@@ -103,6 +103,13 @@ TEST(YamlConfig, MissingFileAndSyntaxErrorsAreOneLine) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find(": is a directory"), std::string::npos);
   }
+  // A device would be read forever (/dev/zero) instead of failing.
+  try {
+    load_yaml_file("/dev/zero");
+    FAIL() << "a device was read as a config file";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/dev/zero: is not a regular file"), std::string::npos) << e.what();
+  }
   try {
     parse_yaml_text("race:\n  n_env: [1\n", "cfg.yaml");
     FAIL();

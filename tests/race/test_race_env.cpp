@@ -384,6 +384,7 @@ TEST(RaceEnv, TimeLimitEndsTheRaceAsATerminationUnlessConfiguredAsTruncation) {
   for (const bool terminal : {true, false}) {
     RaceConfig c = small_config(2, 2);
     c.time_limit_s = 2.0;
+    c.dt_hl_s = 2.0;  // at most the time limit
     c.time_limit_terminal = terminal;
     RaceEnv env(c);
     std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
@@ -448,6 +449,51 @@ TEST(RaceEnv, GoalSitsAtThePreviewHorizonAndStaysAheadThroughA20sInterval) {
   EXPECT_GT(min_ahead, c.goal_refresh_ft - slack);
   EXPECT_LT(max_ahead, c.goal_ahead() + slack);
   EXPECT_GT(max_ahead, c.goal_ahead() - slack);
+}
+
+// goal_frame track (default) makes each HL axis one kind of lane change: along, right, up in the track
+// frame at the goal's center-line point; corners are clipped to the outer bin's radius.
+TEST(RaceEnv, GoalFrameBinsMoveTheGoalAlongRightAndUpOrNorthEastUp) {
+  RaceConfig c = small_config(4, 4);
+  c.goal_frame = GoalFrame::kTrack;
+  const std::int64_t lo = 0, mid = c.hl_center_bin(), hi = c.hl_bins - 1;
+  struct Case {
+    std::int64_t bins[kHlDims];
+    double along, right, up;  // expected, in units of goal_bin_scale x R
+  };
+  const double d = 1.0 / std::sqrt(2.0);
+  const Case cases[] = {{{mid, hi, mid}, 0, 1, 0},  {{mid, lo, mid}, 0, -1, 0}, {{mid, mid, hi}, 0, 0, 1},
+                        {{mid, mid, lo}, 0, 0, -1}, {{hi, mid, mid}, 1, 0, 0},  {{mid, hi, hi}, 0, d, d}};
+  for (const Case& k : cases) {
+    RaceEnv env(c);
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims);
+    for (std::size_t j = 0; j < bins.size(); ++j) bins[j] = k.bins[j % kHlDims];
+    env.set_hl_actions(bins.data());
+    for (int i = 0; i < env.n_aircraft(); ++i) {
+      const Track& tr = env.track(i / env.n_agent());
+      const double s_center = env.progress_ft(i) + c.goal_ahead();
+      const double r = c.goal_bin_scale * tr.radius_at(s_center);
+      const TrackQuery gq = tr.project(env.goal_point(i), -1);
+      // A step of 0.8 R along the tangent leaves a bend by up to ~0.08 R (30 deg turns over
+      // 5 000 ft legs); the projection of the other offsets differs by less.
+      EXPECT_NEAR(gq.s_ft - s_center, k.along * r, 0.1 * r) << "bins " << k.bins[0] << k.bins[1] << k.bins[2];
+      EXPECT_NEAR(gq.lateral_ft, k.right * r, 0.1 * r) << "bins " << k.bins[0] << k.bins[1] << k.bins[2];
+      EXPECT_NEAR(gq.vertical_ft, k.up * r, 0.1 * r) << "bins " << k.bins[0] << k.bins[1] << k.bins[2];
+    }
+  }
+  // goal_frame: world (the paper's d_pn, d_pe, d_pa): the first axis is north, whatever the track.
+  c.goal_frame = GoalFrame::kWorld;
+  RaceEnv env(c);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, mid);
+  for (int i = 0; i < env.n_aircraft(); ++i) bins[static_cast<std::size_t>(i) * kHlDims] = hi;
+  env.set_hl_actions(bins.data());
+  for (int i = 0; i < env.n_aircraft(); ++i) {
+    const TrackFrame fr = env.track(i / env.n_agent()).frame_at(env.progress_ft(i) + c.goal_ahead());
+    const Vec3 off = env.goal_point(i) - fr.center;
+    EXPECT_NEAR(off.n, c.goal_bin_scale * fr.radius_ft, 1e-6);
+    EXPECT_NEAR(off.e, 0.0, 1e-6);
+    EXPECT_NEAR(off.u, 0.0, 1e-6);
+  }
 }
 
 }  // namespace

@@ -1,12 +1,15 @@
 // The training loop: config validation, run-folder safety, checkpoints (atomic, refused when
 // corrupt or mismatched), exact resume, determinism, and the self-play pool draws.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <yaml-cpp/yaml.h>
 
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "io/atomic_file.hpp"
 #include "io/yaml_config.hpp"
 #include "train/trainer.hpp"
 
@@ -55,14 +58,16 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
   EXPECT_NE(error_of("race: {team_size: 9}").find("race.team_size"), std::string::npos);
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
+  EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
+            std::string::npos);
 }
 
 TEST(TrainConfig, ResolvedYamlReadsBackToTheSameConfig) {
-  const TrainConfig a = smoke("race.dt_hl_s=20");
+  const TrainConfig a = smoke("race.dt_hl_s=8");
   const std::string y = train_config_yaml(a);
   const TrainConfig b = read_train_config(YAML::Load(y), "resolved");
   EXPECT_EQ(train_config_yaml(b), y);
-  EXPECT_EQ(b.race.dt_hl_s, 20.0);
+  EXPECT_EQ(b.race.dt_hl_s, 8.0);
   EXPECT_EQ(b.hl.variant, agents::EsVariant::kEsD3);
   EXPECT_NE(config_hash(y), config_hash(train_config_yaml(smoke("seed=4"))));
 }
@@ -124,6 +129,88 @@ TEST(Trainer, RefusesToOverwriteARunAndRefusesACorruptCheckpoint) {
     EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
   }
   EXPECT_EQ(fs::file_size(ck), size / 2);  // nothing was overwritten by the failed attempt
+}
+
+// Issue 15, reproduction 1: a run whose LATEST is missing was silently replaced by a fresh one.
+TEST(Trainer, RunWithoutLatestIsNeverOverwrittenByAFreshRun) {
+  const std::string dir = fresh_dir("no_latest");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  fs::remove(fs::path(dir) / "checkpoint" / "LATEST");
+  const auto config_before = fs::last_write_time(fs::path(dir) / "config.yaml");
+  const auto metrics_size = fs::file_size(fs::path(dir) / "metrics.csv");
+  try {
+    Trainer(smoke("seed=4"), dir);
+    FAIL() << "a fresh run replaced a run folder without LATEST";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("already holds a run (checkpoint, config.yaml, curves"), std::string::npos) << m;
+    EXPECT_NE(m.find("--overwrite"), std::string::npos) << m;
+  }
+  EXPECT_EQ(fs::last_write_time(fs::path(dir) / "config.yaml"), config_before);
+  EXPECT_EQ(fs::file_size(fs::path(dir) / "metrics.csv"), metrics_size);
+  EXPECT_FALSE(fs::is_empty(fs::path(dir) / "pool"));
+}
+
+// Issue 15, reproduction 2: two writers on one folder interleaved configs, checkpoints and rows.
+TEST(Trainer, SecondTrainerOnALiveRunFolderIsRefused) {
+  const std::string dir = fresh_dir("two_writers");
+  Trainer first(smoke(), dir);
+  first.run(nullptr, 3);
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    try {
+      if (attempt == 0)
+        Trainer(smoke("seed=2"), dir);
+      else
+        Trainer::resume(dir);
+      FAIL() << "a second writer was let into a live run folder";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("is in use by another f16race train (pid "), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(first.run(nullptr, 3).updates, 6);  // the owner carries on undisturbed
+}
+
+// Issue 15, full disk: a checkpoint that cannot be written is removed whole, LATEST keeps naming
+// the previous one, no temporary is left, and the run resumes from it.
+TEST(Trainer, FullDiskDuringACheckpointKeepsTheLastOneAndResumes) {
+  const std::string dir = fresh_dir("full_disk");
+  std::string latest_before;
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+    latest_before = latest_checkpoint_name(dir);
+    ASSERT_FALSE(latest_before.empty());
+    rlimit old{};
+    getrlimit(RLIMIT_FSIZE, &old);
+    auto* old_handler = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit small = old;
+    small.rlim_cur = 12 * 1024;  // metrics rows fit; networks and the env state do not
+    setrlimit(RLIMIT_FSIZE, &small);
+    std::string message;
+    try {
+      t.run(nullptr, 9);
+    } catch (const io::FileWriteError& e) {
+      message = e.what();
+    }
+    setrlimit(RLIMIT_FSIZE, &old);
+    std::signal(SIGXFSZ, old_handler);
+    EXPECT_NE(message.find("file too large while writing; nothing else was changed"), std::string::npos) << message;
+  }
+  EXPECT_EQ(latest_checkpoint_name(dir), latest_before);
+  int checkpoints = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+    if (e.is_directory() && e.path().parent_path().filename() == "checkpoint") ++checkpoints;
+    if (e.is_directory() && e.path().parent_path().filename() == "pool") {  // no half snapshot
+      EXPECT_TRUE(fs::exists(e.path() / "ll.pt") && fs::exists(e.path() / "hl.pt")) << e.path();
+    }
+  }
+  EXPECT_EQ(checkpoints, 1);
+  auto resumed = Trainer::resume(dir);
+  EXPECT_EQ(resumed->updates(), 3);
 }
 
 TEST(Trainer, LatestEditedByHandWithATrailingNewlineStillResumes) {

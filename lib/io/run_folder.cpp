@@ -1,0 +1,99 @@
+#include "io/run_folder.hpp"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+#include <system_error>
+
+namespace f16race::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+constexpr const char* kLockName = ".lock";
+
+std::string holder_pid(int fd) {
+  char buf[32] = {};
+  const ssize_t n = pread(fd, buf, sizeof buf - 1, 0);
+  std::string s = n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : std::string();
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s.empty() ? std::string("unknown") : s;
+}
+}  // namespace
+
+RunFolderLock::RunFolderLock(const std::string& run_dir) {
+  std::error_code ec;
+  fs::create_directories(run_dir, ec);
+  if (ec) throw std::runtime_error(run_dir + ": cannot create the run folder: " + ec.message());
+  const std::string path = (fs::path(run_dir) / kLockName).string();
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw std::runtime_error(path + ": cannot open the run folder's lock: " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    const std::string pid = holder_pid(fd_);
+    ::close(fd_);
+    fd_ = -1;
+    if (err == EWOULDBLOCK)
+      throw std::runtime_error(run_dir + " is in use by another f16race train (pid " + pid +
+                               "); wait for it to end or stop it, or choose another --run folder");
+    throw std::runtime_error(path + ": cannot lock the run folder: " + std::strerror(err));
+  }
+  // Who holds it, for the message above; the lock itself is the flock, not this text.
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
+    // Without the pid the lock still works; a full disk is reported by the first real write.
+  }
+}
+
+RunFolderLock::~RunFolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the flock
+}
+
+RunFolderLock::RunFolderLock(RunFolderLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+
+RunFolderLock& RunFolderLock::operator=(RunFolderLock&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = other.fd_;
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
+std::vector<std::string> run_data_in(const std::string& run_dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  if (!fs::is_directory(run_dir, ec)) return out;
+  for (const auto& entry : fs::directory_iterator(run_dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name == kLockName) continue;
+    // The empty folders a fresh run creates first hold nothing to lose.
+    if (entry.is_directory(ec) && fs::is_empty(entry.path(), ec)) continue;
+    out.push_back(name);
+  }
+  if (ec) throw std::runtime_error(run_dir + ": cannot list the run folder: " + ec.message());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::string move_run_aside(const std::string& run_dir) {
+  std::string base = fs::path(run_dir).lexically_normal().string();
+  while (base.size() > 1 && base.back() == '/') base.pop_back();
+  for (int n = 1; n < 100000; ++n) {
+    const std::string aside = base + ".old-" + std::to_string(n);
+    std::error_code ec;
+    if (fs::exists(aside, ec)) continue;
+    fs::rename(base, aside, ec);
+    if (ec) throw std::runtime_error(run_dir + ": cannot move the old run aside to " + aside + ": " + ec.message());
+    return aside;
+  }
+  throw std::runtime_error(run_dir + ": no free name " + base + ".old-N to move the old run aside to");
+}
+
+}  // namespace f16race::io

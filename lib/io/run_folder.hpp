@@ -1,0 +1,35 @@
+#pragma once
+// A training run's folder on disk: who owns it, whether it holds a run, and moving one aside.
+// A run is never lost to a second writer or to a fresh `train` pointed at the wrong folder.
+#include <string>
+#include <vector>
+
+namespace f16race::io {
+
+// An advisory lock (flock) on RUN/.lock, held for the object's lifetime by the one process that
+// writes the folder. flock locks belong to the open file, so a second lock conflicts even within
+// one process, and the kernel drops the lock when the process dies (kill -9 included).
+class RunFolderLock {
+ public:
+  // Creates the folder if needed. Throws std::runtime_error with one line naming the folder and
+  // the holder's pid when another process (or another lock in this one) holds it.
+  explicit RunFolderLock(const std::string& run_dir);
+  ~RunFolderLock();
+  RunFolderLock(const RunFolderLock&) = delete;
+  RunFolderLock& operator=(const RunFolderLock&) = delete;
+  RunFolderLock(RunFolderLock&& other) noexcept;
+  RunFolderLock& operator=(RunFolderLock&& other) noexcept;
+
+ private:
+  int fd_ = -1;
+};
+
+// The entries of `run_dir` that belong to a run (config.yaml, metrics.csv, a non-empty
+// checkpoint/ or pool/, ...), sorted; empty when the folder is missing or holds none of them.
+std::vector<std::string> run_data_in(const std::string& run_dir);
+
+// Renames `run_dir` to the first free `run_dir.old-N` (N = 1, 2, ...) and returns that path, so
+// an overwrite never deletes anything. Throws std::runtime_error naming both paths on failure.
+std::string move_run_aside(const std::string& run_dir);
+
+}  // namespace f16race::io

@@ -1,0 +1,75 @@
+// Run folders: one writer at a time (flock), what counts as a run, moving a run aside intact.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+
+#include "io/run_folder.hpp"
+
+namespace f16race::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string fresh_dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("f16race_run_folder_" + name);
+  fs::remove_all(p);
+  for (int n = 1; n < 4; ++n) fs::remove_all(p.string() + ".old-" + std::to_string(n));
+  return p.string();
+}
+
+TEST(RunFolderLock, SecondWriterIsRefusedWithTheHoldersPidUntilTheFirstEnds) {
+  const std::string dir = fresh_dir("lock");
+  {
+    RunFolderLock first(dir);
+    EXPECT_TRUE(fs::is_directory(dir));
+    try {
+      RunFolderLock second(dir);
+      FAIL() << "a second lock on one run folder was granted";
+    } catch (const std::runtime_error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(dir + " is in use"), std::string::npos) << m;
+      EXPECT_NE(m.find("pid " + std::to_string(getpid())), std::string::npos) << m;
+      EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    }
+    RunFolderLock moved(std::move(first));  // the lock travels with the object
+    EXPECT_THROW(RunFolderLock third(dir), std::runtime_error);
+  }
+  EXPECT_NO_THROW(RunFolderLock again(dir));  // released with its owner
+}
+
+TEST(RunFolder, RunDataIsAnythingButTheLockAndEmptyFolders) {
+  const std::string dir = fresh_dir("data");
+  EXPECT_TRUE(run_data_in(dir).empty());  // missing folder
+  fs::create_directories(fs::path(dir) / "checkpoint");
+  fs::create_directories(fs::path(dir) / "pool");
+  { RunFolderLock lock(dir); }
+  EXPECT_TRUE(run_data_in(dir).empty());
+  std::ofstream(fs::path(dir) / "metrics.csv") << "update\n";
+  fs::create_directories(fs::path(dir) / "checkpoint" / "step_0000000100");
+  EXPECT_EQ(run_data_in(dir), (std::vector<std::string>{"checkpoint", "metrics.csv"}));
+}
+
+TEST(RunFolder, MovingAsideKeepsEveryFileAndPicksAFreeName) {
+  const std::string dir = fresh_dir("aside");
+  fs::create_directories(dir);
+  std::ofstream(fs::path(dir) / "config.yaml") << "seed: 1\n";
+  EXPECT_EQ(move_run_aside(dir), dir + ".old-1");
+  EXPECT_FALSE(fs::exists(dir));
+  fs::create_directories(dir);
+  std::ofstream(fs::path(dir) / "config.yaml") << "seed: 2\n";
+  EXPECT_EQ(move_run_aside(dir + "/"), dir + ".old-2");
+  std::ifstream a(dir + ".old-1/config.yaml"), b(dir + ".old-2/config.yaml");
+  std::string la, lb;
+  std::getline(a, la);
+  std::getline(b, lb);
+  EXPECT_EQ(la, "seed: 1");
+  EXPECT_EQ(lb, "seed: 2");
+  EXPECT_THROW(move_run_aside(dir), std::runtime_error);  // nothing there any more
+}
+
+}  // namespace
+}  // namespace f16race::io

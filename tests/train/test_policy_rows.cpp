@@ -1,0 +1,49 @@
+// Which policy flies which aircraft: rows per policy in aircraft order, each aircraft's position
+// in its owner's rows, and the scatter of per-policy outputs back into the env's flat arrays.
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <vector>
+
+#include "train/policy_rows.hpp"
+
+namespace f16race::train {
+namespace {
+
+std::vector<std::int64_t> as_vector(const torch::Tensor& t) {
+  return std::vector<std::int64_t>(t.data_ptr<std::int64_t>(), t.data_ptr<std::int64_t>() + t.numel());
+}
+
+TEST(PolicyRows, RowsPositionsAndOwnership) {
+  PolicyRows r(3, 7);
+  r.assign({0, 1, -1, 0, 2, 1, 0});
+  EXPECT_EQ(as_vector(r.rows(0)), (std::vector<std::int64_t>{0, 3, 6}));
+  EXPECT_EQ(as_vector(r.rows(1)), (std::vector<std::int64_t>{1, 5}));
+  EXPECT_EQ(as_vector(r.rows(2)), (std::vector<std::int64_t>{4}));
+  EXPECT_EQ(r.position(6), 2);
+  EXPECT_EQ(r.position(5), 1);
+  EXPECT_EQ(r.position(2), -1);
+  EXPECT_FALSE(r.owns_all(0));
+  r.assign(std::vector<int>(7, 1));
+  EXPECT_TRUE(r.owns_all(1));
+  EXPECT_EQ(r.rows(0).numel(), 0);
+  EXPECT_EQ(r.position(4), 4);
+  EXPECT_THROW(r.assign({0, 1}), std::logic_error);
+  EXPECT_THROW(r.assign({0, 1, 3, 0, 0, 0, 0}), std::logic_error);
+}
+
+TEST(PolicyRows, ScatterWritesEachPolicysRowsAndNothingElse) {
+  PolicyRows r(2, 4);
+  r.assign({1, 0, 1, -1});
+  std::vector<float> actions(4 * 3, -9.0f);
+  scatter_rows(r.rows(0), torch::tensor({{1.0f, 2.0f, 3.0f}}), actions.data());
+  // A transposed (non-contiguous) output is read row by row like a contiguous one.
+  scatter_rows(r.rows(1), torch::tensor({{4.0f, 7.0f}, {5.0f, 8.0f}, {6.0f, 9.0f}}).t(), actions.data());
+  EXPECT_EQ(actions, (std::vector<float>{4, 5, 6, 1, 2, 3, 7, 8, 9, -9, -9, -9}));
+  std::vector<std::int64_t> bins(4 * 3, 3);
+  scatter_rows(r.rows(1), torch::tensor({{0, 1, 2}, {6, 5, 4}}, torch::kInt64), bins.data());
+  EXPECT_EQ(bins, (std::vector<std::int64_t>{0, 1, 2, 3, 3, 3, 6, 5, 4, 3, 3, 3}));
+}
+
+}  // namespace
+}  // namespace f16race::train
