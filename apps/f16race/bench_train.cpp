@@ -4,6 +4,8 @@
 #include <omp.h>
 #include <torch/torch.h>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <filesystem>
 #include <memory>
@@ -21,6 +23,7 @@ struct TrainBenchOptions {
   // paper.yaml (1024 envs) is not a default: one of its ES updates alone collects 8 M aircraft
   // steps, tens of minutes on a 2-core machine.
   std::vector<std::string> configs{"configs/default.yaml"};
+  std::vector<std::string> overrides;
   long long updates = 20;
   bool json = false;
 };
@@ -31,8 +34,10 @@ void run_bench_train(const TrainBenchOptions& o) {
     std::printf("f16race bench train: %lld updates per config (LL and HL phases as configured), %d threads\n",
                 o.updates, omp_get_max_threads());
   for (const std::string& path : o.configs) {
-    const train::TrainConfig cfg = train::read_train_config(io::load_yaml_file(path), path);
-    const std::string dir = (std::filesystem::temp_directory_path() / "f16race_bench_train").string();
+    const train::TrainConfig cfg = train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path);
+    // Per process, so two benches at once do not meet in one run folder.
+    const std::string dir =
+        (std::filesystem::temp_directory_path() / ("f16race_bench_train." + std::to_string(::getpid()))).string();
     std::filesystem::remove_all(dir);
     train::Trainer trainer(cfg, dir);
     const train::TrainSummary s = trainer.run(nullptr, o.updates);
@@ -65,6 +70,7 @@ void add_bench_train_command(CLI::App& bench) {
   CLI::App* cmd = bench.add_subcommand("train", "End-to-end training throughput with a time breakdown");
   cmd->add_option("--config", o->configs, "Configs to measure (default: configs/default.yaml; paper.yaml takes tens of minutes on 2 cores)");
   cmd->add_option("--updates", o->updates, "Updates per config")->check(CLI::Range(1, 100000));
+  cmd->add_option("--set", o->overrides, "Override a key of every config, e.g. --set race.n_env=256 (repeatable)");
   cmd->add_flag("--json", o->json, "One JSON object per config, one per line");
   cmd->callback([o]() { run_bench_train(*o); });
 }

@@ -15,6 +15,7 @@
 #include "dynamics/trim.hpp"
 #include "race/race_env.hpp"
 #include "race/scripted_pilot.hpp"
+#include "race/soak.hpp"
 
 namespace f16race::app {
 namespace {
@@ -179,6 +180,48 @@ void run_bench_env(const EnvBenchOptions& o) {
   }
 }
 
+struct SoakBenchOptions {
+  double aircraft_steps = 1e8;
+  int envs = 256;
+  int team_size = 4;
+  std::uint64_t seed = 1;
+  bool json = false;
+};
+
+// Hostile input through the race env (race::run_soak): the figures the README quotes.
+void run_bench_soak(const SoakBenchOptions& o) {
+  race::SoakOptions so;
+  so.race.n_env = o.envs;
+  so.race.team_size = o.team_size;
+  so.race.seed = o.seed;
+  so.seed = o.seed;
+  so.aircraft_steps = static_cast<std::int64_t>(o.aircraft_steps);
+  if (!o.json)
+    std::printf("f16race bench soak: %.3g aircraft-steps of random, NaN, +-inf, +-1e30 and sign-flipping actions and "
+                "out-of-range HL bins, %d envs x %d aircraft, %d threads\nmachine: %s\n",
+                o.aircraft_steps, o.envs, 2 * o.team_size, omp_get_max_threads(), cpu_model().c_str());
+  const race::SoakResult r = race::run_soak(so);
+  if (o.json) {
+    std::printf("{\"bench\": \"soak\", \"aircraft_steps\": %lld, \"non_finite\": %lld, \"races_finished\": %lld, "
+                "\"hostile_action_components\": %lld, \"seconds\": %.4g, \"out\": {",
+                static_cast<long long>(r.aircraft_steps), static_cast<long long>(r.non_finite),
+                static_cast<long long>(r.races_finished), static_cast<long long>(r.hostile_actions), r.seconds);
+    for (int c = 1; c < race::kNumCauses; ++c)
+      std::printf("%s\"%s\": %lld", c > 1 ? ", " : "", race::cause_name(c), static_cast<long long>(r.out[c]));
+    std::printf("}}\n");
+  } else {
+    std::printf("%lld aircraft-steps in %.1f s (%.3g/s), %lld hostile action components, %lld races finished\n",
+                static_cast<long long>(r.aircraft_steps), r.seconds, r.aircraft_steps / r.seconds,
+                static_cast<long long>(r.hostile_actions), static_cast<long long>(r.races_finished));
+    std::printf("non-finite values in any observation or reward buffer: %lld\naircraft taken out, by cause:",
+                static_cast<long long>(r.non_finite));
+    for (int c = 1; c < race::kNumCauses; ++c)
+      std::printf(" %s %lld", race::cause_name(c), static_cast<long long>(r.out[c]));
+    std::printf("\n");
+  }
+  if (r.non_finite > 0) throw UserError("bench soak: non-finite values reached the env's outputs (a bug: please report it)");
+}
+
 }  // namespace
 
 void add_bench_command(CLI::App& app) {
@@ -202,6 +245,15 @@ void add_bench_command(CLI::App& app) {
   ecmd->add_option("--repeats", envo->repeats, "Timed runs (median reported)")->check(CLI::Range(1, 1000));
   ecmd->add_option("--threads", envo->threads, "Thread counts to measure (default: 1 and all cores)")->check(CLI::PositiveNumber);
   ecmd->add_flag("--json", envo->json, "One JSON object per measured case, one per line");
+  auto soak = std::make_shared<SoakBenchOptions>();
+  CLI::App* scmd = bench->add_subcommand("soak", "Hostile actions through the race env: non-finite outputs (must be 0), "
+                                                  "aircraft taken out by cause, races finished");
+  scmd->add_option("--aircraft-steps", soak->aircraft_steps, "LL steps x aircraft to fly")->check(CLI::Range(1.0, 1e12));
+  scmd->add_option("--envs", soak->envs, "Parallel races")->check(CLI::Range(1, 100000));
+  scmd->add_option("--team-size", soak->team_size, "Aircraft per team")->check(CLI::Range(1, 8));
+  scmd->add_option("--seed", soak->seed, "Seed of the tracks and of the hostile inputs");
+  scmd->add_flag("--json", soak->json, "One JSON object");
+  scmd->callback([soak]() { run_bench_soak(*soak); });
   ecmd->callback([envo]() { run_bench_env(*envo); });
 
   add_bench_nets_command(*bench);

@@ -113,7 +113,7 @@ void add_race_command(CLI::App& app) {
   cmd->add_option("--set", o->overrides, "Override a config key, e.g. --set race.team_size=2 (repeatable)");
   cmd->add_option("--policy", o->policy, "Pilot: scripted (fly the tube, keep your lane)");
   cmd->add_option("--races", o->races, "Number of races (run in parallel)")->check(CLI::Range(1, 100000));
-  cmd->add_option("--seed", o->seed, "Seed (default: the config's race.seed)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", o->seed, "Seed (default: the config's race.seed)")->check(kNonNegativeSeed);
   cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)");
   cmd->add_option("--out", o->out, "Output folder");
   cmd->callback([o]() { run_race(*o); });

@@ -163,7 +163,7 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--resume", o->resume, "Continue the run in this folder from its latest checkpoint");
   cmd->add_option("--agent", o->agent, "High-level agent: es, es_d1, es_d2, es_d3")
       ->check(CLI::IsMember({"es", "es_d1", "es_d2", "es_d3"}));
-  cmd->add_option("--seed", o->seed, "Seed (overrides the config's)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", o->seed, "Seed (overrides the config's)")->check(kNonNegativeSeed);
   cmd->add_option("--max-updates", o->max_updates, "Stop (with a checkpoint) after this many updates");
   cmd->add_flag("--quiet", o->quiet, "No progress output");
   cmd->add_flag("--overwrite", o->overwrite,

@@ -3,9 +3,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace CLI {
-class App;
-}
+#include <CLI/CLI.hpp>
 
 namespace f16race::app {
 
@@ -15,6 +13,11 @@ class UserError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+// A seed option: a non-negative integer (CLI11's NonNegativeNumber prints a 300-digit bound).
+inline const CLI::Validator kNonNegativeSeed(
+    [](std::string& v) { return !v.empty() && v[0] == '-' ? std::string("a seed is a non-negative integer") : std::string(); },
+    "SEED >= 0");
 
 // Ends the program with this status after a complete, orderly stop (e.g. 130 for a run
 // interrupted by a signal once its checkpoint is written); main returns it without a message.

@@ -3,9 +3,11 @@
 #include <omp.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <exception>
+#include <string>
 
 #include "commands.hpp"
 #include "io/atomic_file.hpp"
@@ -26,9 +28,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "f16race 0.1.0");
   int threads = 0;
-  // Bounded: a huge count spawns hundreds of threads that spin against each other for minutes.
-  app.add_option("--threads", threads, "OpenMP threads for the simulator (0 = all cores, at most 256)")
-      ->check(CLI::Range(0, 256));
+  // Bounded by the machine: more threads than 4 x its cores only spin against each other (OpenMP
+  // waits actively), which made a large count look like a hang.
+  const int max_threads = 4 * std::max(1, omp_get_num_procs());
+  app.add_option("--threads", threads,
+                 "OpenMP threads for the simulator (0 = all cores, at most 4 x cores = " + std::to_string(max_threads) + ")")
+      ->check(CLI::Range(0, max_threads));
   // Thread count is set once, before any parallel region; subcommands never change it
   // (except `bench`, which measures 1 thread and all threads on purpose).
   app.parse_complete_callback([&]() {

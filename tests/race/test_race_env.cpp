@@ -15,6 +15,7 @@
 #include "race/ranking.hpp"
 #include "race/random_stream.hpp"
 #include "race/scripted_pilot.hpp"
+#include "race/soak.hpp"
 
 namespace f16race::race {
 namespace {
@@ -266,6 +267,23 @@ TEST(RaceEnv, LongRandomSoakKeepsEveryBufferFinite) {
   }
   EXPECT_EQ(bad, 0);
   EXPECT_GT(races, 64);  // random flying ends races quickly: many resets were exercised
+}
+
+// The short form of `bench soak`: NaN, +-inf, 1e30 and sign-flipping actions and out-of-range
+// bins never reach an output buffer, and the races keep ending and restarting.
+TEST(RaceEnv, HostileActionsNeverReachTheOutputs) {
+  SoakOptions o;
+  o.race = small_config(32, 4);
+  o.aircraft_steps = 32 * 8 * 600;
+  o.seed = 5;
+  const SoakResult r = run_soak(o);
+  EXPECT_EQ(r.non_finite, 0);
+  EXPECT_EQ(r.aircraft_steps, o.aircraft_steps);
+  EXPECT_GT(r.hostile_actions, r.aircraft_steps / 2);  // most action components were hostile
+  EXPECT_GT(r.races_finished, 32);
+  std::int64_t out = 0;
+  for (int c = 1; c < kNumCauses; ++c) out += r.out[c];
+  EXPECT_GT(out, 0);
 }
 
 TEST(RaceEnv, ScriptedPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
