@@ -251,7 +251,7 @@ void add_bench_command(CLI::App& app) {
   scmd->add_option("--aircraft-steps", soak->aircraft_steps, "LL steps x aircraft to fly")->check(CLI::Range(1.0, 1e12));
   scmd->add_option("--envs", soak->envs, "Parallel races")->check(CLI::Range(1, 100000));
   scmd->add_option("--team-size", soak->team_size, "Aircraft per team")->check(CLI::Range(1, 8));
-  scmd->add_option("--seed", soak->seed, "Seed of the tracks and of the hostile inputs");
+  scmd->add_option("--seed", soak->seed, "Seed of the tracks and of the hostile inputs")->check(kNonNegativeSeed);
   scmd->add_flag("--json", soak->json, "One JSON object");
   scmd->callback([soak]() { run_bench_soak(*soak); });
   ecmd->callback([envo]() { run_bench_env(*envo); });

@@ -47,7 +47,7 @@ void add_replay_command(CLI::App& app) {
       ->required();
   cmd->add_option("--opponent", o->replay.opponent,
                   "Red team: a run folder (@center / @random allowed), self (default), untrained or scripted");
-  cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start");
+  cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--out", o->out, "Output folder");
   cmd->callback([o]() { run_replay_command(*o); });

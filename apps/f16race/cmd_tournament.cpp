@@ -66,7 +66,8 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_option("--runs", o->runs, "Run folders (written by f16race train)")->required();
   cmd->add_option("--races", o->races_per_pair, "Races per pair of entries (sides swapped in half)")
       ->check(CLI::Range(2, 1000000));
-  cmd->add_option("--seed", o->seed, "Seed of the tracks and starts (and of the @random controls)");
+  cmd->add_option("--seed", o->seed, "Seed of the tracks and starts (and of the @random controls)")
+      ->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->epsilon, "HL exploration while evaluating (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--batch", o->batch_envs, "Races run at once")->check(CLI::Range(1, 100000));
   cmd->add_option("--bootstrap", o->bootstrap_replicates, "Bootstrap replicates for the IQM CI")->check(CLI::Range(100, 1000000));

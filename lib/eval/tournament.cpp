@@ -48,6 +48,11 @@ std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec) {
     if (spec.size() > suffix.size() && spec.compare(spec.size() - suffix.size(), suffix.size(), suffix) == 0)
       return {spec.substr(0, spec.size() - suffix.size()), rule};
   }
+  // RUN@something else is a typo of a rule, not a folder name (which would fail as "not a run").
+  const auto at = spec.rfind('@');
+  if (at != std::string::npos && at > 0 && spec.find('/', at) == std::string::npos && !std::filesystem::exists(spec))
+    throw std::runtime_error(spec + ": unknown high-level rule '" + spec.substr(at) +
+                             "'; use RUN, RUN@center or RUN@random");
   return {spec, HlOverride::none};
 }
 

@@ -136,7 +136,18 @@ TEST(TournamentControls, EntrySpecs) {
   EXPECT_EQ(parse_entry_spec("runs/a@center"), std::make_pair(std::string("runs/a"), HlOverride::center));
   EXPECT_EQ(parse_entry_spec("runs/a@random"), std::make_pair(std::string("runs/a"), HlOverride::random));
   EXPECT_EQ(parse_entry_spec("runs/a"), std::make_pair(std::string("runs/a"), HlOverride::none));
-  EXPECT_EQ(parse_entry_spec("runs/a@other"), std::make_pair(std::string("runs/a@other"), HlOverride::none));
+  // A typo of a rule is named as one; a real folder with '@' in its name stays a folder.
+  try {
+    parse_entry_spec("runs/a@centre");
+    FAIL() << "an unknown rule was taken for a folder";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown high-level rule '@centre'; use RUN, RUN@center or RUN@random"),
+              std::string::npos)
+        << e.what();
+  }
+  const std::string odd = (fs::temp_directory_path() / "f16race_tour_odd@name").string();
+  fs::create_directories(odd);
+  EXPECT_EQ(parse_entry_spec(odd), std::make_pair(odd, HlOverride::none));
   EXPECT_EQ(parse_entry_spec("@center"), std::make_pair(std::string("@center"), HlOverride::none));
   EXPECT_STREQ(hl_override_name(HlOverride::none), "policy");
 }
