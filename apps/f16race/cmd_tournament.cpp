@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -25,6 +26,10 @@ void run(const eval::TournamentOptions& o) {
   eval::TournamentResult r;
   const auto start = std::chrono::steady_clock::now();
   int last_percent = -1;
+  // The output folder first: a folder that cannot be made fails now, not after every race.
+  std::error_code ec;
+  std::filesystem::create_directories(o.out_dir, ec);
+  if (ec) throw UserError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
   try {
     r = eval::run_tournament(o, [&](long done, long total) {
       const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;

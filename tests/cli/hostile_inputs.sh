@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# Issue 15's hostile user, as a test: every case must end within 60 s with exit status 2, a short
+# message on stderr (at most 3 lines), no "internal error", no C++ or LibTorch backtrace, and
+# leave the trained run it may touch unchanged.
+# Usage: hostile_inputs.sh F16RACE_BINARY CONFIG_DIR WORK_DIR
+set -uo pipefail
+bin=$1 configs=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+cd "$work"
+smoke="$configs/smoke.yaml"
+run="$work/run"
+"$bin" train --config "$smoke" --run "$run" --max-updates 2 --quiet >/dev/null || { echo "FAIL: setup run"; exit 1; }
+snapshot() { (cd "$run" && find . -type f ! -name .lock -exec md5sum {} + | sort); }
+before=$(snapshot)
+# Inputs.
+printf 'race:\n  n_env: [1\n' > bad_syntax.yaml
+printf 'race:\n  n_env: 6\n  n_env: 4\n' > duplicate.yaml
+printf 'seed: 1\nrace: 5\n' > not_mapping.yaml
+printf '\x00\x01\x02binary' > binary.yaml
+printf 't_s,Nz_ref_g\n' > header_only.csv
+printf 't_s,Nz_ref_g\n0,1\n0,2\n' > not_increasing.csv
+printf 't_s,Nz_ref_g\n0,abc\n' > not_number.csv
+printf 't_s,vt\n0,1,2\n' > ragged.csv
+mkdir -p not_a_run && echo "x" > not_a_run/file
+cp -r "$run" corrupt_latest && echo "step_9999999999_u1" > corrupt_latest/checkpoint/LATEST && rm -f corrupt_latest/.lock
+cp -r "$run" truncated && rm -f truncated/.lock
+ck=$(cat truncated/checkpoint/LATEST)
+truncate -s 100 "truncated/checkpoint/$ck/trainer.pt"
+fails=0 n=0
+case_() {  # case_ DESCRIPTION -- COMMAND...
+  local desc=$1
+  shift 2
+  n=$((n + 1))
+  local out rc
+  out=$(timeout 60 "$@" 2>&1 >/dev/null)
+  rc=$?
+  local lines
+  lines=$(printf '%s\n' "$out" | grep -c .)
+  if [ "$rc" -ne 2 ] || [ "$lines" -gt 3 ] || [[ "$out" == *"internal error"* ]] || [[ "$out" == *"Exception raised from"* ]] ||
+     [[ "$out" == *"terminate called"* ]]; then
+    echo "FAIL [$desc]: rc $rc, $lines lines: $out"
+    fails=$((fails + 1))
+  fi
+}
+T="$bin train --config $smoke --run $work/new"
+case_ "config missing" -- "$bin" train --config nope.yaml --run "$work/n1"
+case_ "config is a folder" -- "$bin" train --config "$work" --run "$work/n2"
+case_ "config is a device" -- "$bin" train --config /dev/zero --run "$work/n3"
+case_ "config is binary" -- "$bin" train --config binary.yaml --run "$work/n4"
+case_ "YAML syntax" -- "$bin" train --config bad_syntax.yaml --run "$work/n5"
+case_ "duplicate key" -- "$bin" train --config duplicate.yaml --run "$work/n6"
+case_ "section not a mapping" -- "$bin" train --config not_mapping.yaml --run "$work/n7"
+case_ "unknown key" -- $T --set foo=1
+case_ "n_env 0" -- $T --set race.n_env=0
+case_ "n_env text" -- $T --set race.n_env=abc
+case_ "team_size 9" -- $T --set race.team_size=9
+case_ "dt_ll 0" -- $T --set race.dt_ll_s=0
+case_ "dt_hl tiny" -- $T --set race.dt_hl_s=0.01
+case_ "dt_hl > time limit" -- $T --set race.time_limit_s=5 --set race.dt_hl_s=8
+case_ "legs crossed" -- $T --set race.track.leg_min_ft=9000
+case_ "radii crossed" -- $T --set race.track.radius_min_ft=2000
+case_ "unknown model" -- $T --set race.model=jsbsim
+case_ "unknown tube exit" -- $T --set race.tube_exit=maybe
+case_ "unknown goal frame" -- $T --set race.goal_frame=polar
+case_ "unknown agent" -- $T --set hl.agent=es_d4
+case_ "epsilon 1.5" -- $T --set hl.epsilon=1.5
+case_ "support crossed" -- $T --set hl.v_min=5 --set hl.v_max=1
+case_ "one atom" -- $T --set hl.n_atoms=1
+case_ "empty hidden" -- $T --set "ll.hidden=[]"
+case_ "zero hidden" -- $T --set "ll.hidden=[0]"
+case_ "negative lr" -- $T --set ll.learning_rate=-1
+case_ "negative steps" -- $T --set train.total_env_steps=-5
+case_ "p_self_play 2" -- $T --set pool.p_self_play=2
+case_ "--set without =" -- $T --set race.n_env
+case_ "--set empty key" -- $T --set race..n_env=3
+case_ "--set bad YAML" -- $T --set "race.n_env=[1"
+case_ "negative seed" -- $T --seed -4
+case_ "unknown agent flag" -- $T --agent es_d9
+case_ "resume missing" -- "$bin" train --resume "$work/nothing"
+case_ "resume with --seed" -- "$bin" train --resume "$run" --seed 3
+case_ "fresh run over a run" -- "$bin" train --config "$smoke" --run "$run"
+case_ "resume not a run" -- "$bin" train --resume not_a_run
+case_ "resume corrupt LATEST" -- "$bin" train --resume corrupt_latest
+case_ "resume truncated checkpoint" -- "$bin" train --resume truncated
+case_ "threads huge" -- "$bin" --threads 100000 train --config "$smoke" --run "$work/n8"
+case_ "threads negative" -- "$bin" --threads -1 train --config "$smoke" --run "$work/n9"
+case_ "tournament missing run" -- "$bin" tournament --runs "$work/nothing" --out t1
+case_ "tournament run twice" -- "$bin" tournament --runs "$run" "$run" --out t2
+case_ "tournament 0 races" -- "$bin" tournament --runs "$run" --races 0 --out t3
+case_ "tournament races text" -- "$bin" tournament --runs "$run" --races many --out t4
+case_ "tournament batch 0" -- "$bin" tournament --runs "$run" --batch 0 --out t5
+case_ "tournament epsilon 2" -- "$bin" tournament --runs "$run" --epsilon 2 --out t6
+case_ "tournament one entry" -- "$bin" tournament --runs "$run" --no-untrained --out t7
+case_ "tournament rule typo" -- "$bin" tournament --runs "$run@centre" --out t8
+case_ "tournament out under a device" -- "$bin" tournament --runs "$run" --races 2 --out /dev/null/t9
+case_ "tournament negative seed" -- "$bin" tournament --runs "$run" --seed -1 --out t10
+case_ "replay missing run" -- "$bin" replay --run "$work/nothing" --out r1
+case_ "replay bad opponent" -- "$bin" replay --run "$run" --opponent bogus --out r2
+case_ "replay negative seed" -- "$bin" replay --run "$run" --seed -1 --out r3
+case_ "replay out under a device" -- "$bin" replay --run "$run" --out /dev/null/r4
+case_ "export not a run" -- "$bin" export --run not_a_run --out e1
+case_ "export out under a device" -- "$bin" export --run "$run" --out /dev/null/e2
+case_ "simulate reference device" -- "$bin" simulate --reference /dev/zero --out s1.csv
+case_ "simulate reference missing" -- "$bin" simulate --reference nope.csv --out s2.csv
+case_ "simulate header-only commands" -- "$bin" simulate --duration 1 --commands header_only.csv --out s3.csv
+case_ "simulate time not increasing" -- "$bin" simulate --duration 1 --commands not_increasing.csv --out s4.csv
+case_ "simulate text in commands" -- "$bin" simulate --duration 1 --commands not_number.csv --out s5.csv
+case_ "simulate ragged reference" -- "$bin" simulate --reference ragged.csv --out s6.csv
+case_ "simulate huge duration" -- "$bin" simulate --duration 1e9 --out s7.csv
+case_ "simulate negative duration" -- "$bin" simulate --duration -1 --out s8.csv
+case_ "simulate unknown model" -- "$bin" simulate --duration 1 --model f22 --out s9.csv
+case_ "simulate out under a device" -- "$bin" simulate --duration 1 --out /dev/null/s10.csv
+case_ "race 0 races" -- "$bin" race --races 0
+case_ "race bad override" -- "$bin" race --set race.n_env=abc
+case_ "bench soak 0 steps" -- "$bin" bench soak --aircraft-steps 0
+case_ "bench train missing config" -- "$bin" bench train --config nope.yaml
+after=$(snapshot)
+if [ "$before" != "$after" ]; then echo "FAIL: the trained run changed"; fails=$((fails + 1)); fi
+echo "$((n - fails)) of $n hostile inputs handled (exit 2, a short message, no backtrace)"
+[ "$fails" -eq 0 ]
