@@ -141,8 +141,6 @@ void save_atomic(const torch::jit::Module& m, const std::string& path) {
   io::write_file_atomic(path, bytes.str());
 }
 
-void write_text_atomic(const std::string& path, const std::string& text) { io::write_file_atomic(path, text); }
-
 double max_abs_diff(const torch::Tensor& a, const torch::Tensor& b) {
   if (!a.defined() && !b.defined()) return 0.0;
   if (!a.defined() || !b.defined() || a.sizes() != b.sizes()) return INFINITY;
@@ -334,19 +332,19 @@ ExportReport export_policy(train::RunPolicy& p, const std::string& out_dir) {
     throw std::runtime_error("exported modules disagree with the trained networks (HL " + std::to_string(rep.hl_max_abs_diff) +
                              ", LL " + std::to_string(rep.ll_max_abs_diff) + "); nothing written");
 
-  torch::jit::Module io("f16race.ExampleIO");
+  torch::jit::Module example("f16race.ExampleIO");
   for (const auto& [k, t] : std::vector<std::pair<std::string, torch::Tensor>>{
            {"ego", x.ego}, {"prev_action", x.prev_action}, {"goal", x.goal}, {"ado", x.ado}, {"ado_alive", x.ado_alive},
            {"task", x.task}, {"hl_bins", hr.bins}, {"hl_q", hr.q}, {"ll_mean", lr.mean}, {"ll_log_std", lr.log_std},
            {"ll_value", lr.value}})
-    io.register_buffer(k, t.contiguous());
-  if (hr.probs.defined()) io.register_buffer("hl_probs", hr.probs.contiguous());
+    example.register_buffer(k, t.contiguous());
+  if (hr.probs.defined()) example.register_buffer("hl_probs", hr.probs.contiguous());
 
   fs::create_directories(out_dir);
   save_atomic(hl, out_dir + "/hl_policy.pt");
   save_atomic(ll, out_dir + "/ll_policy.pt");
-  save_atomic(io, out_dir + "/example_io.pt");
-  write_text_atomic(out_dir + "/README.md", readme(p, rep));
+  save_atomic(example, out_dir + "/example_io.pt");
+  io::write_file_atomic(out_dir + "/README.md", readme(p, rep));
   return rep;
 }
 

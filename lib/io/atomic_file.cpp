@@ -74,9 +74,8 @@ void append_file(const std::string& path, std::string_view bytes) {
   const off_t old_size = ::fstat(fd, &st) == 0 ? st.st_size : -1;
   if (!write_all(fd, bytes)) {
     const int err = errno;
-    if (old_size >= 0 && ::ftruncate(fd, old_size) != 0) {
-      // Cutting back can fail too (e.g. the device went away); the message below still holds.
-    }
+    // Cutting back can fail too (the device went away); the message below holds either way.
+    if (old_size >= 0) (void)!::ftruncate(fd, old_size);
     ::close(fd);
     throw FileWriteError(path + ": " + cause(err) + " while appending; the file keeps what it held before");
   }

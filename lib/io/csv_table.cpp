@@ -12,8 +12,6 @@
 #include <sstream>
 #include <system_error>
 
-#include <fcntl.h>
-#include <unistd.h>
 
 namespace f16race::io {
 

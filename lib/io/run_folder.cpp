@@ -46,9 +46,9 @@ RunFolderLock::RunFolderLock(const std::string& run_dir) {
   }
   // Who holds it, for the message above; the lock itself is the flock, not this text.
   const std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, pid.data(), pid.size(), 0) != static_cast<ssize_t>(pid.size())) {
-    // Without the pid the lock still works; a full disk is reported by the first real write.
-  }
+  // Unchecked on purpose: without the pid the lock still works, and a full disk is reported by
+  // the first real write.
+  if (::ftruncate(fd_, 0) == 0) (void)!::pwrite(fd_, pid.data(), pid.size(), 0);
 }
 
 RunFolderLock::~RunFolderLock() {

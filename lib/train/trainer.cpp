@@ -374,8 +374,9 @@ void Trainer::State::ll_step(bool learn) {
   torch::Tensor sample_action, sample_logp, sample_value;
   if (learn) {
     auto pos = torch::empty_like(learner);
-    for (std::int64_t k = 0; k < learner.numel(); ++k)
-      pos.data_ptr<std::int64_t>()[k] = ll_rows.position(static_cast<int>(learner.data_ptr<std::int64_t>()[k]));
+    const std::int64_t* li = learner.data_ptr<std::int64_t>();
+    std::int64_t* pi = pos.data_ptr<std::int64_t>();
+    for (std::int64_t k = 0; k < learner.numel(); ++k) pi[k] = ll_rows.position(static_cast<int>(li[k]));
     sample_obs = models::index_rows(act.obs, pos);
     sample_action = act.action.index_select(0, pos);
     sample_logp = act.log_prob.index_select(0, pos);
