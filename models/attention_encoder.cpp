@@ -79,6 +79,15 @@ AttentionEncoderImpl::AttentionEncoderImpl(const AttentionEncoderConfig& cfg) : 
   out_proj_ = register_module("out_proj", torch::nn::Linear(cfg.d_model, cfg.d_model));
 }
 
+int64_t AttentionEncoderImpl::flops_per_sample() const {
+  const int64_t d = cfg_.d_model, n = cfg_.n_other;
+  return 2 * cfg_.d_ego * d            // query
+         + 2 * 2 * n * cfg_.d_ado * d  // keys and values of every other aircraft
+         + 2 * n * d                   // scores (all heads together span d)
+         + 2 * n * d                   // weighted sum of the values
+         + 2 * d * d;                  // output projection
+}
+
 torch::Tensor AttentionEncoderImpl::forward(const torch::Tensor& ego, const torch::Tensor& ado,
                                             const torch::Tensor& ado_alive) {
   check_tensor(ego, "ego", {-1, cfg_.d_ego}, torch::kFloat32);

@@ -25,6 +25,10 @@ class AttentionEncoderImpl : public torch::nn::Module {
   torch::Tensor forward(const torch::Tensor& ego, const torch::Tensor& ado, const torch::Tensor& ado_alive);
   int64_t output_dim() const { return cfg_.d_model; }
   const AttentionEncoderConfig& config() const { return cfg_; }
+  // Floating-point operations of one sample's forward pass (a multiply-add counts 2; biases,
+  // softmax and masking left out): the projections of ego and of every other aircraft, scores,
+  // weighted sum, output projection. For `bench nets` / `bench train` GFLOP/s.
+  int64_t flops_per_sample() const;
 
  private:
   AttentionEncoderConfig cfg_;

@@ -23,6 +23,16 @@ HlCriticImpl::HlCriticImpl(const HlCriticConfig& cfg) : cfg_(cfg) {
                                                     : torch::zeros({1}));
 }
 
+int64_t HlCriticImpl::flops_per_sample() const {
+  int64_t flops = encoder_->flops_per_sample();
+  int64_t in = cfg_.dims.d_ego + 3 + cfg_.d_model + cfg_.dims.d_task;
+  for (int64_t width : cfg_.hidden) {
+    flops += 2 * in * width;
+    in = width;
+  }
+  return flops + 2 * in * head_->options.out_features();
+}
+
 HlOutput HlCriticImpl::forward(const HlObs& obs) {
   const int64_t b = check_obs(obs, cfg_.dims);
   const auto encoded = encoder_(obs.ego, obs.ado, obs.ado_alive);

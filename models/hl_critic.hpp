@@ -42,6 +42,8 @@ class HlCriticImpl : public torch::nn::Module {
   HlOutput forward(const HlObs& obs);
   const HlCriticConfig& config() const { return cfg_; }
   int64_t n_joint_actions() const { return cfg_.n_bins * cfg_.n_bins * cfg_.n_bins; }
+  // Forward FLOPs of one sample (encoder, trunk, head; see AttentionEncoderImpl::flops_per_sample).
+  int64_t flops_per_sample() const;
   // Atom values z_k = v_min + k (v_max - v_min) / (K - 1), [n_atoms] (a buffer, saved with the net).
   const torch::Tensor& atoms() const { return atoms_; }
 

@@ -40,6 +40,19 @@ LlActorCriticImpl::LlActorCriticImpl(const LlActorCriticConfig& cfg) : cfg_(cfg)
   log_std_ = register_parameter("log_std", torch::full({cfg.action_dim}, cfg.init_log_std));
 }
 
+int64_t LlActorCriticImpl::flops_per_sample() const {
+  // Actor and critic share the input and the hidden widths; only their outputs differ.
+  auto mlp = [&](int64_t out) {
+    int64_t flops = 0, in = cfg_.dims.d_ego + 3 + cfg_.d_model + cfg_.dims.d_task;
+    for (int64_t width : cfg_.hidden) {
+      flops += 2 * in * width;
+      in = width;
+    }
+    return flops + 2 * in * out;
+  };
+  return encoder_->flops_per_sample() + mlp(cfg_.action_dim) + mlp(1);
+}
+
 LlOutput LlActorCriticImpl::forward(const LlObs& obs) {
   const int64_t b = check_obs(obs, cfg_.dims);
   const auto encoded = encoder_(obs.ego, obs.ado, obs.ado_alive);

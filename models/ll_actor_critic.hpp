@@ -35,6 +35,8 @@ class LlActorCriticImpl : public torch::nn::Module {
   explicit LlActorCriticImpl(const LlActorCriticConfig& cfg);
   LlOutput forward(const LlObs& obs);
   const LlActorCriticConfig& config() const { return cfg_; }
+  // Forward FLOPs of one sample (encoder, actor and critic; see AttentionEncoderImpl::flops_per_sample).
+  int64_t flops_per_sample() const;
 
  private:
   LlActorCriticConfig cfg_;

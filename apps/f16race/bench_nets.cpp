@@ -1,11 +1,11 @@
 // `f16race bench nets`: forward and forward+backward time per aircraft sample of each network
-// at a batch of 8192 aircraft (median of repeats). Inputs are random observations with the
-// the default race's sizes unless overridden; 30% of the other aircraft are masked dead.
+// at a batch of 8192 aircraft (median of repeats), its FLOPs per sample and the GFLOP/s reached,
+// next to a large float matrix product's as the machine's practical peak. Inputs are random
+// observations with the default race's sizes unless overridden; 30% of the other aircraft dead.
+#include <omp.h>
 #include <torch/torch.h>
 
 #include <CLI/CLI.hpp>
-#include <algorithm>
-#include <chrono>
 #include <cstdio>
 #include <functional>
 #include <memory>
@@ -18,6 +18,7 @@
 #include "models/hl_critic.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
+#include "network_cost.hpp"
 
 namespace f16race::app {
 namespace {
@@ -33,58 +34,41 @@ struct NetsBenchOptions {
   int n_other = 7;
 };
 
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-// Median seconds of `f` over `repeats` timed runs after one warm-up run.
-double time_median_s(const std::function<void()>& f, int repeats) {
-  f();
-  std::vector<double> s;
-  for (int r = 0; r < repeats; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return median_of(s);
-}
-
 struct NetCase {
   std::string name;
   std::function<torch::Tensor()> forward;  // returns a scalar to backpropagate
   std::vector<torch::Tensor> parameters;
+  std::int64_t flops_per_sample;           // forward
 };
 
 void run_bench_nets(const NetsBenchOptions& o) {
   using namespace f16race::models;
+  torch::set_num_threads(omp_get_max_threads());
   const ObsDims dims{o.d_ego, o.d_ado, o.d_task, o.n_other};
   const int64_t b = o.samples;
   auto gen = make_generator(1);
   torch::manual_seed(1);
-  const auto normal = [&](std::vector<int64_t> s) { return torch::randn(s, gen, torch::kFloat32); };
-  const auto alive = torch::rand({b, dims.n_other}, gen) < 0.7;
-  const HlObs hl{normal({b, dims.d_ego}), normal({b, 3}), normal({b, dims.n_other, dims.d_ado}), alive,
-                 normal({b, dims.d_task})};
-  const LlObs ll{hl.ego, hl.prev_action, hl.ado, alive, hl.task};
+  const HlObs hl = random_hl_obs(dims, b, gen);
+  const LlObs ll{hl.ego, hl.prev_action, hl.ado, hl.ado_alive, hl.task};
 
   std::vector<NetCase> cases;
   AttentionEncoder encoder(AttentionEncoderConfig{dims.d_ego, dims.d_ado, dims.n_other, 64, 4});
   cases.push_back({"attention_encoder", [=]() mutable { return encoder(hl.ego, hl.ado, hl.ado_alive).sum(); },
-                   encoder->parameters()});
+                   encoder->parameters(), encoder->flops_per_sample()});
   HlCriticConfig hc;
   hc.dims = dims;
   hc.decoupled = false;
   HlCritic hl_joint(hc);
-  cases.push_back({"hl_critic_es", [=]() mutable { return hl_joint(hl).q.sum(); }, hl_joint->parameters()});
+  cases.push_back({"hl_critic_es", [=]() mutable { return hl_joint(hl).q.sum(); }, hl_joint->parameters(),
+                   hl_joint->flops_per_sample()});
   hc.decoupled = true;
   HlCritic hl_decoupled(hc);
   cases.push_back({"hl_critic_es_d1_d2", [=]() mutable { return hl_decoupled(hl).q.sum(); },
-                   hl_decoupled->parameters()});
+                   hl_decoupled->parameters(), hl_decoupled->flops_per_sample()});
   hc.n_atoms = 51;
   HlCritic hl_dist(hc);
-  cases.push_back({"hl_critic_es_d3", [=]() mutable { return hl_dist(hl).log_probs.sum(); }, hl_dist->parameters()});
+  cases.push_back({"hl_critic_es_d3", [=]() mutable { return hl_dist(hl).log_probs.sum(); }, hl_dist->parameters(),
+                   hl_dist->flops_per_sample()});
   LlActorCriticConfig lc;
   lc.dims = dims;
   LlActorCritic ll_net(lc);
@@ -93,12 +77,16 @@ void run_bench_nets(const NetsBenchOptions& o) {
                      const auto out = ll_net(ll);
                      return out.mean.sum() + out.value.sum() + out.log_std.sum();
                    },
-                   ll_net->parameters()});
+                   ll_net->parameters(), ll_net->flops_per_sample()});
 
+  // The reference: what this LibTorch's float matrix product reaches here at these threads.
+  const double peak_gflops = matmul_gflops(o.repeats);
   if (!o.json) {
     std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads\n", o.samples, o.repeats,
                 torch::get_num_threads());
-    std::printf("%-20s %16s %24s\n", "network", "forward us/sample", "forward+backward us/sample");
+    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s\n", peak_gflops);
+    std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
+                "fwd+bwd us", "x peak");
   }
   for (auto& c : cases) {
     const double fwd_s = time_median_s(
@@ -114,12 +102,16 @@ void run_bench_nets(const NetsBenchOptions& o) {
         },
         o.repeats);
     const double fwd_us = 1e6 * fwd_s / b, fwd_bwd_us = 1e6 * fwd_bwd_s / b;
+    const double gflops = static_cast<double>(c.flops_per_sample) / (fwd_us * 1e3);
     if (o.json) {
       std::printf("{\"bench\": \"nets\", \"network\": \"%s\", \"samples\": %d, \"threads\": %d, "
-                  "\"forward_us_per_sample\": %.6g, \"forward_backward_us_per_sample\": %.6g}\n",
-                  c.name.c_str(), o.samples, torch::get_num_threads(), fwd_us, fwd_bwd_us);
+                  "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
+                  "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g}\n",
+                  c.name.c_str(), o.samples, torch::get_num_threads(), static_cast<long long>(c.flops_per_sample),
+                  fwd_us, fwd_bwd_us, gflops, peak_gflops);
     } else {
-      std::printf("%-20s %16.4f %24.4f\n", c.name.c_str(), fwd_us, fwd_bwd_us);
+      std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
+                  gflops, fwd_bwd_us, gflops / peak_gflops);
     }
     std::fflush(stdout);
   }

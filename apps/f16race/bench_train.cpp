@@ -1,12 +1,14 @@
 // `f16race bench train`: end-to-end training throughput (aircraft LL steps per second including
-// inference and both learners' updates) with a breakdown of where the time goes, for the default
-// and the paper configuration shapes.
+// inference and both learners' updates) with a breakdown of where the time goes and the network
+// floor (what the networks alone allow), for the default and the paper configuration shapes.
 #include <omp.h>
 #include <torch/torch.h>
 
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -14,6 +16,9 @@
 
 #include "commands.hpp"
 #include "io/yaml_config.hpp"
+#include "agents/expected_sarsa.hpp"
+#include "network_cost.hpp"
+#include "train/obs_views.hpp"
 #include "train/trainer.hpp"
 
 namespace f16race::app {
@@ -27,6 +32,42 @@ struct TrainBenchOptions {
   long long updates = 20;
   bool json = false;
 };
+
+// The network floor: the run's network work (rows through each network, in calls of their mean
+// batch) priced at per-sample costs measured here at those batches. Training cannot beat it
+// without cheaper networks; end to end / floor says how much the rest (env, bookkeeping,
+// losses, optimiser, copies) costs on top.
+struct NetworkFloor {
+  double ll_forward_s = 0, ll_train_s = 0, hl_forward_s = 0, hl_train_s = 0, total_s = 0;
+  std::int64_t ll_forward_batch = 0, ll_train_batch = 0, hl_forward_batch = 0, hl_train_batch = 0;
+};
+
+NetworkFloor network_floor(const train::TrainConfig& cfg, const train::TrainSummary& s) {
+  constexpr int kRepeats = 5;
+  const auto mean_batch = [](std::int64_t rows, std::int64_t calls) {
+    return calls > 0 ? std::max<std::int64_t>(1, (rows + calls / 2) / calls) : 0;
+  };
+  const train::NetworkWork& w = s.work;
+  NetworkFloor f;
+  f.ll_forward_batch = mean_batch(w.ll_forward_rows, w.ll_forward_calls);
+  f.ll_train_batch = mean_batch(w.ll_train_rows, w.ll_train_calls);
+  f.hl_forward_batch = mean_batch(w.hl_forward_rows, w.hl_forward_calls);
+  f.hl_train_batch = mean_batch(w.hl_train_rows, w.hl_train_calls);
+  models::LlActorCriticConfig lc = cfg.ll.net;
+  lc.dims = train::obs_dims(cfg.race);
+  agents::EsConfig ec = cfg.hl;
+  ec.dims = lc.dims;
+  if (ec.n_atoms > 1 && !(ec.v_max > ec.v_min)) ec.v_max = ec.v_min + 1.0;  // the support does not change the cost
+  const models::HlCriticConfig hc = agents::es_critic_config(ec);
+  if (f.ll_forward_batch > 0) f.ll_forward_s = w.ll_forward_rows * measure_ll_cost(lc, f.ll_forward_batch, kRepeats).forward_s;
+  if (f.ll_train_batch > 0)
+    f.ll_train_s = w.ll_train_rows * measure_ll_cost(lc, f.ll_train_batch, kRepeats).forward_backward_s;
+  if (f.hl_forward_batch > 0) f.hl_forward_s = w.hl_forward_rows * measure_hl_cost(hc, f.hl_forward_batch, kRepeats).forward_s;
+  if (f.hl_train_batch > 0)
+    f.hl_train_s = w.hl_train_rows * measure_hl_cost(hc, f.hl_train_batch, kRepeats).forward_backward_s;
+  f.total_s = f.ll_forward_s + f.ll_train_s + f.hl_forward_s + f.hl_train_s;
+  return f;
+}
 
 void run_bench_train(const TrainBenchOptions& o) {
   torch::set_num_threads(omp_get_max_threads());
@@ -45,12 +86,20 @@ void run_bench_train(const TrainBenchOptions& o) {
     const int n_agent = 2 * cfg.race.team_size;
     const double rate = static_cast<double>(s.env_steps) * n_agent / s.time.total;
     const auto& t = s.time;
+    const NetworkFloor floor = network_floor(cfg, s);
+    const double floor_rate = static_cast<double>(s.env_steps) * n_agent / floor.total_s;
     if (o.json) {
       std::printf("{\"bench\": \"train\", \"config\": \"%s\", \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
                   "\"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
-                  "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"total_s\": %.4g}\n",
+                  "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"total_s\": %.4g, "
+                  "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
+                  "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
+                  "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld}\n",
                   path.c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
-                  t.inference, t.ppo, t.es, t.io, t.other, t.total);
+                  t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s, floor.ll_train_s,
+                  floor.hl_forward_s, floor.hl_train_s, static_cast<long long>(floor.ll_forward_batch),
+                  static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
+                  static_cast<long long>(floor.hl_train_batch));
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
       std::printf("%s: %d envs x %d aircraft, %lld env steps in %.1f s -> %.0f aircraft-steps/s end to end\n",
@@ -58,6 +107,13 @@ void run_bench_train(const TrainBenchOptions& o) {
       std::printf("  env (sim + race + obs) %.0f%%, inference %.0f%%, PPO updates %.0f%%, ES updates %.0f%%, "
                   "I/O %.0f%%, other %.0f%%\n",
                   pct(t.env), pct(t.inference), pct(t.ppo), pct(t.es), pct(t.io), pct(t.other));
+      std::printf("  network floor %.0f aircraft-steps/s (end to end = %.2f x floor): %.1f s of network time at "
+                  "mean batches LL %lld / PPO %lld / HL %lld / ES %lld -- LL forward %.1f s, PPO %.1f s, HL forward "
+                  "%.1f s, ES %.1f s\n",
+                  floor_rate, rate / floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
+                  static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
+                  static_cast<long long>(floor.hl_train_batch), floor.ll_forward_s, floor.ll_train_s,
+                  floor.hl_forward_s, floor.hl_train_s);
     }
     std::fflush(stdout);
   }

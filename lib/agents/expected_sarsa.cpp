@@ -312,6 +312,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
       EsTarget mb_target{target.value.index_select(0, teams),
                          target.dist.defined() ? target.dist.index_select(0, teams) : torch::Tensor()};
       const auto out = critic_(models::index_rows(obs, rows));
+      stats.train_rows += rows.numel();
       const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams), active.index_select(0, teams),
                              mb_target, cfg_.huber_delta, support_, cfg_.component_ce_weight);
       optimizer_->zero_grad();
@@ -333,6 +334,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
   }
   const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
   stats.grad_steps = n_steps;
+  stats.forward_rows = 2 * t * n_a;  // the target network on next_obs, the online one on obs
   stats.loss = loss_sum / n;
   stats.q_mean = q_sum / n;
   stats.td_abs_mean = td_sum / n;

@@ -111,6 +111,8 @@ struct EsStats {
   double grad_norm = 0.0;    // before clipping, last gradient step
   int64_t update_index = 0;  // updates done, including this one
   int64_t grad_steps = 0;    // gradient steps of this update
+  int64_t train_rows = 0;    // aircraft rows through forward+backward, summed over its steps
+  int64_t forward_rows = 0;  // aircraft rows through no-grad forwards (target, diagnostics)
   bool target_synced = false;
   // Diagnostics of the online critic on the batch before the update (rows that took the
   // decision). Does the high level choose anything, and do its targets fit its critic?

@@ -103,28 +103,45 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   const auto returns = buffer.returns.flatten().index_select(0, rows);
   const int64_t batch = rows.numel();
 
+  // Advantages are normalised over the whole minibatch (CleanRL), before it is cut into chunks.
+  PpoConfig chunk_cfg = cfg_;
+  chunk_cfg.normalize_advantages = false;
   int64_t n_steps = 0;
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(batch, generator_, torch::kInt64);
     for (const auto& mb : perm.tensor_split(cfg_.n_minibatches)) {
-      if (mb.numel() == 0) continue;
-      const auto out = net_(models::index_rows(obs, mb));
-      const auto new_log_prob = models::gaussian_log_prob(out.mean, out.log_std, actions.index_select(0, mb));
-      const auto entropy = models::gaussian_entropy(out.log_std);
-      const auto loss = ppo_loss(new_log_prob, old_log_probs.index_select(0, mb), advantages.index_select(0, mb),
-                                 out.value, old_values.index_select(0, mb), returns.index_select(0, mb), entropy, cfg_);
+      const int64_t m = mb.numel();
+      if (m == 0) continue;
+      auto adv = advantages.index_select(0, mb);
+      if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
+      const int64_t n_chunks = cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
       optimizer_->zero_grad();
-      loss.total.backward();
+      for (int64_t c = 0; c < n_chunks; ++c) {
+        // Contiguous slices of the shuffled minibatch; each chunk's mean weighs by its share.
+        const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
+        const auto rows_c = mb.slice(0, lo, hi);
+        const auto out = net_(models::index_rows(obs, rows_c));
+        const auto new_log_prob = models::gaussian_log_prob(out.mean, out.log_std, actions.index_select(0, rows_c));
+        const auto entropy = models::gaussian_entropy(out.log_std);
+        const auto loss = ppo_loss(new_log_prob, old_log_probs.index_select(0, rows_c), adv.slice(0, lo, hi),
+                                   out.value, old_values.index_select(0, rows_c), returns.index_select(0, rows_c),
+                                   entropy, chunk_cfg);
+        const double w = static_cast<double>(hi - lo) / static_cast<double>(m);
+        (n_chunks == 1 ? loss.total : loss.total * w).backward();
+        stats.policy_loss += w * loss.policy_loss.item<double>();
+        stats.value_loss += w * loss.value_loss.item<double>();
+        stats.entropy += w * loss.entropy.item<double>();
+        stats.approx_kl += w * loss.approx_kl.item<double>();
+        stats.clip_fraction += w * loss.clip_fraction.item<double>();
+        ++stats.train_passes;
+      }
       torch::nn::utils::clip_grad_norm_(net_->parameters(), cfg_.max_grad_norm);
       optimizer_->step();
-      stats.policy_loss += loss.policy_loss.item<double>();
-      stats.value_loss += loss.value_loss.item<double>();
-      stats.entropy += loss.entropy.item<double>();
-      stats.approx_kl += loss.approx_kl.item<double>();
-      stats.clip_fraction += loss.clip_fraction.item<double>();
+      stats.train_rows += m;
       ++n_steps;
     }
   }
+  stats.grad_steps = n_steps;
   const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
   stats.policy_loss /= n;
   stats.value_loss /= n;

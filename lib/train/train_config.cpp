@@ -38,6 +38,7 @@ void bind_ll(R& r, agents::PpoConfig* c) {
   read_i64(r, "n_steps", &c->n_steps, 1, 100000);
   read_i64(r, "n_minibatches", &c->n_minibatches, 1, 100000);
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
+  read_i64(r, "max_chunk_rows", &c->max_chunk_rows, 0, 100000000);
   r.read("clip_coef", &c->clip_coef, 0.0, 10.0);
   r.read("clip_value_loss", &c->clip_value_loss);
   r.read("vf_coef", &c->vf_coef, 0.0, 100.0);

@@ -116,6 +116,7 @@ struct Trainer::State {
   agents::PpoStats last_ppo;
   agents::EsStats last_es;
   TimeBreakdown timing;
+  NetworkWork work;
   std::string curves_problem;  // why the last curves.png could not be made (empty: it was)
   using Clock = std::chrono::steady_clock;
   static double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
@@ -310,11 +311,15 @@ void Trainer::State::hl_decisions() {
   torch::Tensor bins =
       torch::full({static_cast<std::int64_t>(n_env) * n_agent, race::kHlDims}, cfg.race.hl_center_bin(), torch::kInt64);
   auto* b = bins.data_ptr<std::int64_t>();
-  if (hl_rows.rows(0).numel() > 0)
-    scatter_rows(hl_rows.rows(0), es->act(models::index_rows(obs, hl_rows.rows(0)), cfg.hl.epsilon, gen).bins, b);
-  if (hl_rows.rows(1).numel() > 0)
-    scatter_rows(hl_rows.rows(1),
-                 opp_es->act(models::index_rows(obs, hl_rows.rows(1)), cfg.loop.hl_epsilon_eval, gen).bins, b);
+  for (int p = 0; p < 2; ++p) {
+    const torch::Tensor& rows = hl_rows.rows(p);
+    if (rows.numel() == 0) continue;
+    agents::EsAgent& critic = p == 0 ? *es : *opp_es;
+    const double eps = p == 0 ? cfg.hl.epsilon : cfg.loop.hl_epsilon_eval;
+    scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen).bins, b);
+    work.hl_forward_rows += rows.numel();
+    work.hl_forward_calls += 1;
+  }
   timing.inference += since(t_act);
   const auto learner = learner_index();
   // Distance left to the old goals: how well the low level reached them.
@@ -366,6 +371,8 @@ void Trainer::State::ll_step(bool learn) {
   if (ll_rows.rows(1).numel() > 0)
     scatter_rows(ll_rows.rows(1), opp_ppo->act(models::index_rows(obs, ll_rows.rows(1)), gen, false).action,
                  actions.data_ptr<float>());
+  work.ll_forward_rows += act.action.size(0) + ll_rows.rows(1).numel();
+  work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
   timing.inference += since(t_act);
   const auto learner = learner_index();  // before the step: sides change at resets
   // Samples of the learner team, taken before the env overwrites its buffers: their positions
@@ -462,6 +469,10 @@ void Trainer::State::ppo_update() {
   const auto t = Clock::now();
   buffer->finish(ppo->value(models::index_rows(ll_view(false), learner_index())), cfg.ll.gamma, cfg.ll.gae_lambda);
   last_ppo = ppo->update(*buffer);
+  work.ll_forward_rows += static_cast<std::int64_t>(n_env) * ts;  // the bootstrap values above
+  work.ll_forward_calls += 1;
+  work.ll_train_rows += last_ppo.train_rows;
+  work.ll_train_calls += last_ppo.train_passes;
   buffer->clear();
   ++ppo_updates;
   timing.ppo += since(t);
@@ -491,6 +502,10 @@ void Trainer::State::es_update() {
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
   hl_grad_steps += last_es.grad_steps;
+  work.hl_forward_rows += last_es.forward_rows;
+  work.hl_forward_calls += 2;
+  work.hl_train_rows += last_es.train_rows;
+  work.hl_train_calls += last_es.grad_steps;
   done_obs.clear();
   done_next.clear();
   done_actions.clear();
@@ -862,6 +877,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   s.timing.total = State::since(t_run);
   s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io;
   summary.time = s.timing;
+  summary.work = s.work;
   return summary;
 }
 

@@ -81,8 +81,18 @@ struct TimeBreakdown {
   double total = 0.0;
 };
 
+// Aircraft rows through each network and the calls they came in (rows / calls = the mean batch),
+// counted by this process: `bench train` prices them at measured per-sample costs (its floor).
+struct NetworkWork {
+  std::int64_t ll_forward_rows = 0, ll_forward_calls = 0;  // LL no-grad: rollout actions, PPO bootstrap values
+  std::int64_t ll_train_rows = 0, ll_train_calls = 0;      // PPO minibatch chunks, forward+backward
+  std::int64_t hl_forward_rows = 0, hl_forward_calls = 0;  // HL no-grad: decisions, ES targets and diagnostics
+  std::int64_t hl_train_rows = 0, hl_train_calls = 0;      // ES minibatches, forward+backward
+};
+
 struct TrainSummary {
   TimeBreakdown time;
+  NetworkWork work;
   std::int64_t updates = 0;
   std::int64_t env_steps = 0;
   std::int64_t hl_grad_steps = 0;  // ES gradient steps of the whole run

@@ -193,6 +193,36 @@ TEST(LlActorCritic, ShapesAndGaussianHelpers) {
   EXPECT_NEAR(gaussian_entropy(torch::full({1, 3}, 0.5f)).item<double>(), 3 * (0.5 + 0.5 * (1.0 + log2pi)), 1e-5);
 }
 
+TEST(Models, FlopsPerSampleMatchHandCounts) {
+  // d_ego 5, d_ado 4, d_task 6, 3 others, width 8 (2 heads), one hidden layer of 10, 3 bins.
+  const ObsDims d{5, 4, 6, 3};
+  // Encoder: query 2*5*8 = 80, keys + values 2*2*3*4*8 = 384, scores 2*3*8 = 48, weighted sum
+  // 48, output 2*8*8 = 128.
+  const int64_t enc = 80 + 384 + 48 + 48 + 128;
+  EXPECT_EQ(AttentionEncoder(AttentionEncoderConfig{5, 4, 3, 8, 2})->flops_per_sample(), enc);
+  HlCriticConfig hc;
+  hc.dims = d;
+  hc.d_model = 8;
+  hc.n_heads = 2;
+  hc.hidden = {10};
+  hc.n_bins = 3;
+  // Trunk input 5 + 3 + 8 + 6 = 22: 2*22*10 = 440; heads 2*10*out with out 9 (decoupled),
+  // 27 (joint), 9 * 4 atoms.
+  EXPECT_EQ(HlCritic(hc)->flops_per_sample(), enc + 440 + 180);
+  hc.decoupled = false;
+  EXPECT_EQ(HlCritic(hc)->flops_per_sample(), enc + 440 + 540);
+  hc.decoupled = true;
+  hc.n_atoms = 4;
+  EXPECT_EQ(HlCritic(hc)->flops_per_sample(), enc + 440 + 720);
+  LlActorCriticConfig lc;
+  lc.dims = d;
+  lc.d_model = 8;
+  lc.n_heads = 2;
+  lc.hidden = {10};
+  // Actor 440 + 2*10*3, critic 440 + 2*10*1.
+  EXPECT_EQ(LlActorCritic(lc)->flops_per_sample(), enc + 500 + 460);
+}
+
 TEST(RunningNorm, MatchesStatisticsOfAllDataAndClips) {
   Rng r(10);
   RunningNorm norm(4, /*clip=*/5.0);

@@ -1,0 +1,97 @@
+#include "network_cost.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+namespace f16race::app {
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double time_median_s(const std::function<void()>& f, int repeats) {
+  f();
+  std::vector<double> s;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return median_of(s);
+}
+
+models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen) {
+  const auto normal = [&](std::vector<int64_t> s) { return torch::randn(s, gen, torch::kFloat32); };
+  return models::HlObs{normal({b, dims.d_ego}), normal({b, 3}), normal({b, dims.n_other, dims.d_ado}),
+                       torch::rand({b, dims.n_other}, gen) < 0.7, normal({b, dims.d_task})};
+}
+
+namespace {
+
+// Per-sample seconds of forward and forward+backward of `loss_of` at batch b.
+template <class Net, class Obs>
+SampleCost measure_cost(Net& net, const Obs& obs, const std::function<torch::Tensor(Net&, const Obs&)>& loss_of,
+                        std::int64_t b, int repeats) {
+  const std::int64_t calls = std::max<std::int64_t>(1, 8192 / b);
+  SampleCost c;
+  c.forward_s = time_median_s(
+                    [&]() {
+                      torch::NoGradGuard no_grad;
+                      for (std::int64_t k = 0; k < calls; ++k) loss_of(net, obs);
+                    },
+                    repeats) /
+                static_cast<double>(calls * b);
+  c.forward_backward_s = time_median_s(
+                             [&]() {
+                               for (std::int64_t k = 0; k < calls; ++k) {
+                                 for (auto& p : net->parameters()) p.mutable_grad() = torch::Tensor();
+                                 loss_of(net, obs).backward();
+                               }
+                             },
+                             repeats) /
+                         static_cast<double>(calls * b);
+  return c;
+}
+
+}  // namespace
+
+SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats) {
+  auto gen = models::make_generator(1);
+  const models::HlObs h = random_hl_obs(cfg.dims, batch, gen);
+  const models::LlObs obs{h.ego, h.prev_action, h.ado, h.ado_alive, h.task};
+  models::LlActorCritic net(cfg);
+  return measure_cost<models::LlActorCritic, models::LlObs>(
+      net, obs,
+      [](models::LlActorCritic& n, const models::LlObs& o) {
+        const auto out = n(o);
+        return out.mean.sum() + out.value.sum() + out.log_std.sum();
+      },
+      batch, repeats);
+}
+
+SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats) {
+  auto gen = models::make_generator(1);
+  const models::HlObs obs = random_hl_obs(cfg.dims, batch, gen);
+  models::HlCritic net(cfg);
+  return measure_cost<models::HlCritic, models::HlObs>(
+      net, obs,
+      [](models::HlCritic& n, const models::HlObs& o) {
+        const auto out = n(o);
+        return out.log_probs.defined() ? out.log_probs.sum() : out.q.sum();
+      },
+      batch, repeats);
+}
+
+double matmul_gflops(int repeats) {
+  constexpr std::int64_t n = 1024;
+  auto gen = models::make_generator(2);
+  const auto a = torch::randn({n, n}, gen), b = torch::randn({n, n}, gen);
+  torch::Tensor c = torch::empty({n, n});
+  torch::NoGradGuard no_grad;
+  const double s = time_median_s([&]() { torch::mm_out(c, a, b); }, repeats);
+  return 2.0 * n * n * n / s * 1e-9;
+}
+
+}  // namespace f16race::app

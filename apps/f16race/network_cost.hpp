@@ -1,0 +1,39 @@
+#pragma once
+// Measured cost of the networks per aircraft sample at a given batch size, shared by
+// `bench nets` (the table) and `bench train` (the network floor of a training run).
+#include <torch/torch.h>
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "models/hl_critic.hpp"
+#include "models/ll_actor_critic.hpp"
+#include "models/obs.hpp"
+
+namespace f16race::app {
+
+double median_of(std::vector<double> v);
+// Median seconds of `f` over `repeats` timed runs after one warm-up run.
+double time_median_s(const std::function<void()>& f, int repeats);
+
+// Random observations of b samples (normal features, 30 % of the other aircraft dead).
+models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen);
+
+// Seconds per sample, medians: a no-grad forward, and a forward plus backward of the sum of the
+// outputs (the network part of a PPO or ES minibatch step, without loss terms or optimiser).
+struct SampleCost {
+  double forward_s = 0.0;
+  double forward_backward_s = 0.0;
+};
+
+// A sample cost at batch `batch`: each timed run repeats the call until it has seen about 8192
+// samples, so small batches (one HL decision) are timed over many calls.
+SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats);
+SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats);
+
+// GFLOP/s of a 1024 x 1024 x 1024 float matrix product at the current torch thread count: the
+// peak this LibTorch build reaches on this machine, the reference for the networks' GFLOP/s.
+double matmul_gflops(int repeats);
+
+}  // namespace f16race::app
