@@ -17,12 +17,7 @@ struct ExportOptions {
 };
 
 void run_export(const ExportOptions& o) {
-  train::RunPolicy policy;
-  try {
-    policy = train::load_run_policy(o.run);
-  } catch (const std::runtime_error& e) {
-    throw UserError(e.what());
-  }
+  train::RunPolicy policy = train::load_run_policy(o.run);
   const std::string out = o.out.empty() ? o.run + "/export" : o.out;
   const torchscript::ExportReport rep = torchscript::export_policy(policy, out);
   std::printf("exported %s (%s, %lld env steps) to %s/\n", policy.name.c_str(),

@@ -17,12 +17,7 @@ struct ReplayCliOptions {
 };
 
 void run_replay_command(const ReplayCliOptions& o) {
-  eval::ReplayResult r;
-  try {
-    r = eval::run_replay(o.replay);
-  } catch (const std::runtime_error& e) {
-    throw UserError(e.what());
-  }
+  const eval::ReplayResult r = eval::run_replay(o.replay);
   std::string msg;
   const bool drawn = eval::write_replay(r, o.out, &msg);
   const auto& t = r.trace;

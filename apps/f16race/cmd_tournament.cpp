@@ -30,28 +30,24 @@ void run(const eval::TournamentOptions& o) {
   std::error_code ec;
   std::filesystem::create_directories(o.out_dir, ec);
   if (ec) throw UserError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
-  try {
-    r = eval::run_tournament(o, [&](long done, long total) {
-      const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      const double left = frac > 0.0 ? elapsed * (1.0 - frac) / frac : 0.0;
-      const int percent = static_cast<int>(100.0 * frac);
-      if (tty) {
-        char bar[41];
-        const int filled = static_cast<int>(40.0 * frac);
-        for (int k = 0; k < 40; ++k) bar[k] = k < filled ? '#' : '.';
-        bar[40] = '\0';
-        std::printf("\r[%s] %3d%%  %ld / %ld races  %.0f s elapsed, ~%.0f s left\x1b[K", bar, percent, done, total,
-                    elapsed, left);
-      } else if (percent / 10 != last_percent / 10 || done == total) {  // a log line every 10 %
-        std::printf("%3d%%  %ld / %ld races  %.0f s elapsed\n", percent, done, total, elapsed);
-      }
-      last_percent = percent;
-      std::fflush(stdout);
-    });
-  } catch (const std::runtime_error& e) {
-    throw UserError(e.what());
-  }
+  r = eval::run_tournament(o, [&](long done, long total) {
+    const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double left = frac > 0.0 ? elapsed * (1.0 - frac) / frac : 0.0;
+    const int percent = static_cast<int>(100.0 * frac);
+    if (tty) {
+      char bar[41];
+      const int filled = static_cast<int>(40.0 * frac);
+      for (int k = 0; k < 40; ++k) bar[k] = k < filled ? '#' : '.';
+      bar[40] = '\0';
+      std::printf("\r[%s] %3d%%  %ld / %ld races  %.0f s elapsed, ~%.0f s left\x1b[K", bar, percent, done, total,
+                  elapsed, left);
+    } else if (percent / 10 != last_percent / 10 || done == total) {  // a log line every 10 %
+      std::printf("%3d%%  %ld / %ld races  %.0f s elapsed\n", percent, done, total, elapsed);
+    }
+    last_percent = percent;
+    std::fflush(stdout);
+  });
   if (tty) std::printf("\n");
   eval::write_tournament_report(r, o);
   std::ifstream md(o.out_dir + "/summary.md");

@@ -73,40 +73,32 @@ void run_train(const TrainOptions& o) {
   const int threads = omp_get_max_threads();
   torch::set_num_threads(threads);
   std::unique_ptr<train::Trainer> trainer;
-  try {
-    if (!o.resume.empty()) {
-      if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0 || o.overwrite)
-        throw UserError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
-      trainer = train::Trainer::resume(o.resume);
-      spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
-    } else {
-      YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
-      if (!o.agent.empty()) io::apply_override(root, "hl.agent=" + o.agent);
-      if (o.seed >= 0) io::apply_override(root, "seed=" + std::to_string(o.seed));
-      const train::TrainConfig cfg = train::read_train_config(root, o.config);
-      std::string run = o.run;
-      if (run.empty()) {
-        run = "runs/" + std::string(agents::es_variant_name(cfg.hl.variant)) + "_seed" + std::to_string(cfg.seed);
-      }
-      if (o.overwrite && !io::run_data_in(run).empty()) {
-        std::string aside;
-        {
-          const io::RunFolderLock lock(run);  // not while another train writes it
-          aside = io::move_run_aside(run);
-        }
-        spdlog::info("moved the run that was in {} aside to {}", run, aside);
-      }
-      trainer = std::make_unique<train::Trainer>(cfg, run);
-      spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads", run, cfg.race.n_env,
-                   cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
-                   cfg.loop.total_env_steps, threads);
+  if (!o.resume.empty()) {
+    if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0 || o.overwrite)
+      throw UserError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
+    trainer = train::Trainer::resume(o.resume);
+    spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
+  } else {
+    YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
+    if (!o.agent.empty()) io::apply_override(root, "hl.agent=" + o.agent);
+    if (o.seed >= 0) io::apply_override(root, "seed=" + std::to_string(o.seed));
+    const train::TrainConfig cfg = train::read_train_config(root, o.config);
+    std::string run = o.run;
+    if (run.empty()) {
+      run = "runs/" + std::string(agents::es_variant_name(cfg.hl.variant)) + "_seed" + std::to_string(cfg.seed);
     }
-  } catch (const io::ConfigError&) {
-    throw;
-  } catch (const UserError&) {
-    throw;
-  } catch (const std::exception& e) {
-    throw UserError(e.what());
+    if (o.overwrite && !io::run_data_in(run).empty()) {
+      std::string aside;
+      {
+        const io::RunFolderLock lock(run);  // not while another train writes it
+        aside = io::move_run_aside(run);
+      }
+      spdlog::info("moved the run that was in {} aside to {}", run, aside);
+    }
+    trainer = std::make_unique<train::Trainer>(cfg, run);
+    spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads", run, cfg.race.n_env,
+                 cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
+                 cfg.loop.total_env_steps, threads);
   }
   const auto& cfg = trainer->config();
   const bool tty = isatty(STDOUT_FILENO) != 0 && !o.quiet;

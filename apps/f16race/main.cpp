@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
+#include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
 
 // OpenBLAS (LibTorch's BLAS on Debian) runs its own thread pool that spins against the
@@ -58,6 +59,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
   } catch (const f16race::io::ConfigError& e) {
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 2;
+  } catch (const f16race::io::InputError& e) {  // a run folder, checkpoint or request the user can fix
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
   } catch (const f16race::io::CsvError& e) {

@@ -12,6 +12,7 @@
 
 #include "eval/tournament.hpp"
 #include "io/atomic_file.hpp"
+#include "io/input_error.hpp"
 #include "race/race_env.hpp"
 #include "race/scripted_pilot.hpp"
 #include "train/obs_views.hpp"
@@ -39,7 +40,7 @@ std::string with_rule(const std::string& name, HlOverride rule) {
 Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint64_t seed) {
   const auto [path, rule] = parse_entry_spec(spec);
   if (path == "scripted") {
-    if (rule != HlOverride::none) throw std::runtime_error(spec + ": the scripted pilot has no high level to fix");
+    if (rule != HlOverride::none) throw io::InputError(spec + ": the scripted pilot has no high level to fix");
     return Side{"scripted", std::nullopt};
   }
   if (path == "untrained") return Side{with_rule("untrained", rule), train::untrained_policy(blue->config, seed), rule};

@@ -24,7 +24,7 @@ struct ReplayResult {
   std::string blue, red;  // entry names
 };
 
-// Throws std::runtime_error naming the folder when a run is missing, corrupt or was trained for
+// Throws io::InputError naming the folder when a run is missing, corrupt or was trained for
 // another race shape than the blue run.
 ReplayResult run_replay(const ReplayOptions& options);
 

@@ -16,6 +16,7 @@
 #include "eval/statistics.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
+#include "io/input_error.hpp"
 #include "io/plot.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
@@ -51,7 +52,7 @@ std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec) {
   // RUN@something else is a typo of a rule, not a folder name (which would fail as "not a run").
   const auto at = spec.rfind('@');
   if (at != std::string::npos && at > 0 && spec.find('/', at) == std::string::npos && !std::filesystem::exists(spec))
-    throw std::runtime_error(spec + ": unknown high-level rule '" + spec.substr(at) +
+    throw io::InputError(spec + ": unknown high-level rule '" + spec.substr(at) +
                              "'; use RUN, RUN@center or RUN@random");
   return {spec, HlOverride::none};
 }
@@ -91,15 +92,15 @@ struct Game {
 }  // namespace
 
 TournamentResult run_tournament(const TournamentOptions& o, const std::function<void(long, long)>& progress) {
-  if (o.runs.empty() && !o.include_untrained) throw std::runtime_error("tournament: no entries");
-  if (o.runs.empty()) throw std::runtime_error("tournament: give at least one run folder with --runs");
+  if (o.runs.empty() && !o.include_untrained) throw io::InputError("tournament: no entries");
+  if (o.runs.empty()) throw io::InputError("tournament: give at least one run folder with --runs");
   TournamentResult res;
   std::vector<train::RunPolicy> pol;
   for (const std::string& r : o.runs) {
     // The same folder twice would count one run as two seeds of its variant.
     for (const std::string& q : o.runs)
       if (&q != &r && fs::weakly_canonical(q) == fs::weakly_canonical(r))
-        throw std::runtime_error("tournament: " + r + " is given twice in --runs; list each run folder once");
+        throw io::InputError("tournament: " + r + " is given twice in --runs; list each run folder once");
     pol.push_back(train::load_run_policy(r));
     // Races use the first run's race; every entry must have been trained for the same shapes.
     train::check_same_race_shape(pol.front(), pol.back());
@@ -123,7 +124,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       }
   const int n_entries = static_cast<int>(res.entries.size());
   if (n_entries < 2)
-    throw std::runtime_error("tournament: " + res.entries.front().name +
+    throw io::InputError("tournament: " + res.entries.front().name +
                              " is the only entry and has no opponent; give a second run, keep the untrained entry "
                              "(drop --no-untrained) or add --controls");
   res.wins.assign(n_entries, std::vector<double>(n_entries, 0.0));

@@ -85,7 +85,7 @@ struct TournamentResult {
   std::vector<std::vector<double>> wins, games;
 };
 
-// Runs every pair; `progress(done, total)` after each batch. Throws std::runtime_error with the
+// Runs every pair; `progress(done, total)` after each batch. Throws io::InputError with the
 // run folder named when a run is missing, corrupt, or trained on a different race shape.
 TournamentResult run_tournament(const TournamentOptions& options,
                                 const std::function<void(long, long)>& progress = {});

@@ -11,6 +11,8 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "io/input_error.hpp"
+
 namespace f16race::io {
 
 namespace fs = std::filesystem;
@@ -30,19 +32,19 @@ std::string holder_pid(int fd) {
 RunFolderLock::RunFolderLock(const std::string& run_dir) {
   std::error_code ec;
   fs::create_directories(run_dir, ec);
-  if (ec) throw std::runtime_error(run_dir + ": cannot create the run folder: " + ec.message());
+  if (ec) throw io::InputError(run_dir + ": cannot create the run folder: " + ec.message());
   const std::string path = (fs::path(run_dir) / kLockName).string();
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) throw std::runtime_error(path + ": cannot open the run folder's lock: " + std::strerror(errno));
+  if (fd_ < 0) throw io::InputError(path + ": cannot open the run folder's lock: " + std::strerror(errno));
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     const std::string pid = holder_pid(fd_);
     ::close(fd_);
     fd_ = -1;
     if (err == EWOULDBLOCK)
-      throw std::runtime_error(run_dir + " is in use by another f16race train (pid " + pid +
+      throw io::InputError(run_dir + " is in use by another f16race train (pid " + pid +
                                "); wait for it to end or stop it, or choose another --run folder");
-    throw std::runtime_error(path + ": cannot lock the run folder: " + std::strerror(err));
+    throw io::InputError(path + ": cannot lock the run folder: " + std::strerror(err));
   }
   // Who holds it, for the message above; the lock itself is the flock, not this text.
   const std::string pid = std::to_string(::getpid()) + "\n";
@@ -77,7 +79,7 @@ std::vector<std::string> run_data_in(const std::string& run_dir) {
     if (entry.is_directory(ec) && fs::is_empty(entry.path(), ec)) continue;
     out.push_back(name);
   }
-  if (ec) throw std::runtime_error(run_dir + ": cannot list the run folder: " + ec.message());
+  if (ec) throw io::InputError(run_dir + ": cannot list the run folder: " + ec.message());
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -90,10 +92,10 @@ std::string move_run_aside(const std::string& run_dir) {
     std::error_code ec;
     if (fs::exists(aside, ec)) continue;
     fs::rename(base, aside, ec);
-    if (ec) throw std::runtime_error(run_dir + ": cannot move the old run aside to " + aside + ": " + ec.message());
+    if (ec) throw io::InputError(run_dir + ": cannot move the old run aside to " + aside + ": " + ec.message());
     return aside;
   }
-  throw std::runtime_error(run_dir + ": no free name " + base + ".old-N to move the old run aside to");
+  throw io::InputError(run_dir + ": no free name " + base + ".old-N to move the old run aside to");
 }
 
 }  // namespace f16race::io

@@ -11,7 +11,7 @@ namespace f16race::io {
 // one process, and the kernel drops the lock when the process dies (kill -9 included).
 class RunFolderLock {
  public:
-  // Creates the folder if needed. Throws std::runtime_error with one line naming the folder and
+  // Creates the folder if needed. Throws io::InputError with one line naming the folder and
   // the holder's pid when another process (or another lock in this one) holds it.
   explicit RunFolderLock(const std::string& run_dir);
   ~RunFolderLock();

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "io/input_error.hpp"
 #include "train/obs_views.hpp"
 #include "train/trainer.hpp"
 
@@ -39,7 +40,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   const RunConfig run = read_run_config(run_dir);
   const std::string name = latest_checkpoint_name(run_dir);
   if (name.empty())
-    throw std::runtime_error(run_dir + "/checkpoint/LATEST: missing, so the run has no checkpoint yet; train it first");
+    throw io::InputError(run_dir + "/checkpoint/LATEST: missing, so the run has no checkpoint yet; train it first");
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
   RunPolicy p = make_policy(run.config);
   p.name = folder_name(run_dir);
@@ -53,7 +54,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
     step = "hl.pt";
     p.hl->load((dir / "hl.pt").string());
   } catch (const std::exception& e) {
-    throw std::runtime_error((dir / step).string() + ": cannot load the policy (" + checkpoint_error_reason(e) +
+    throw io::InputError((dir / step).string() + ": cannot load the policy (" + checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");
   }
   return p;
@@ -62,7 +63,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
 void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
   // The same bins mean other goals in another frame: such a run would fly other lanes than it learned.
   if (reference.config.race.goal_frame != other.config.race.goal_frame)
-    throw std::runtime_error(other.run_dir + ": trained with another race.goal_frame than " + reference.run_dir +
+    throw io::InputError(other.run_dir + ": trained with another race.goal_frame than " + reference.run_dir +
                              "; race runs trained with the same goal frame");
   const auto& a = reference.dims;
   const auto& b = other.dims;
@@ -73,7 +74,7 @@ void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
     return std::to_string(p.config.race.team_size) + " vs " + std::to_string(p.config.race.team_size) +
            " races with task size " + std::to_string(p.dims.d_task);
   };
-  throw std::runtime_error(other.run_dir + ": trained on " + shape(other) + ", but " + reference.run_dir + " on " +
+  throw io::InputError(other.run_dir + ": trained on " + shape(other) + ", but " + reference.run_dir + " on " +
                            shape(reference) + "; race runs trained for the same race.team_size and race.preview_points");
 }
 

@@ -24,12 +24,12 @@ struct RunPolicy {
   std::unique_ptr<agents::EsAgent> hl;
 };
 
-// Loads the LATEST checkpoint of `run_dir`. Throws std::runtime_error naming the file and the
+// Loads the LATEST checkpoint of `run_dir`. Throws io::InputError naming the file and the
 // fix when the folder is not a run, has no checkpoint, was written by another config.yaml
 // (hash mismatch) or a checkpoint file is unreadable.
 RunPolicy load_run_policy(const std::string& run_dir);
 
-// Throws std::runtime_error naming `other`'s folder unless it was trained for the same race
+// Throws io::InputError naming `other`'s folder unless it was trained for the same race
 // shapes (team size, observation sizes) and goal frame as `reference`, so their policies can
 // share races.
 void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other);

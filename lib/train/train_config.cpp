@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
 
 namespace f16race::train {
@@ -188,7 +189,7 @@ RunConfig read_run_config(const std::string& run_dir) {
   const std::string path = run_dir + "/config.yaml";
   std::ifstream f(path, std::ios::binary);
   if (!std::filesystem::is_regular_file(path) || !f)
-    throw std::runtime_error(run_dir + ": not a training run (no config.yaml); give a folder written by f16race train");
+    throw io::InputError(run_dir + ": not a training run (no config.yaml); give a folder written by f16race train");
   std::stringstream text;
   text << f.rdbuf();
   RunConfig rc;

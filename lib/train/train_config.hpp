@@ -73,7 +73,7 @@ std::string train_config_yaml(const TrainConfig& config);
 std::uint64_t config_hash(const std::string& resolved_yaml);
 
 // RUN/config.yaml of a training run from one read: parsed, its text, and the hash of that text
-// which the run's checkpoints record. Throws std::runtime_error naming the folder when it is not
+// which the run's checkpoints record. Throws io::InputError naming the folder when it is not
 // a run, io::ConfigError naming the file and key when the file is malformed.
 struct RunConfig {
   TrainConfig config;

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "io/input_error.hpp"
 #include "agents/checkpoint.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
@@ -38,7 +39,7 @@ std::string step_name(std::int64_t steps) {
 
 std::string read_text(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw std::runtime_error(path + ": cannot read");
+  if (!f) throw io::InputError(path + ": cannot read");
   std::stringstream ss;
   ss << f.rdbuf();
   return ss.str();
@@ -180,7 +181,7 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std
   if (const std::vector<std::string> data = io::run_data_in(run_dir); !data.empty()) {
     std::string names;
     for (const std::string& n : data) names += (names.empty() ? "" : ", ") + n;
-    throw std::runtime_error(run_dir + " already holds a run (" + names + "): continue it with --resume " + run_dir +
+    throw io::InputError(run_dir + " already holds a run (" + names + "): continue it with --resume " + run_dir +
                              ", move it aside with --overwrite, or choose another --run folder");
   }
   fs::create_directories(fs::path(run_dir) / "checkpoint");
@@ -195,7 +196,7 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std
 }
 
 std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir) {
-  if (!fs::is_directory(run_dir)) throw std::runtime_error(run_dir + ": no such run folder to resume");
+  if (!fs::is_directory(run_dir)) throw io::InputError(run_dir + ": no such run folder to resume");
   auto lock = std::make_unique<io::RunFolderLock>(run_dir);
   RunConfig run = read_run_config(run_dir);
   auto st = std::make_unique<State>();
@@ -716,7 +717,7 @@ std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint6
 void Trainer::State::load_checkpoint() {
   const std::string name = latest_checkpoint_name(run_dir);
   if (name.empty())
-    throw std::runtime_error(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing or empty)");
+    throw io::InputError(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing or empty)");
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
   fs::path file = dir / "meta.yaml";  // the file being read, for the error message
   try {
@@ -800,7 +801,7 @@ void Trainer::State::load_checkpoint() {
       opp_es->load(file.string());
     }
   } catch (const std::exception& e) {
-    throw std::runtime_error(file.string() + ": cannot resume from this checkpoint (" +
+    throw io::InputError(file.string() + ": cannot resume from this checkpoint (" +
                              checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");
   }
