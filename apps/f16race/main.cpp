@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
   f16race::app::add_tournament_command(app);
   f16race::app::add_export_command(app);
   f16race::app::add_replay_command(app);
+  f16race::app::add_study_command(app);
   f16race::app::add_race_command(app);
   f16race::app::add_bench_command(app);
   try {

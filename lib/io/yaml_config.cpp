@@ -1,5 +1,6 @@
 #include "io/yaml_config.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <set>
@@ -195,6 +196,49 @@ void ConfigReader::read(const char* key, std::vector<int>* value, int lo, int hi
       fail(key, "element " + std::to_string(i) + " = " + std::to_string(v) + " is out of range; allowed [" +
                     std::to_string(lo) + ", " + std::to_string(hi) + "]");
     out.push_back(static_cast<int>(v));
+  }
+  if (out.empty()) fail(key, "the list must not be empty");
+  *value = out;
+}
+
+void ConfigReader::read(const char* key, std::vector<double>* value, double lo, double hi) {
+  used_.insert(key);
+  if (!has(key)) return;
+  const YAML::Node n = node_[key];
+  if (!n.IsSequence()) fail(key, "expected a list of numbers like [8, 20], got " + scalar_text(n));
+  std::vector<double> out;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    double v;
+    try {
+      v = n[i].as<double>();
+    } catch (const YAML::BadConversion&) {
+      fail(key, "element " + std::to_string(i) + " is not a number");
+    }
+    if (!(v >= lo && v <= hi))
+      fail(key, "element " + std::to_string(i) + " = " + n[i].Scalar() + " is out of range; allowed [" +
+                    std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    out.push_back(v);
+  }
+  if (out.empty()) fail(key, "the list must not be empty");
+  *value = out;
+}
+
+void ConfigReader::read(const char* key, std::vector<std::string>* value, const std::vector<std::string>& allowed) {
+  used_.insert(key);
+  if (!has(key)) return;
+  const YAML::Node n = node_[key];
+  if (!n.IsSequence()) fail(key, "expected a list like [a, b], got " + scalar_text(n));
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    if (!n[i].IsScalar()) fail(key, "element " + std::to_string(i) + " is not a string");
+    const std::string v = n[i].Scalar();
+    if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), v) == allowed.end()) {
+      std::string list;
+      for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      fail(key, "element " + std::to_string(i) + " '" + v + "' is not one of: " + list);
+    }
+    if (std::find(out.begin(), out.end(), v) != out.end()) fail(key, "'" + v + "' is listed twice");
+    out.push_back(v);
   }
   if (out.empty()) fail(key, "the list must not be empty");
   *value = out;

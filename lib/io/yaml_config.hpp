@@ -41,6 +41,9 @@ class ConfigReader {
   void read(const char* key, bool* value);
   void read(const char* key, std::string* value, const std::vector<std::string>& allowed);
   void read(const char* key, std::vector<int>* value, int lo, int hi);
+  void read(const char* key, std::vector<double>* value, double lo, double hi);
+  // A non-empty list of distinct strings, each one of `allowed` (any string if it is empty).
+  void read(const char* key, std::vector<std::string>* value, const std::vector<std::string>& allowed);
 
   // Sub-mapping (possibly absent: then an empty reader that keeps every default).
   ConfigReader child(const char* key);

@@ -1,0 +1,351 @@
+// `f16race study`: the Fig. 3 study in pieces. Trains every cell of a study config that is not
+// finished (a partial run resumes from its checkpoint), `jobs` at a time as child `f16race train`
+// processes of one thread each, then runs one tournament per HL interval and writes
+// OUT/report.md. Interrupt it at any time (Ctrl-C: the children checkpoint and stop) and run
+// the same command again to continue.
+#include <fcntl.h>
+#include <omp.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <torch/torch.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "commands.hpp"
+#include "eval/study.hpp"
+#include "eval/tournament.hpp"
+#include "io/atomic_file.hpp"
+#include "io/input_error.hpp"
+#include "io/plot.hpp"
+
+extern char** environ;
+
+namespace f16race::app {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+struct StudyOptions {
+  std::string config = "configs/study.yaml";
+  std::string out = "runs/study";
+  bool plan_only = false;
+};
+
+std::atomic<bool> g_stop{false};
+void on_signal(int) { g_stop = true; }
+
+const char* state_name(eval::CellState s) {
+  switch (s) {
+    case eval::CellState::fresh: return "to train";
+    case eval::CellState::partial: return "to resume";
+    case eval::CellState::finished: return "finished";
+  }
+  return "?";
+}
+
+std::string hms(double s) {
+  if (!(s >= 0.0) || s > 1e7) return "?";
+  const long t = static_cast<long>(s + 0.5);
+  char buf[32];
+  if (t >= 3600) std::snprintf(buf, sizeof buf, "%ldh%02ldm", t / 3600, t / 60 % 60);
+  else std::snprintf(buf, sizeof buf, "%ldm%02lds", t / 60, t % 60);
+  return buf;
+}
+
+// env_steps (column 3) of the last complete row of RUN/metrics.csv, 0 without one.
+std::int64_t last_env_steps(const std::string& run_dir) {
+  std::ifstream in(run_dir + "/metrics.csv");
+  std::string line, last;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (header) {
+      header = false;
+      continue;
+    }
+    if (!line.empty() && !in.eof()) last = line;
+  }
+  std::stringstream ss(last);
+  std::string field;
+  for (int k = 0; k < 3 && std::getline(ss, field, ','); ++k) {
+  }
+  try {
+    return field.empty() ? 0 : std::stoll(field);
+  } catch (const std::exception&) {
+    return 0;
+  }
+}
+
+std::string cell_label(const eval::StudyCell& c) {
+  return eval::interval_name(c.dt_hl_s) + "/" + c.variant + "_s" + std::to_string(c.seed);
+}
+
+struct Running {
+  std::size_t cell = 0;
+  pid_t pid = 0;
+  Clock::time_point start;
+  std::int64_t steps_at_start = 0;
+};
+
+pid_t spawn_train(const std::vector<std::string>& args, const std::string& log_path) {
+  std::vector<std::string> argv_s{"/proc/self/exe"};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_s) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int rc = posix_spawn(&pid, "/proc/self/exe", &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) throw std::runtime_error("study: cannot start a training process: " + std::string(std::strerror(rc)));
+  return pid;
+}
+
+std::string command_output(const char* cmd) {
+  std::string out;
+  if (FILE* p = popen(cmd, "r")) {
+    char buf[256];
+    while (std::fgets(buf, sizeof buf, p)) out += buf;
+    pclose(p);
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out.empty() ? "unknown" : out;
+}
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line, family, model, name;
+  while (std::getline(in, line)) {
+    const auto value = [&]() { return line.substr(line.find(':') + 2); };
+    if (name.empty() && line.rfind("model name", 0) == 0) name = value();
+    else if (family.empty() && line.rfind("cpu family", 0) == 0) family = value();
+    else if (model.empty() && line.rfind("model\t", 0) == 0) model = value();
+  }
+  return name + " (family " + family + " model " + model + "), " + std::to_string(omp_get_num_procs()) + " cores";
+}
+
+// Trains the unfinished cells; returns false when stopped by a signal.
+bool train_cells(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, const std::string& out) {
+  std::vector<eval::CellStatus> status;
+  for (const auto& c : cells) status.push_back(eval::cell_status(cfg, c));
+  std::vector<std::size_t> todo;
+  for (std::size_t i = 0; i < cells.size(); ++i)
+    if (status[i].state != eval::CellState::finished) todo.push_back(i);
+  const std::size_t n_done_before = cells.size() - todo.size();
+  std::printf("study: %zu cells, %zu finished, %zu to train (%d at a time); logs in %s/logs\n", cells.size(),
+              n_done_before, todo.size(), cfg.jobs, out.c_str());
+  std::fflush(stdout);
+  fs::create_directories(fs::path(out) / "logs");
+  std::vector<Running> running;
+  std::size_t next = 0, finished = n_done_before;
+  std::string failure;
+  bool signalled = false;
+  auto last_print = Clock::now() - std::chrono::seconds(60);
+  // After a signal or a failed cell nothing new starts; the running ones are waited for.
+  while ((!g_stop && failure.empty() && next < todo.size()) || !running.empty()) {
+    while (!g_stop && failure.empty() && next < todo.size() && static_cast<int>(running.size()) < cfg.jobs) {
+      const std::size_t i = todo[next++];
+      const auto& c = cells[i];
+      fs::create_directories(fs::path(c.run_dir).parent_path());
+      const std::string log = (fs::path(out) / "logs" / (eval::interval_name(c.dt_hl_s) + "_" + c.variant + "_s" +
+                                                        std::to_string(c.seed) + ".log")).string();
+      running.push_back({i, spawn_train(eval::cell_train_args(cfg, c, status[i].state), log), Clock::now(),
+                         status[i].env_steps});
+      std::printf("study: %s %s (%s)\n", status[i].state == eval::CellState::partial ? "resuming" : "training",
+                  cell_label(c).c_str(), log.c_str());
+      std::fflush(stdout);
+    }
+    // Reap finished children.
+    for (std::size_t k = 0; k < running.size();) {
+      int ws = 0;
+      const pid_t r = waitpid(running[k].pid, &ws, WNOHANG);
+      if (r == running[k].pid) {
+        const auto& c = cells[running[k].cell];
+        const int code = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+        if (code == 0) {
+          ++finished;
+          std::printf("study: %s finished (%zu of %zu cells)\n", cell_label(c).c_str(), finished, cells.size());
+        } else if (!(g_stop && code == 130) && failure.empty()) {
+          failure = cell_label(c) + ": training exited with status " + std::to_string(code) + "; see " + out +
+                    "/logs; fix it and run the study again (finished cells are kept)";
+        }
+        std::fflush(stdout);
+        running.erase(running.begin() + static_cast<std::ptrdiff_t>(k));
+      } else {
+        ++k;
+      }
+    }
+    if (g_stop && !signalled) {
+      signalled = true;
+      for (const auto& r : running) kill(r.pid, SIGINT);  // each checkpoints and exits 130
+    }
+    const auto now = Clock::now();
+    if (!running.empty() && now - last_print >= std::chrono::seconds(30)) {
+      last_print = now;
+      // Per cell: its progress and ETA from its own rate since it started here; the study's
+      // ETA: the env steps left over every unfinished cell at the running cells' summed rate.
+      double rate_sum = 0.0;
+      std::string line;
+      for (const auto& r : running) {
+        const auto& c = cells[r.cell];
+        const std::int64_t steps = last_env_steps(c.run_dir);
+        const double el = std::chrono::duration<double>(now - r.start).count();
+        const double rate = el > 0 && steps > r.steps_at_start ? (steps - r.steps_at_start) / el : 0.0;
+        rate_sum += rate;
+        const double frac = static_cast<double>(steps) / static_cast<double>(cfg.total_env_steps);
+        line += " | " + cell_label(c) + " " + std::to_string(static_cast<int>(100 * frac)) + "% ETA " +
+                (rate > 0 ? hms((cfg.total_env_steps - steps) / rate) : std::string("?"));
+      }
+      double left = 0.0;
+      for (std::size_t q = next; q < todo.size(); ++q) left += static_cast<double>(cfg.total_env_steps - status[todo[q]].env_steps);
+      for (const auto& r : running)
+        left += static_cast<double>(cfg.total_env_steps) - static_cast<double>(last_env_steps(cells[r.cell].run_dir));
+      std::printf("study: %zu/%zu cells done%s | study ETA %s (trainings)\n", finished, cells.size(), line.c_str(),
+                  rate_sum > 0 ? hms(left / rate_sum).c_str() : "?");
+      std::fflush(stdout);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  if (!failure.empty()) throw io::InputError(failure);
+  return !g_stop;
+}
+
+// One figure per interval: every run's winrate against its training opponents and its finish
+// rate over env steps, a colour per variant.
+void write_curves(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, double dt,
+                  const std::string& out, std::string* note) {
+  static const std::map<std::string, std::string> colour{
+      {"es", "#7f7f7f"}, {"es_d1", "#1f77b4"}, {"es_d2", "#2ca02c"}, {"es_d3", "#d62728"}};
+  io::PlotSpec spec;
+  spec.output = (fs::path(out) / ("curves_" + eval::interval_name(dt) + ".png")).string();
+  spec.rows = 1;
+  spec.cols = 2;
+  spec.width_px = 1400;
+  spec.height_px = 550;
+  spec.atomic_output = true;
+  spec.title = "Learning curves, HL interval " + eval::interval_name(dt).substr(2) + " s (smoothed)";
+  io::PlotPanel win{"winrate vs training opponents (self-play and pool)", "env steps", "winrate", {}, "set yrange [0:1]"};
+  io::PlotPanel fin{"finish rate", "env steps", "races ended at the finish line", {}, "set yrange [0:1]"};
+  for (const auto& c : cells) {
+    if (eval::interval_name(c.dt_hl_s) != eval::interval_name(dt)) continue;
+    const std::string data = fs::absolute(fs::path(c.run_dir) / "metrics.csv").string();
+    const std::string style = "lines lw 1.2 lc rgb '" + colour.at(c.variant) + "'";
+    const std::string title = c.seed == cfg.seeds.front() ? c.variant : "";
+    win.series.push_back({data, "3:9 smooth bezier", style, title, ""});
+    fin.series.push_back({data, "3:10 smooth bezier", style, title, ""});
+  }
+  spec.panels = {win, fin};
+  std::string msg;
+  if (!io::render_plot(spec, spec.output.substr(0, spec.output.size() - 4) + ".gp", &msg)) *note += msg + "\n";
+}
+
+void write_report(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, const std::string& out,
+                  const std::string& config_path, double tournament_s) {
+  std::ostringstream md;
+  md << "# Fig. 3 study: " << cfg.variants.size() << " variants x " << cfg.seeds.size() << " seeds x "
+     << cfg.dt_hl_s.size() << " HL intervals\n\n";
+  md << "Written by `f16race study --config " << config_path << " --out " << out << "` at commit "
+     << command_output("git rev-parse --short HEAD 2>/dev/null") << " on " << cpu_model() << ".\n\n";
+  double train_s = 0.0;
+  for (const auto& c : cells) train_s += eval::cell_status(cfg, c).wall_s;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "Compute: %.1f h of training summed over the %zu runs (one thread each, %d at a time), %.0f s in "
+                "the last tournament pass.\n\n",
+                train_s / 3600.0, cells.size(), cfg.jobs, tournament_s);
+  md << buf;
+  md << "Each run: `f16race --threads 1 train --config " << cfg.base_config
+     << " --set hl.agent=V --seed S --set race.dt_hl_s=D --set train.total_env_steps=" << cfg.total_env_steps
+     << "`; each interval's tournament: `f16race tournament --runs <its runs>" << (cfg.controls ? " --controls" : "")
+     << " --races " << cfg.races_per_pair << " --seed " << cfg.tournament_seed << "`.\n\n";
+  std::string notes;
+  for (double dt : cfg.dt_hl_s) {
+    const std::string name = eval::interval_name(dt);
+    md << "## HL interval " << name.substr(2) << " s\n\n";
+    md << "![tournament](" << name << "/tournament/tournament.png)\n\n";
+    write_curves(cfg, cells, dt, out, &notes);
+    md << "![learning curves](curves_" << name << ".png)\n\n";
+    std::ifstream in(fs::path(eval::interval_dir(out, dt)) / "tournament" / "summary.md");
+    std::string text((std::istreambuf_iterator<char>(in)), {});
+    // The tournament's own title becomes a sub-heading here.
+    if (text.rfind("# ", 0) == 0) text = "#" + text;
+    md << text << "\n";
+  }
+  if (!notes.empty()) md << "Figures not drawn: " << notes << "\n";
+  io::write_file_atomic((fs::path(out) / "report.md").string(), md.str());
+}
+
+void run_study(const StudyOptions& o) {
+  const eval::StudyConfig cfg = eval::read_study_config(o.config);
+  const std::vector<eval::StudyCell> cells = eval::plan_study(cfg, o.out);
+  if (o.plan_only) {
+    for (const auto& c : cells) {
+      const eval::CellStatus s = eval::cell_status(cfg, c);
+      std::printf("%-24s %-10s %lld / %lld env steps  %s\n", cell_label(c).c_str(), state_name(s.state),
+                  static_cast<long long>(s.env_steps), static_cast<long long>(s.total_env_steps), c.run_dir.c_str());
+    }
+    return;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  fs::create_directories(o.out);
+  {  // the study config as run, next to its results
+    std::ifstream in(o.config);
+    io::write_file_atomic((fs::path(o.out) / "study.yaml").string(),
+                          std::string((std::istreambuf_iterator<char>(in)), {}));
+  }
+  if (!train_cells(cfg, cells, o.out)) {
+    std::printf("study: stopped; every run kept its checkpoint. Run the same command again to continue.\n");
+    throw ExitStatus{130};
+  }
+  torch::set_num_threads(omp_get_max_threads());
+  const auto t0 = Clock::now();
+  for (double dt : cfg.dt_hl_s) {
+    const eval::TournamentOptions t = eval::interval_tournament(cfg, cells, dt, o.out);
+    if (fs::exists(fs::path(t.out_dir) / "summary.json")) {
+      std::printf("study: %s tournament already written (delete %s to race it again)\n", eval::interval_name(dt).c_str(),
+                  t.out_dir.c_str());
+      continue;
+    }
+    std::printf("study: %s tournament, %zu runs%s, %d races per pair\n", eval::interval_name(dt).c_str(), t.runs.size(),
+                cfg.controls ? " with controls" : "", cfg.races_per_pair);
+    std::fflush(stdout);
+    fs::create_directories(t.out_dir);
+    const eval::TournamentResult r = eval::run_tournament(t);
+    eval::write_tournament_report(r, t);
+    if (g_stop) throw ExitStatus{130};
+  }
+  write_report(cfg, cells, o.out, o.config, std::chrono::duration<double>(Clock::now() - t0).count());
+  std::printf("study: done; report in %s/report.md\n", o.out.c_str());
+}
+
+}  // namespace
+
+void add_study_command(CLI::App& app) {
+  auto o = std::make_shared<StudyOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "study", "Fig. 3 study: train every variant x seed x HL interval (resumable), tournaments, one report");
+  cmd->add_option("--config", o->config, "Study config (default configs/study.yaml)");
+  cmd->add_option("--out", o->out, "Study folder (default runs/study); run again to continue an interrupted study");
+  cmd->add_flag("--plan", o->plan_only, "List the cells and their state, then exit");
+  cmd->callback([o]() { run_study(*o); });
+}
+
+}  // namespace f16race::app

@@ -1,0 +1,148 @@
+#include "eval/study.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "io/input_error.hpp"
+#include "io/yaml_config.hpp"
+#include "train/train_config.hpp"
+#include "train/trainer.hpp"
+
+namespace f16race::eval {
+
+namespace fs = std::filesystem;
+
+StudyConfig read_study_config(const std::string& path) {
+  StudyConfig c;
+  io::ConfigReader r(io::load_yaml_file(path), path);
+  r.read("base_config", &c.base_config, {});
+  r.read("variants", &c.variants, {"es", "es_d1", "es_d2", "es_d3"});
+  r.read("seeds", &c.seeds, 0, 1000000000);
+  for (std::size_t i = 0; i < c.seeds.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.seeds[i] == c.seeds[j]) r.fail("seeds", "seed " + std::to_string(c.seeds[i]) + " is listed twice");
+  r.read("dt_hl_s", &c.dt_hl_s, 0.08, 600.0);
+  for (std::size_t i = 0; i < c.dt_hl_s.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (interval_name(c.dt_hl_s[i]) == interval_name(c.dt_hl_s[j]))
+        r.fail("dt_hl_s", interval_name(c.dt_hl_s[i]) + " is listed twice");
+  r.read("total_env_steps", &c.total_env_steps);
+  if (c.total_env_steps < 1000) r.fail("total_env_steps", "must be at least 1000");
+  r.read("jobs", &c.jobs, 1, 64);
+  r.read("races_per_pair", &c.races_per_pair, 2, 1000000);
+  r.read("controls", &c.controls);
+  r.read("tournament_seed", &c.tournament_seed);
+  r.finish();
+  // The base config must itself be a valid training config: found now, not in the first child.
+  train::read_train_config(io::load_yaml_file(c.base_config), c.base_config);
+  return c;
+}
+
+std::string interval_name(double dt_hl_s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "dt%g", dt_hl_s);
+  return buf;
+}
+
+std::string interval_dir(const std::string& out_dir, double dt_hl_s) {
+  return (fs::path(out_dir) / interval_name(dt_hl_s)).string();
+}
+
+std::vector<StudyCell> plan_study(const StudyConfig& config, const std::string& out_dir) {
+  std::vector<StudyCell> cells;
+  for (double dt : config.dt_hl_s)
+    for (int seed : config.seeds)
+      for (const std::string& v : config.variants) {
+        StudyCell c;
+        c.variant = v;
+        c.seed = seed;
+        c.dt_hl_s = dt;
+        c.run_dir = (fs::path(interval_dir(out_dir, dt)) / (v + "_s" + std::to_string(seed))).string();
+        char dt_text[32];
+        std::snprintf(dt_text, sizeof dt_text, "%.17g", dt);
+        c.overrides = {"hl.agent=" + v, "seed=" + std::to_string(seed), std::string("race.dt_hl_s=") + dt_text,
+                       "train.total_env_steps=" + std::to_string(config.total_env_steps)};
+        cells.push_back(c);
+      }
+  return cells;
+}
+
+namespace {
+
+// wall_s (column 4) of the last complete row of RUN/metrics.csv; 0 without one.
+double last_wall_s(const std::string& run_dir) {
+  std::ifstream in(run_dir + "/metrics.csv");
+  std::string line, last;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (header) {
+      header = false;
+      continue;
+    }
+    if (!line.empty() && !in.eof()) last = line;  // a line cut by a running writer has no newline
+  }
+  std::stringstream ss(last);
+  std::string field;
+  for (int k = 0; k < 4 && std::getline(ss, field, ','); ++k) {
+  }
+  try {
+    return field.empty() ? 0.0 : std::stod(field);
+  } catch (const std::exception&) {
+    return 0.0;
+  }
+}
+
+}  // namespace
+
+CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
+  CellStatus st;
+  st.total_env_steps = static_cast<std::int64_t>(config.total_env_steps);
+  // A folder without a checkpoint holds nothing to keep: the cell starts afresh (train
+  // --overwrite moves what is there aside).
+  if (!fs::is_directory(cell.run_dir) || train::latest_checkpoint_name(cell.run_dir).empty()) return st;
+  const train::TrainConfig want =
+      train::read_train_config(io::load_yaml_with_overrides(config.base_config, cell.overrides), config.base_config);
+  const train::RunConfig have = train::read_run_config(cell.run_dir);
+  if (have.hash != train::config_hash(train::train_config_yaml(want)))
+    throw io::InputError(cell.run_dir +
+                         ": holds a run of another configuration than this study cell (the study or base config "
+                         "changed since it was trained); move the folder aside, or restore the config it was "
+                         "trained with");
+  const fs::path dir = fs::path(cell.run_dir) / "checkpoint" / train::latest_checkpoint_name(cell.run_dir);
+  try {
+    st.env_steps = train::check_checkpoint_meta(dir.string(), have.hash);
+  } catch (const std::exception& e) {
+    throw io::InputError((dir / "meta.yaml").string() + ": cannot read the checkpoint (" +
+                         train::checkpoint_error_reason(e) + "); restore it, or move the run folder aside to retrain");
+  }
+  st.state = st.env_steps >= st.total_env_steps ? CellState::finished : CellState::partial;
+  st.wall_s = last_wall_s(cell.run_dir);
+  return st;
+}
+
+std::vector<std::string> cell_train_args(const StudyConfig& config, const StudyCell& cell, CellState state) {
+  if (state == CellState::partial) return {"--threads", "1", "train", "--resume", cell.run_dir, "--quiet"};
+  std::vector<std::string> a{"--threads", "1", "train", "--config", config.base_config};
+  for (const std::string& o : cell.overrides) {
+    a.push_back("--set");
+    a.push_back(o);
+  }
+  for (const char* s : {"--run", cell.run_dir.c_str(), "--quiet", "--overwrite"}) a.emplace_back(s);
+  return a;
+}
+
+TournamentOptions interval_tournament(const StudyConfig& config, const std::vector<StudyCell>& cells,
+                                      double dt_hl_s, const std::string& out_dir) {
+  TournamentOptions o;
+  for (const StudyCell& c : cells)
+    if (interval_name(c.dt_hl_s) == interval_name(dt_hl_s)) o.runs.push_back(c.run_dir);
+  o.controls = config.controls;
+  o.races_per_pair = config.races_per_pair;
+  o.seed = config.tournament_seed;
+  o.out_dir = (fs::path(interval_dir(out_dir, dt_hl_s)) / "tournament").string();
+  return o;
+}
+
+}  // namespace f16race::eval

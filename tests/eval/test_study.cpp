@@ -1,0 +1,127 @@
+// The Fig. 3 study's plan and cell states: config validation, cell order, folders and train
+// arguments, and fresh -> partial -> finished on a tiny real run (a changed config refused).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "eval/study.hpp"
+#include "io/input_error.hpp"
+#include "io/yaml_config.hpp"
+#include "train/train_config.hpp"
+#include "train/trainer.hpp"
+
+namespace f16race::eval {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("f16race_study_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
+
+const char* kTinyBase = R"(
+race: {n_env: 2, team_size: 2, time_limit_s: 10.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
+ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8], d_model: 8, n_heads: 2}
+hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}
+train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
+)";
+
+TEST(Study, ConfigIsValidatedWithTheKeyNamed) {
+  const fs::path d = fresh_dir("config");
+  write(d / "base.yaml", kTinyBase);
+  const std::string base = "base_config: " + (d / "base.yaml").string() + "\n";
+  write(d / "ok.yaml", base + "variants: [es_d2, es_d3]\nseeds: [4, 7]\ndt_hl_s: [8, 20]\ntotal_env_steps: 5000\n");
+  const StudyConfig c = read_study_config((d / "ok.yaml").string());
+  EXPECT_EQ(c.variants, (std::vector<std::string>{"es_d2", "es_d3"}));
+  EXPECT_EQ(c.seeds, (std::vector<int>{4, 7}));
+  EXPECT_EQ(c.total_env_steps, 5000u);
+  const auto error_of = [&](const std::string& body) {
+    write(d / "bad.yaml", base + body);
+    try {
+      read_study_config((d / "bad.yaml").string());
+    } catch (const io::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of("seeds: [1, 2, 1]\n").find("seeds"), std::string::npos);
+  EXPECT_NE(error_of("variants: [es, es_d9]\n").find("es_d9"), std::string::npos);
+  EXPECT_NE(error_of("dt_hl_s: [8, 8.0]\n").find("dt8 is listed twice"), std::string::npos);
+  EXPECT_NE(error_of("jobz: 2\n").find("jobz"), std::string::npos);
+  EXPECT_NE(error_of("total_env_steps: 10\n").find("total_env_steps"), std::string::npos);
+  write(d / "badbase.yaml", "race: {n_envs: 2}\n");
+  write(d / "bad.yaml", "base_config: " + (d / "badbase.yaml").string() + "\n");
+  EXPECT_THROW(read_study_config((d / "bad.yaml").string()), io::ConfigError);  // the base is checked too
+}
+
+TEST(Study, PlanOrdersCellsByIntervalSeedVariant) {
+  StudyConfig c;
+  c.variants = {"es", "es_d3"};
+  c.seeds = {2, 5};
+  c.dt_hl_s = {8.0, 20.0};
+  c.total_env_steps = 7000;
+  const auto cells = plan_study(c, "OUT");
+  ASSERT_EQ(cells.size(), 8u);
+  EXPECT_EQ(cells[0].run_dir, "OUT/dt8/es_s2");
+  EXPECT_EQ(cells[1].run_dir, "OUT/dt8/es_d3_s2");
+  EXPECT_EQ(cells[2].run_dir, "OUT/dt8/es_s5");
+  EXPECT_EQ(cells[7].run_dir, "OUT/dt20/es_d3_s5");
+  EXPECT_EQ(cells[7].overrides, (std::vector<std::string>{"hl.agent=es_d3", "seed=5", "race.dt_hl_s=20",
+                                                           "train.total_env_steps=7000"}));
+  const auto fresh = cell_train_args(c, cells[0], CellState::fresh);
+  EXPECT_NE(std::find(fresh.begin(), fresh.end(), "--overwrite"), fresh.end());
+  EXPECT_NE(std::find(fresh.begin(), fresh.end(), "race.dt_hl_s=8"), fresh.end());
+  EXPECT_EQ(cell_train_args(c, cells[0], CellState::partial),
+            (std::vector<std::string>{"--threads", "1", "train", "--resume", "OUT/dt8/es_s2", "--quiet"}));
+  const TournamentOptions t = interval_tournament(c, cells, 20.0, "OUT");
+  EXPECT_EQ(t.runs, (std::vector<std::string>{"OUT/dt20/es_s2", "OUT/dt20/es_d3_s2", "OUT/dt20/es_s5",
+                                               "OUT/dt20/es_d3_s5"}));
+  EXPECT_EQ(t.out_dir, "OUT/dt20/tournament");
+  EXPECT_EQ(interval_name(12.5), "dt12.5");
+}
+
+TEST(Study, CellStateFollowsTheRunAndRefusesAnotherConfig) {
+  const fs::path d = fresh_dir("cells");
+  write(d / "base.yaml", kTinyBase);
+  StudyConfig c;
+  c.base_config = (d / "base.yaml").string();
+  c.variants = {"es_d3"};
+  c.seeds = {1};
+  c.dt_hl_s = {1.6};
+  c.total_env_steps = 1000;
+  const StudyCell cell = plan_study(c, (d / "out").string()).front();
+  EXPECT_EQ(cell_status(c, cell).state, CellState::fresh);
+  fs::create_directories(cell.run_dir);
+  write(fs::path(cell.run_dir) / "config.yaml", "leftover of a run that never checkpointed\n");
+  EXPECT_EQ(cell_status(c, cell).state, CellState::fresh);  // nothing to keep: train --overwrite moves it aside
+  fs::remove_all(cell.run_dir);
+  const train::TrainConfig cfg =
+      train::read_train_config(io::load_yaml_with_overrides(c.base_config, cell.overrides), c.base_config);
+  {
+    train::Trainer t(cfg, cell.run_dir);
+    t.run(nullptr, 2);
+  }
+  const CellStatus partial = cell_status(c, cell);
+  EXPECT_EQ(partial.state, CellState::partial);
+  EXPECT_GT(partial.env_steps, 0);
+  EXPECT_LT(partial.env_steps, 1000);
+  EXPECT_GT(partial.wall_s, 0.0);
+  train::Trainer::resume(cell.run_dir)->run();
+  const CellStatus done = cell_status(c, cell);
+  EXPECT_EQ(done.state, CellState::finished);
+  EXPECT_GE(done.env_steps, 1000);
+  StudyConfig other = c;
+  other.total_env_steps = 2000;  // the study changed: this folder is not its cell's run
+  EXPECT_THROW(cell_status(other, plan_study(other, (d / "out").string()).front()), io::InputError);
+}
+
+}  // namespace
+}  // namespace f16race::eval
