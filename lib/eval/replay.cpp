@@ -92,6 +92,7 @@ ReplayResult run_replay(const ReplayOptions& o) {
   }
   ll_rows.assign(ll_owner);
   hl_rows.assign(hl_owner);
+  race::BlockCounter block_counter(env);
   while (rec.remaining() > 0) {
     const std::vector<std::uint8_t> due(env.hl_due(), env.hl_due() + 1);
     if (due[0]) {
@@ -122,8 +123,9 @@ ReplayResult run_replay(const ReplayOptions& o) {
     rec.before_step(env);
     env.step(actions.data());
     rec.after_step(env);
+    block_counter.after_step(race::block_view(env));
   }
-  return ReplayResult{rec.trace(0), blue.name, red.name};
+  return ReplayResult{rec.trace(0), blue.name, red.name, block_counter.events()};
 }
 
 bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string* message) {
@@ -144,6 +146,20 @@ bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string
        << (t.cause[a] == race::kCauseNone ? std::string("in the race at the end")
                                           : "out at " + seconds(t.out_s[a]) + " s (" + race::cause_name(t.cause[a]) + ")")
        << " | " << t.goals[a].size() << " |\n";
+  }
+  md << "\nBlocks (an aircraft <= 1000 ft ahead of an opponent and <= 300 ft from it in the tube's cross-section; "
+        "within 5 s the opponent was taken out, or passed by the blocker's teammate while still behind the blocker; docs/race.md, \"Blocks\"): ";
+  if (r.blocks.empty()) {
+    md << "none.\n";
+  } else {
+    md << r.blocks.size() << ".\n\n| blocker | blocked | in front from | outcome at | outcome |\n|---|---|---|---|---|\n";
+    for (const race::BlockEvent& b : r.blocks) {
+      const auto who = [&](int a) {
+        return std::to_string(a) + (race::RaceEnv::team_of(a, t.team_size) == 0 ? " (blue)" : " (red)");
+      };
+      md << "| " << who(b.blocker) << " | " << who(b.blocked) << " | " << seconds(b.t_open_s) << " s | "
+         << seconds(b.t_s) << " s | " << (b.taken_out ? "taken out" : "passed by a teammate") << " |\n";
+    }
   }
   io::write_file_atomic(out_dir + "/replay.md", md.str());
   return race::plot_trace(t, out_dir, "replay", title, message);

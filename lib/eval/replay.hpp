@@ -3,7 +3,9 @@
 // teams greedy (the HL's best bins, the LL's mean action) unless epsilon > 0.
 #include <cstdint>
 #include <string>
+#include <vector>
 
+#include "race/block_events.hpp"
 #include "race/race_recorder.hpp"
 
 namespace f16race::eval {
@@ -21,7 +23,8 @@ struct ReplayOptions {
 
 struct ReplayResult {
   race::RaceTrace trace;
-  std::string blue, red;  // entry names
+  std::string blue, red;                 // entry names
+  std::vector<race::BlockEvent> blocks;  // in the order they happened (race/block_events.hpp)
 };
 
 // Throws io::InputError naming the folder when a run is missing, corrupt or was trained for

@@ -17,6 +17,7 @@
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/input_error.hpp"
+#include "race/block_events.hpp"
 #include "io/plot.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
@@ -146,6 +147,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   rc.n_env = n;
   rc.seed = o.seed * 1000003ULL;
   race::RaceEnv env(rc);
+  race::BlockCounter blocks(env);
   // The @random rule's draws: one stream per env, used only at that env's own HL decisions.
   std::vector<race::RandomStream> control_rng;
   for (int e = 0; e < n; ++e) control_rng.push_back(control_stream(o.seed, e));
@@ -214,6 +216,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     std::vector<double> t_before(n);
     for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);
     env.step(actions.data());
+    blocks.after_step(race::block_view(env));
     bool changed = false;
     for (int e = 0; e < n; ++e) {
       if (env_game[e] < 0) continue;
@@ -234,6 +237,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       r.duration_s = t_before[e] + rc.dt_ll_s;
       r.blue_out = out_blue[e];
       r.red_out = out_red[e];
+      r.blue_blocks = blocks.race_blocks(e, 0);
+      r.red_blocks = blocks.race_blocks(e, 1);
       res.races.push_back(r);
       res.games[g.blue][g.red] += 1;
       res.games[g.red][g.blue] += 1;
@@ -331,7 +336,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
   // races.csv
   {
     std::vector<std::vector<double>> cols(8);
-    std::vector<double> durations, race_idx;
+    std::vector<double> durations, race_idx, blue_blocks, red_blocks;
     std::vector<std::vector<std::string>> names(3);
     for (const RaceRecord& x : r.races) {
       cols[0].push_back(x.pair);
@@ -344,15 +349,19 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       durations.push_back(x.duration_s);
       cols[6].push_back(x.blue_out);
       cols[7].push_back(x.red_out);
+      blue_blocks.push_back(x.blue_blocks);
+      red_blocks.push_back(x.red_blocks);
       names[0].push_back(r.entries[x.blue].name);
       names[1].push_back(r.entries[x.red].name);
       names[2].push_back(x.winner < 0 ? "draw" : r.entries[x.winner].name);
     }
     cols.push_back(durations);
     cols.push_back(race_idx);
+    cols.push_back(blue_blocks);
+    cols.push_back(red_blocks);
     io::write_csv(o.out_dir + "/races.csv",
                   {"pair", "blue_seed", "red_seed", "track_stream_seed", "track_stream_env", "end_reason",
-                   "blue_terminated", "red_terminated", "duration_s", "track_stream_race"},
+                   "blue_terminated", "red_terminated", "duration_s", "track_stream_race", "blue_blocks", "red_blocks"},
                   cols, {"blue", "red", "winner"}, names);
   }
   // pairings.csv and the entry heatmap data (row entry's winrate against the column entry).
@@ -379,8 +388,13 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
   }
   // Every entry (controls and untrained included) against all the others: winrate (draws count
   // half) with a Wilson score 95 % interval over its races, so single runs can be compared too.
-  std::vector<double> entry_races(n, 0.0);
+  std::vector<double> entry_races(n, 0.0), entry_blocks(n, 0.0);
   std::vector<Interval> entry_rate(n);
+  for (const RaceRecord& x : r.races) {
+    entry_blocks[x.blue] += x.blue_blocks;
+    entry_blocks[x.red] += x.red_blocks;
+  }
+  const auto per_race = [](double count, double races) { return races > 0 ? count / races : std::nan(""); };
   std::vector<bool> counted(n);
   std::vector<std::string> excluded;
   for (int i = 0; i < n; ++i) {
@@ -406,6 +420,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
     double mean, std;
     Interval iqm;
     double races;
+    double blocks_per_race;  // blocks by the variant's runs in all their races / those races
   };
   std::vector<Row> rows;
   for (const auto& [variant, members] : by_variant) {
@@ -428,8 +443,14 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       scores.push_back(s);
       races += g;
     }
+    double member_blocks = 0, member_races = 0;
+    for (int i : members) {
+      member_blocks += entry_blocks[i];
+      member_races += entry_races[i];
+    }
     rows.push_back(Row{variant, static_cast<int>(members.size()), mean(totals), stddev(totals),
-                       iqm_with_ci(scores, o.bootstrap_replicates, 0.05, o.seed), races});
+                       iqm_with_ci(scores, o.bootstrap_replicates, 0.05, o.seed), races,
+                       per_race(member_blocks, member_races)});
   }
   // Variant vs variant (the paper's Fig. 3, right): mean winrate of the row variant's counted
   // entries against the column variant's over all their pairings. Same variant: pairs of
@@ -461,7 +482,8 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
       js << "    {\"variant\": " << json_string(x.variant) << ", \"runs\": " << x.runs << ", \"races\": " << x.races
          << ", \"winrate_mean\": " << json_number(x.mean) << ", \"winrate_std\": " << json_number(x.std)
          << ", \"iqm\": " << json_number(x.iqm.point) << ", \"iqm_ci95\": [" << json_number(x.iqm.lo) << ", "
-         << json_number(x.iqm.hi) << "]}" << (k + 1 < rows.size() ? "," : "") << "\n";
+         << json_number(x.iqm.hi) << "], \"blocks_per_race\": " << json_number(x.blocks_per_race) << "}"
+         << (k + 1 < rows.size() ? "," : "") << "\n";
     }
     js << "  ],\n  \"entries\": [\n";
     for (int i = 0; i < n; ++i) {
@@ -470,7 +492,9 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
          << ", \"hl\": " << json_string(hl_override_name(e.hl)) << ", \"seed\": " << e.seed
          << ", \"in_variant_statistics\": " << (counted[i] ? "true" : "false") << ", \"races\": " << entry_races[i]
          << ", \"winrate\": " << json_number(entry_rate[i].point) << ", \"wilson95\": ["
-         << json_number(entry_rate[i].lo) << ", " << json_number(entry_rate[i].hi) << "]}" << (i + 1 < n ? "," : "")
+         << json_number(entry_rate[i].lo) << ", " << json_number(entry_rate[i].hi)
+         << "], \"blocks_per_race\": " << json_number(per_race(entry_blocks[i], entry_races[i])) << "}"
+         << (i + 1 < n ? "," : "")
          << "\n";
     }
     js << "  ],\n  \"pairings\": [";
@@ -505,20 +529,24 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
     std::ostringstream md;
     md << "# Tournament\n\n" << o.races_per_pair << " races per pair (sides swapped in half), HL epsilon " << o.epsilon
        << ", " << r.races.size() << " races in all.\n\n"
-       << "| variant | runs | races | total winrate (mean +- std over runs) | IQM of pairing winrates [95% CI] |\n"
-       << "|---|---|---|---|---|\n";
+       << "| variant | runs | races | total winrate (mean +- std over runs) | IQM of pairing winrates [95% CI] "
+          "| blocks per race |\n"
+       << "|---|---|---|---|---|---|\n";
     char buf[512];
     for (const Row& x : rows) {
-      std::snprintf(buf, sizeof buf, "| %s | %d | %.0f | %.3f +- %.3f | %.3f [%.3f, %.3f] |\n", x.variant.c_str(), x.runs,
-                    x.races, x.mean, x.std, x.iqm.point, x.iqm.lo, x.iqm.hi);
+      std::snprintf(buf, sizeof buf, "| %s | %d | %.0f | %.3f +- %.3f | %.3f [%.3f, %.3f] | %.3f |\n", x.variant.c_str(),
+                    x.runs, x.races, x.mean, x.std, x.iqm.point, x.iqm.lo, x.iqm.hi, x.blocks_per_race);
       md << buf;
     }
     if (rows.empty())
       md << "| (every entry counted in the statistics has the same variant: no other variant to compare with) "
-            "| | | | |\n";
+            "| | | | | |\n";
     md << "\nTotal winrate: all races of a run against the entries of the other variants (draws count half). IQM: "
           "25% trimmed mean over the run x opponent winrates; CI: percentile bootstrap resampling runs within "
-          "each opponent (rliable's stratified bootstrap).\n\n";
+          "each opponent (rliable's stratified bootstrap). Blocks per race: events, per race of the entry, where an aircraft of its team "
+          "sat in front of an opponent (<= 1000 ft ahead along the track, <= 300 ft away in the tube's cross-section) "
+          "and within 5 s that opponent was taken out or passed by a teammate while still behind the blocker (docs/race.md, "
+          "\"Blocks\"), counted per team and race.\n\n";
     if (excluded.empty()) {
       md << "Every entry counts in the variant statistics.\n\n";
     } else {
@@ -549,13 +577,14 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
         md << " " << (std::isfinite(vrate[a][b]) ? fixed3(vrate[a][b]) : "-") << " |";
       md << "\n";
     }
-    md << "\n| entry | variant | seed | races | winrate vs all other entries [95% Wilson CI] | HL "
-          "| in variant statistics |\n|---|---|---|---|---|---|---|\n";
+    md << "\n| entry | variant | seed | races | winrate vs all other entries [95% Wilson CI] | blocks per race | HL "
+          "| in variant statistics |\n|---|---|---|---|---|---|---|---|\n";
     for (int i = 0; i < n; ++i) {
-      std::snprintf(buf, sizeof buf, "| %s | %s | %llu | %.0f | %.4f [%.4f, %.4f] | %s | %s |\n",
+      std::snprintf(buf, sizeof buf, "| %s | %s | %llu | %.0f | %.4f [%.4f, %.4f] | %.3f | %s | %s |\n",
                     r.entries[i].name.c_str(), r.entries[i].variant.c_str(),
                     static_cast<unsigned long long>(r.entries[i].seed), entry_races[i], entry_rate[i].point,
-                    entry_rate[i].lo, entry_rate[i].hi, hl_description(r.entries[i].hl).c_str(),
+                    entry_rate[i].lo, entry_rate[i].hi, per_race(entry_blocks[i], entry_races[i]),
+                    hl_description(r.entries[i].hl).c_str(),
                     counted[i] ? "yes" : "no");
       md << buf;
     }

@@ -76,6 +76,7 @@ struct RaceRecord {
   int end_reason = 0;               // RaceEnv::EndReason
   double duration_s = 0.0;
   int blue_out = 0, red_out = 0;    // aircraft terminated per team
+  int blue_blocks = 0, red_blocks = 0;  // blocks by each team (race/block_events.hpp)
 };
 
 struct TournamentResult {

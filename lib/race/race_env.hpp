@@ -116,6 +116,13 @@ class RaceEnv {
   double lateral_ft(int i) const { return lateral_ft_[i]; }
   double vertical_ft(int i) const { return vertical_ft_[i]; }
   int ego_rank(int i) const { return ego_rank_[i]; }
+  // The same per-aircraft state as arrays [n_env, n_agent] (race time [n_env]), for passes over
+  // every aircraft (race/block_events).
+  const double* progress_ft_data() const { return progress_ft_.data(); }
+  const double* lateral_ft_data() const { return lateral_ft_.data(); }
+  const double* vertical_ft_data() const { return vertical_ft_.data(); }
+  const std::uint8_t* alive_data() const { return alive_.data(); }
+  const double* race_time_s_data() const { return time_s_.data(); }
   double team_rank(int i) const { return team_rank_[i]; }
   const Vec3& goal_point(int i) const { return goal_point_[i]; }
   // The HL bins [3] aircraft i's goal was last placed with (the middle bins after a reset).
