@@ -12,6 +12,7 @@
 #include "io/yaml_config.hpp"
 #include "train/train_config.hpp"
 #include "train/trainer.hpp"
+#include "support/temp_paths.hpp"
 
 namespace f16race::eval {
 namespace {
@@ -19,8 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("f16race_study_" + name);
-  fs::remove_all(d);
+  const fs::path d = test_support::fresh_temp_path("study_" + name);
   fs::create_directories(d);
   return d;
 }

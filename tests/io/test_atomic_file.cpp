@@ -10,6 +10,7 @@
 #include <string>
 
 #include "io/atomic_file.hpp"
+#include "support/temp_paths.hpp"
 
 namespace f16race::io {
 namespace {
@@ -17,10 +18,9 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string fresh_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("f16race_atomic_file_" + name);
-  fs::remove_all(p);
+  const std::string p = test_support::fresh_temp_path("atomic_file_" + name);
   fs::create_directories(p);
-  return p.string();
+  return p;
 }
 
 std::string read_all(const std::string& path) {

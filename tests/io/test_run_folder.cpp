@@ -8,18 +8,14 @@
 #include <string>
 
 #include "io/run_folder.hpp"
+#include "support/temp_paths.hpp"
 
 namespace f16race::io {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string fresh_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("f16race_run_folder_" + name);
-  fs::remove_all(p);
-  for (int n = 1; n < 4; ++n) fs::remove_all(p.string() + ".old-" + std::to_string(n));
-  return p.string();
-}
+std::string fresh_dir(const std::string& name) { return test_support::fresh_temp_path("run_folder_" + name); }
 
 TEST(RunFolderLock, SecondWriterIsRefusedWithTheHoldersPidUntilTheFirstEnds) {
   const std::string dir = fresh_dir("lock");

@@ -12,6 +12,7 @@
 #include "io/atomic_file.hpp"
 #include "io/yaml_config.hpp"
 #include "train/trainer.hpp"
+#include "support/temp_paths.hpp"
 
 namespace f16race::train {
 namespace {
@@ -33,11 +34,7 @@ TrainConfig smoke(const std::string& extra = "") {
   return read_train_config(root, "smoke.yaml");
 }
 
-std::string fresh_dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("f16race_train_test_" + name);
-  fs::remove_all(p);
-  return p.string();
-}
+std::string fresh_dir(const std::string& name) { return test_support::fresh_temp_path("train_test_" + name); }
 
 std::string error_of(const std::string& yaml) {
   try {
