@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "dynamics/physical_constants.hpp"
 #include "dynamics/state.hpp"
 #include "dynamics/vector_math.hpp"
 
@@ -27,10 +28,10 @@ const char* status_name(std::int32_t status);
 
 // Envelope in which the aero tables and kinematics are trusted; leaving it freezes the aircraft.
 struct EnvelopeLimits {
-  double alpha_min_rad = -10.0 * 3.141592653589793 / 180.0;  // Stevens tables start at -10 deg
-  double alpha_max_rad = 45.0 * 3.141592653589793 / 180.0;   // and end at 45 deg
-  double beta_max_rad = 30.0 * 3.141592653589793 / 180.0;
-  double theta_max_rad = 85.0 * 3.141592653589793 / 180.0;   // psi-dot ~ 1/cos(theta)
+  double alpha_min_rad = -10.0 * kDegToRad;  // Stevens tables start at -10 deg
+  double alpha_max_rad = 45.0 * kDegToRad;   // and end at 45 deg
+  double beta_max_rad = 30.0 * kDegToRad;
+  double theta_max_rad = 85.0 * kDegToRad;   // psi-dot ~ 1/cos(theta)
   double vt_min_ftps = 50.0;
   double vt_max_ftps = 3000.0;
   double alt_min_ft = -10000.0;

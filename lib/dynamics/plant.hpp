@@ -6,6 +6,7 @@
 // is measured 15 ft ahead of the c.g.
 #include "dynamics/engine.hpp"
 #include "dynamics/morelli_aero.hpp"
+#include "dynamics/physical_constants.hpp"
 #include "dynamics/stevens_aero.hpp"
 #include "dynamics/state.hpp"
 #include "dynamics/vector_math.hpp"
@@ -40,9 +41,7 @@ inline constexpr double kEngineMomentum = 160.0;  // he [slug ft^2/s]
 inline constexpr double kC1 = -0.770, kC2 = 0.02755, kC3 = 1.055e-4, kC4 = 1.642e-6, kC5 = 0.9604;
 inline constexpr double kC6 = 1.759e-2, kC7 = 1.792e-5, kC8 = -0.7336, kC9 = 1.587e-5;
 inline constexpr double kRadToDeg = 57.29578;  // AeroBench's constant, deliberately not 180/pi
-inline constexpr double kG = 32.17;            // [ft/s^2]
 inline constexpr double kAccelArm_ft = 15.0;   // accelerometer ahead of the c.g. (pilot station)
-inline constexpr double kPi = 3.141592653589793;
 }  // namespace airframe
 
 // x: the 13 plant states in AeroBench order. MODEL is a template parameter so that each batched

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "dynamics/inner_loop.hpp"
+#include "dynamics/physical_constants.hpp"
 #include "dynamics/vector_math.hpp"
 #include "io/yaml_config.hpp"
 #include "race/ranking.hpp"
@@ -20,8 +21,6 @@ using namespace f16race::dynamics;
 
 namespace {
 
-constexpr double kPi = 3.141592653589793;
-constexpr double kG = 32.17;
 
 float clampf(double v, double lo, double hi) { return static_cast<float>(std::min(std::max(v, lo), hi)); }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamics/physical_constants.hpp"
 #include "dynamics/state.hpp"
 
 namespace f16race::race {
@@ -10,7 +11,8 @@ namespace f16race::race {
 using namespace f16race::dynamics;
 
 void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* actions) {
-  constexpr double kPi = 3.141592653589793, kG = 32.17;
+  using dynamics::kG;
+  using dynamics::kPi;
   const RaceConfig& c = env.config();
   const F16Batch& sim = env.sim();
 #pragma omp parallel for schedule(static)

@@ -5,13 +5,14 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynamics/physical_constants.hpp"
 #include "io/csv_table.hpp"
 
 namespace f16race::race {
 namespace {
 
-constexpr double kPi = 3.141592653589793;
-constexpr double kDeg = kPi / 180.0;
+using dynamics::kDegToRad;
+using dynamics::kPi;
 
 double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
 Vec3 normalized(Vec3 a) {
@@ -58,14 +59,14 @@ Track Track::generate(const TrackConfig& c, RandomStream& rng) {
   wps.push_back({p, rng.uniform(c.radius_min_ft, c.radius_max_ft)});
   for (int k = 1; k < c.n_waypoints; ++k) {
     if (k > 1) {
-      heading += rng.uniform(-c.max_turn_deg, c.max_turn_deg) * kDeg;
+      heading += rng.uniform(-c.max_turn_deg, c.max_turn_deg) * kDegToRad;
       // Reflect at the deviation bound: every leg keeps moving along the first leg's direction,
       // so the center-line never crosses itself and progress is unambiguous.
-      const double dev = heading - heading0, lim = c.max_heading_dev_deg * kDeg;
+      const double dev = heading - heading0, lim = c.max_heading_dev_deg * kDegToRad;
       if (dev > lim) heading = heading0 + 2.0 * lim - dev;
       if (dev < -lim) heading = heading0 - 2.0 * lim - dev;
-      climb += rng.uniform(-c.max_climb_change_deg, c.max_climb_change_deg) * kDeg;
-      climb = std::clamp(climb, -c.max_climb_deg * kDeg, c.max_climb_deg * kDeg);
+      climb += rng.uniform(-c.max_climb_change_deg, c.max_climb_change_deg) * kDegToRad;
+      climb = std::clamp(climb, -c.max_climb_deg * kDegToRad, c.max_climb_deg * kDegToRad);
     }
     const double leg = rng.uniform(c.leg_min_ft, c.leg_max_ft);
     Vec3 next = p + leg * Vec3{std::cos(climb) * std::cos(heading), std::cos(climb) * std::sin(heading), std::sin(climb)};
