@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,9 +48,7 @@ void run(const eval::TournamentOptions& o) {
     std::fflush(stdout);
   });
   if (tty) std::printf("\n");
-  eval::write_tournament_report(r, o);
-  std::ifstream md(o.out_dir + "/summary.md");
-  std::printf("%s", std::string(std::istreambuf_iterator<char>(md), {}).c_str());
+  std::printf("%s", eval::write_tournament_report(r, o).c_str());
   std::printf("%zu races in %.1f s\n", r.races.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json, tournament.png, pairings.png}\n",

@@ -330,7 +330,8 @@ std::string hl_description(HlOverride rule) {
 
 }  // namespace
 
-void write_tournament_report(const TournamentResult& r, const TournamentOptions& o) {
+std::string write_tournament_report(const TournamentResult& r, const TournamentOptions& o) {
+  std::string summary_md;
   fs::create_directories(o.out_dir);
   const int n = static_cast<int>(r.entries.size());
   // races.csv
@@ -611,7 +612,8 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
         md << buf;
       }
     }
-    io::write_file_atomic(o.out_dir + "/summary.md", md.str());
+    summary_md = md.str();
+    io::write_file_atomic(o.out_dir + "/summary.md", summary_md);
   }
   // tournament.png in the layout of the paper's Fig. 3: bars with std, IQM with CI, variant vs
   // variant; pairings.png: entry vs entry, controls and untrained included.
@@ -665,6 +667,7 @@ void write_tournament_report(const TournamentResult& r, const TournamentOptions&
         matrix_panel("Winrate of the row entry against the column entry", "entry", "heatmap.csv", entry_names)};
     io::render_plot(pairings, o.out_dir + "/pairings.gp", &msg);
   }
+  return summary_md;
 }
 
 }  // namespace f16race::eval

@@ -93,6 +93,7 @@ TournamentResult run_tournament(const TournamentOptions& options,
 
 // Writes races.csv, pairings.csv, summary.json, summary.md, tournament.png (per-variant bars,
 // IQM, variant vs variant) and pairings.png (entry vs entry) with their data and scripts.
-void write_tournament_report(const TournamentResult& result, const TournamentOptions& options);
+// Returns summary.md's text, for the caller to print.
+std::string write_tournament_report(const TournamentResult& result, const TournamentOptions& options);
 
 }  // namespace f16race::eval

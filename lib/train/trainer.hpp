@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "race/race_env.hpp"
 #include "race/random_stream.hpp"
 #include "train/train_config.hpp"
 
@@ -60,7 +61,7 @@ struct MetricsRow {
   double winrate = 0.0;           // learner team wins / races ended (draws count half)
   double finish_rate = 0.0;       // races ended at the finish line / races ended
   double races = 0.0;             // races ended since the previous row
-  double term[7] = {};            // per cause, learner aircraft per race
+  double term[race::kNumCauses] = {};  // per cause, learner aircraft per race
   double policy_loss = 0.0, value_loss = 0.0, entropy = 0.0, approx_kl = 0.0, lr = 0.0;
   double es_loss = 0.0, q_mean = 0.0, epsilon = 0.0;
   // High level: gradient steps so far and the last ES update's diagnostics (agents::EsStats).
