@@ -162,7 +162,8 @@ bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string
     }
   }
   io::write_file_atomic(out_dir + "/replay.md", md.str());
-  return race::plot_trace(t, out_dir, "replay", title, message);
+  race::write_blocks_csv(t, r.blocks, out_dir, "replay");
+  return race::plot_trace(t, out_dir, "replay", title, message, r.blocks);
 }
 
 }  // namespace f16race::eval

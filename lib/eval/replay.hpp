@@ -31,7 +31,7 @@ struct ReplayResult {
 // another race shape than the blue run.
 ReplayResult run_replay(const ReplayOptions& options);
 
-// replay_agentK.csv, replay_goals.csv, replay_track.csv, replay_tube.csv, replay.png (+ .gp),
+// replay_agentK.csv, replay_goals.csv, replay_track.csv, replay_tube.csv, replay_blocks.csv, replay.png (+ .gp),
 // replay.acmi and replay.md (who won, how, each aircraft's fate) into out_dir. Returns false
 // with `message` when gnuplot is missing (everything else is still written).
 bool write_replay(const ReplayResult& result, const std::string& out_dir, std::string* message);

@@ -137,8 +137,34 @@ void write_trace_csv(const RaceTrace& t, const std::string& dir, const std::stri
   io::write_csv(dir + "/" + prefix + "_tube.csv", {"s_ft", "plus_radius_ft", "minus_radius_ft"}, tube);
 }
 
+void write_blocks_csv(const RaceTrace& t, const std::vector<BlockEvent>& blocks, const std::string& dir,
+                      const std::string& prefix) {
+  // The recorded row nearest in time to the window's opening.
+  const auto at = [&](int agent, double t_s) -> const TraceRow* {
+    const TraceRow* best = nullptr;
+    for (const TraceRow& r : t.rows[agent])
+      if (!best || std::fabs(r.t_s - t_s) < std::fabs(best->t_s - t_s)) best = &r;
+    return best;
+  };
+  std::vector<std::vector<double>> c(12);
+  for (const BlockEvent& b : blocks) {
+    const TraceRow* rb = at(b.blocker, b.t_open_s);
+    const TraceRow* ro = at(b.blocked, b.t_open_s);
+    if (!rb || !ro) continue;
+    const double v[] = {static_cast<double>(b.blocker), static_cast<double>(b.blocked),
+                        static_cast<double>(RaceEnv::team_of(b.blocker, t.team_size)), b.t_open_s, b.t_s,
+                        b.taken_out ? 1.0 : 0.0, rb->s_ft, rb->lateral_ft, rb->vertical_ft, ro->s_ft, ro->lateral_ft,
+                        ro->vertical_ft};
+    for (int k = 0; k < 12; ++k) c[k].push_back(v[k]);
+  }
+  io::write_csv(dir + "/" + prefix + "_blocks.csv",
+                {"blocker", "blocked", "blocker_team", "t_open_s", "t_s", "taken_out", "blocker_s_ft",
+                 "blocker_lateral_ft", "blocker_vertical_ft", "blocked_s_ft", "blocked_lateral_ft", "blocked_vertical_ft"},
+                c);
+}
+
 bool plot_trace(const RaceTrace& t, const std::string& dir, const std::string& prefix, const std::string& title,
-                std::string* message) {
+                std::string* message, const std::vector<BlockEvent>& blocks) {
   io::PlotPanel lat{"Lateral offset in the tube", "forward displacement along the track [ft]", "lateral [ft] (+ right)", {}, ""};
   io::PlotPanel ver{"Vertical offset in the tube", "forward displacement along the track [ft]", "vertical [ft] (+ up)", {}, ""};
   const std::string tube = prefix + "_tube.csv", goals = prefix + "_goals.csv";
@@ -165,6 +191,18 @@ bool plot_trace(const RaceTrace& t, const std::string& dir, const std::string& p
       lat.series.push_back({goals, sel + ":5", style, name, ""});
       ver.series.push_back({goals, sel + ":6", style, "", ""});
     }
+  }
+  if (!blocks.empty()) {
+    const std::string file = prefix + "_blocks.csv";
+    for (int team = 0; team < 2; ++team) {
+      const std::string sel = "($3==" + std::to_string(team) + "?$7:1/0)";
+      const std::string style = std::string("points pt 5 ps 1.6 lc rgb '") + (team == 0 ? "#08306b" : "#67000d") + "'";
+      const std::string name = team == 0 ? "blue blocks (blocker)" : "red blocks (blocker)";
+      lat.series.push_back({file, sel + ":8", style, name, ""});
+      ver.series.push_back({file, sel + ":9", style, "", ""});
+    }
+    lat.series.push_back({file, "10:11", "points pt 2 ps 1.6 lw 2 lc rgb '#000000'", "held up (blocked)", ""});
+    ver.series.push_back({file, "10:12", "points pt 2 ps 1.6 lw 2 lc rgb '#000000'", "", ""});
   }
   // Same right margin in both panels (room for the legend), so their x axes line up.
   lat.extra = ver.extra = "set rmargin 34";

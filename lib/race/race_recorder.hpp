@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "race/block_events.hpp"
 #include "race/race_env.hpp"
 #include "race/track.hpp"
 
@@ -64,9 +65,15 @@ const char* end_reason_name(int end);
 
 // PREFIX_agentK.csv, PREFIX_goals.csv, PREFIX_track.csv and PREFIX_tube.csv in `dir`.
 void write_trace_csv(const RaceTrace& trace, const std::string& dir, const std::string& prefix);
-// PREFIX.png (+ PREFIX.gp) from the CSVs above. Returns false with `message` if gnuplot is missing.
+// PREFIX_blocks.csv: each block (race/block_events.hpp) with where the blocker and the blocked
+// aircraft were (progress, lateral, vertical) when its window opened.
+void write_blocks_csv(const RaceTrace& trace, const std::vector<BlockEvent>& blocks, const std::string& dir,
+                      const std::string& prefix);
+// PREFIX.png (+ PREFIX.gp) from the CSVs above; with blocks (written by write_blocks_csv) it marks
+// each block where its window opened: a filled square at the blocker in its team's colour, a
+// cross at the aircraft it held up. Returns false with `message` if gnuplot is missing.
 bool plot_trace(const RaceTrace& trace, const std::string& dir, const std::string& prefix, const std::string& title,
-                std::string* message);
+                std::string* message, const std::vector<BlockEvent>& blocks = {});
 // Aircraft (team colours and coalitions), their HL goals, and center-line markers every 2 000 ft.
 void write_trace_acmi(const RaceTrace& trace, const std::string& path, const std::string& title,
                       const std::vector<std::string>& team_names = {"Blue", "Red"});
