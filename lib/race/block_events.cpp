@@ -62,6 +62,9 @@ void BlockCounter::after_step(const BlockStepView& v) {
         if ((b < ts_) == (o < ts_)) continue;  // opponents only
         const std::size_t k = (static_cast<std::size_t>(e) * n_agent_ + b) * n_agent_ + o;
         double& open = open_at_s_[k];
+        // The window holds the steps up to kBlockWindowS after it opened (1e-9: float sums of dt);
+        // an outcome after that is not this window's.
+        if (open >= 0.0 && t - open > kBlockWindowS + 1e-9) open = -1.0;
         if (open >= 0.0) {
           const bool out = v.step_cause[base + o] != kCauseNone;
           const bool lost_rank = !done && !out && v.progress_ft[base + b] > v.progress_ft[base + o] &&
@@ -72,8 +75,7 @@ void BlockCounter::after_step(const BlockStepView& v) {
             open = -1.0;
             continue;  // the pair's next window opens from the next step on
           }
-          // The window holds the steps up to kBlockWindowS after it opened (1e-9: float sums of dt).
-          if (done || t - open > kBlockWindowS + 1e-9) open = -1.0;
+          if (done) open = -1.0;
           if (open >= 0.0) continue;  // still running
         }
         if (done || !v.alive[base + b] || !v.alive[base + o]) continue;

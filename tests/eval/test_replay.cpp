@@ -64,6 +64,42 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
   EXPECT_EQ(a.trace.rows[1].back().pn_ft, b.trace.rows[1].back().pn_ft);
 }
 
+TEST(Replay, BlocksAgreeWithTheRecordedTrajectories) {
+  // Every block of a replay, checked against the trajectories the recorder wrote: opponents, the
+  // blocker ahead by at most 1000 ft and within 300 ft in the cross-section where the window
+  // opened, the outcome within 5 s. Several tracks, so that some blocks happen.
+  const std::string run = tiny_run("blocks");
+  int n_blocks = 0;
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    ReplayOptions o;
+    o.run = run;
+    o.opponent = "scripted";
+    o.seed = seed;
+    const ReplayResult r = run_replay(o);
+    const race::RaceTrace& t = r.trace;
+    const auto row_at = [&](int a, double t_s) {
+      const race::TraceRow* best = &t.rows[a].front();
+      for (const race::TraceRow& x : t.rows[a])
+        if (std::fabs(x.t_s - t_s) < std::fabs(best->t_s - t_s)) best = &x;
+      return *best;
+    };
+    for (const race::BlockEvent& b : r.blocks) {
+      ++n_blocks;
+      EXPECT_NE(race::RaceEnv::team_of(b.blocker, t.team_size), race::RaceEnv::team_of(b.blocked, t.team_size));
+      const race::TraceRow rb = row_at(b.blocker, b.t_open_s), ro = row_at(b.blocked, b.t_open_s);
+      EXPECT_NEAR(rb.t_s, b.t_open_s, 1e-9);
+      const double lead = rb.s_ft - ro.s_ft;
+      EXPECT_GT(lead, 0.0);
+      EXPECT_LE(lead, race::kBlockAheadFt + 1e-6);
+      EXPECT_LE(std::hypot(rb.lateral_ft - ro.lateral_ft, rb.vertical_ft - ro.vertical_ft), race::kBlockRadiusFt + 1e-6);
+      EXPECT_GT(b.t_s, b.t_open_s);
+      EXPECT_LE(b.t_s - b.t_open_s, race::kBlockWindowS + 1e-6);
+      if (b.taken_out) EXPECT_NEAR(t.out_s[b.blocked], b.t_s, 1e-6);
+    }
+  }
+  EXPECT_GT(n_blocks, 0);  // else the checks above checked nothing
+}
+
 TEST(Replay, FixedHighLevelControls) {
   const std::string run = tiny_run("ctl");
   ReplayOptions o;

@@ -113,6 +113,13 @@ TEST(BlockEvents, WindowsExpireAfterFiveSecondsAndReopen) {
   EXPECT_EQ(x.blue(), 1);
   ASSERT_EQ(x.counter.events().size(), 1u);
   EXPECT_NEAR(x.counter.events()[0].t_open_s, 5.12, 1e-9);
+  World z;  // an outcome one step after the window's end is not a block
+  z.step();
+  for (int k = 0; k < 62; ++k) z.step();
+  z.lat[2] = 1500.0;
+  z.cause[2] = kCauseTube;
+  z.step();  // 5.04 s after it opened
+  EXPECT_EQ(z.blue(), 0);
   World y;  // an event inside the window's last step still counts
   y.step();
   for (int k = 0; k < 61; ++k) y.step();
