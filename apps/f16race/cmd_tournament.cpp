@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "progress_bar.hpp"
 #include "eval/tournament.hpp"
 
 namespace f16race::app {
@@ -35,12 +36,10 @@ void run(const eval::TournamentOptions& o) {
     const double left = frac > 0.0 ? elapsed * (1.0 - frac) / frac : 0.0;
     const int percent = static_cast<int>(100.0 * frac);
     if (tty) {
-      char bar[41];
-      const int filled = static_cast<int>(40.0 * frac);
-      for (int k = 0; k < 40; ++k) bar[k] = k < filled ? '#' : '.';
-      bar[40] = '\0';
-      std::printf("\r[%s] %3d%%  %ld / %ld races  %.0f s elapsed, ~%.0f s left\x1b[K", bar, percent, done, total,
-                  elapsed, left);
+      char text[160];
+      std::snprintf(text, sizeof text, "%3d%%  %ld / %ld races  %.0f s elapsed, ~%.0f s left", percent, done, total,
+                    elapsed, left);
+      print_progress_bar(frac, 40, text);
     } else if (percent / 10 != last_percent / 10 || done == total) {  // a log line every 10 %
       std::printf("%3d%%  %ld / %ld races  %.0f s elapsed\n", percent, done, total, elapsed);
     }

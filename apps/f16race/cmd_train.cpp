@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "progress_bar.hpp"
 #include "io/run_folder.hpp"
 #include "io/yaml_config.hpp"
 #include "train/trainer.hpp"
@@ -116,9 +117,7 @@ void run_train(const TrainOptions& o) {
                   r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.winrate, r.finish_rate, r.ll_return,
                   r.hl_return, r.q_spread, r.off_center_share);
     if (tty) {
-      const int width = 28, filled = static_cast<int>(frac * width);
-      std::printf("\r[%s%s] %s\x1b[K", std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), line);
-      std::fflush(stdout);
+      print_progress_bar(frac, 28, line);
     } else if (r.update % cfg.loop.log_every_updates == 0) {
       std::printf("%s\n", line);
       std::fflush(stdout);
