@@ -114,6 +114,19 @@ case_ "race 0 races" -- "$bin" race --races 0
 case_ "race bad override" -- "$bin" race --set race.n_env=abc
 case_ "bench soak 0 steps" -- "$bin" bench soak --aircraft-steps 0
 case_ "bench train missing config" -- "$bin" bench train --config nope.yaml
+# study: bad study configs, a base config with a typo, a folder of another configuration.
+printf 'variants: [es, es_d9]\n' > study_bad_variant.yaml
+printf 'seeds: [1, 1]\n' > study_dup_seed.yaml
+printf 'jobz: 2\n' > study_typo.yaml
+printf 'base_config: bad_syntax.yaml\n' > study_bad_base.yaml
+printf 'base_config: %s\nvariants: [es_d3]\nseeds: [9]\ndt_hl_s: [2]\ntotal_env_steps: 5000\n' "$smoke" > study_other.yaml
+mkdir -p study_out/dt2 && cp -r "$run" study_out/dt2/es_d3_s9 && rm -f study_out/dt2/es_d3_s9/.lock
+case_ "study config missing" -- "$bin" study --config nope.yaml --out "$work/st1"
+case_ "study unknown variant" -- "$bin" study --config study_bad_variant.yaml --out "$work/st2"
+case_ "study duplicate seed" -- "$bin" study --config study_dup_seed.yaml --out "$work/st3"
+case_ "study unknown key" -- "$bin" study --config study_typo.yaml --out "$work/st4"
+case_ "study base config broken" -- "$bin" study --config study_bad_base.yaml --out "$work/st5"
+case_ "study folder of another config" -- "$bin" study --config study_other.yaml --out study_out --plan
 after=$(snapshot)
 if [ "$before" != "$after" ]; then echo "FAIL: the trained run changed"; fails=$((fails + 1)); fi
 echo "$((n - fails)) of $n hostile inputs handled (exit 2, a short message, no backtrace)"
