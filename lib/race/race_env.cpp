@@ -753,16 +753,7 @@ void RaceEnv::save_state(std::ostream& out) const {
     out.write(reinterpret_cast<const char*>(&n), sizeof n);
     out.write(reinterpret_cast<const char*>(w.data()), static_cast<std::streamsize>(n * sizeof(double)));
   }
-  put_vec(out, time_s_); put_vec(out, hl_time_left_s_); put_vec(out, hl_due_); put_vec(out, env_done_);
-  put_vec(out, alive_); put_vec(out, acted_); put_vec(out, terminated_); put_vec(out, truncated_);
-  put_vec(out, cause_); put_vec(out, step_cause_); put_vec(out, track_hint_); put_vec(out, ego_rank_);
-  put_vec(out, prev_ego_rank_); put_vec(out, progress_ft_); put_vec(out, lateral_ft_); put_vec(out, vertical_ft_);
-  put_vec(out, dist_ft_); put_vec(out, radius_ft_); put_vec(out, tube_out_s_); put_vec(out, team_rank_);
-  put_vec(out, goal_dist_ft_); put_vec(out, start_lateral_ft_); put_vec(out, start_vertical_ft_);
-  put_vec(out, goal_point_); put_vec(out, goal_progress_ft_); put_vec(out, goal_lateral_ft_);
-  put_vec(out, goal_vertical_ft_); put_vec(out, goal_bins_); put_vec(out, last_action_); put_vec(out, ego_); put_vec(out, prev_action_);
-  put_vec(out, goal_obs_); put_vec(out, ado_); put_vec(out, task_); put_vec(out, ado_alive_);
-  put_vec(out, ll_reward_); put_vec(out, hl_reward_); put_vec(out, race_winner_); put_vec(out, race_end_);
+  visit_snapshot_arrays(*this, [&](const char*, const auto& v) { put_vec(out, v); });
 }
 
 void RaceEnv::load_state(std::istream& in) {
@@ -781,21 +772,7 @@ void RaceEnv::load_state(std::istream& in) {
     for (std::int64_t k = 0; k < n; k += 4) wp.push_back({{w[k], w[k + 1], w[k + 2]}, w[k + 3]});
     tracks_[e] = Track::from_waypoints(std::move(wp), config_.track.spacing_ft);
   }
-  get_vec(in, &time_s_, "time"); get_vec(in, &hl_time_left_s_, "hl timer"); get_vec(in, &hl_due_, "hl due");
-  get_vec(in, &env_done_, "env done"); get_vec(in, &alive_, "alive"); get_vec(in, &acted_, "acted");
-  get_vec(in, &terminated_, "terminated"); get_vec(in, &truncated_, "truncated"); get_vec(in, &cause_, "cause");
-  get_vec(in, &step_cause_, "step cause"); get_vec(in, &track_hint_, "track hint"); get_vec(in, &ego_rank_, "ego rank");
-  get_vec(in, &prev_ego_rank_, "previous ego rank"); get_vec(in, &progress_ft_, "progress");
-  get_vec(in, &lateral_ft_, "lateral"); get_vec(in, &vertical_ft_, "vertical"); get_vec(in, &dist_ft_, "distance");
-  get_vec(in, &radius_ft_, "radius"); get_vec(in, &tube_out_s_, "tube timer"); get_vec(in, &team_rank_, "team rank");
-  get_vec(in, &goal_dist_ft_, "goal distance"); get_vec(in, &start_lateral_ft_, "start lateral");
-  get_vec(in, &start_vertical_ft_, "start vertical"); get_vec(in, &goal_point_, "goal point");
-  get_vec(in, &goal_progress_ft_, "goal progress"); get_vec(in, &goal_lateral_ft_, "goal lateral");
-  get_vec(in, &goal_vertical_ft_, "goal vertical"); get_vec(in, &goal_bins_, "goal bins");
-  get_vec(in, &last_action_, "last action"); get_vec(in, &ego_, "ego obs"); get_vec(in, &prev_action_, "prev action obs");
-  get_vec(in, &goal_obs_, "goal obs"); get_vec(in, &ado_, "ado obs"); get_vec(in, &task_, "task obs");
-  get_vec(in, &ado_alive_, "ado alive"); get_vec(in, &ll_reward_, "ll reward"); get_vec(in, &hl_reward_, "hl reward");
-  get_vec(in, &race_winner_, "race winner"); get_vec(in, &race_end_, "race end");
+  visit_snapshot_arrays(*this, [&](const char* name, auto& v) { get_vec(in, &v, name); });
 }
 
 }  // namespace f16race::race

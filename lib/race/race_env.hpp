@@ -144,6 +144,25 @@ class RaceEnv {
   void load_state(std::istream& in);
 
  private:
+  // Every per-env and per-aircraft array a snapshot holds after the simulator, the random streams
+  // and the tracks, in snapshot order, with the name a short or mismatched snapshot is reported
+  // by: the one list save_state and load_state walk (a new field is added here, once).
+  template <class Self, class F>
+  static void visit_snapshot_arrays(Self& s, F&& f) {
+    f("time", s.time_s_); f("hl timer", s.hl_time_left_s_); f("hl due", s.hl_due_); f("env done", s.env_done_);
+    f("alive", s.alive_); f("acted", s.acted_); f("terminated", s.terminated_); f("truncated", s.truncated_);
+    f("cause", s.cause_); f("step cause", s.step_cause_); f("track hint", s.track_hint_); f("ego rank", s.ego_rank_);
+    f("previous ego rank", s.prev_ego_rank_); f("progress", s.progress_ft_); f("lateral", s.lateral_ft_);
+    f("vertical", s.vertical_ft_); f("distance", s.dist_ft_); f("radius", s.radius_ft_);
+    f("tube timer", s.tube_out_s_); f("team rank", s.team_rank_); f("goal distance", s.goal_dist_ft_);
+    f("start lateral", s.start_lateral_ft_); f("start vertical", s.start_vertical_ft_);
+    f("goal point", s.goal_point_); f("goal progress", s.goal_progress_ft_); f("goal lateral", s.goal_lateral_ft_);
+    f("goal vertical", s.goal_vertical_ft_); f("goal bins", s.goal_bins_); f("last action", s.last_action_);
+    f("ego obs", s.ego_); f("prev action obs", s.prev_action_); f("goal obs", s.goal_obs_); f("ado obs", s.ado_);
+    f("task obs", s.task_); f("ado alive", s.ado_alive_); f("ll reward", s.ll_reward_); f("hl reward", s.hl_reward_);
+    f("race winner", s.race_winner_); f("race end", s.race_end_);
+  }
+
   void apply_actions(int i0, int i1, const float* actions);
   void prefetch_track(int env) const;
   void step_env(int env);  // race logic, rewards, resets and observations after the flight step

@@ -94,7 +94,9 @@ TEST(Replay, BlocksAgreeWithTheRecordedTrajectories) {
       EXPECT_LE(std::hypot(rb.lateral_ft - ro.lateral_ft, rb.vertical_ft - ro.vertical_ft), race::kBlockRadiusFt + 1e-6);
       EXPECT_GT(b.t_s, b.t_open_s);
       EXPECT_LE(b.t_s - b.t_open_s, race::kBlockWindowS + 1e-6);
-      if (b.taken_out) EXPECT_NEAR(t.out_s[b.blocked], b.t_s, 1e-6);
+      if (b.taken_out) {
+        EXPECT_NEAR(t.out_s[b.blocked], b.t_s, 1e-6);
+      }
     }
   }
   EXPECT_GT(n_blocks, 0);  // else the checks above checked nothing
