@@ -10,7 +10,7 @@ HlCriticImpl::HlCriticImpl(const HlCriticConfig& cfg) : cfg_(cfg) {
                                                                                  cfg.dims.n_other, cfg.d_model,
                                                                                  cfg.n_heads}));
   trunk_ = torch::nn::Sequential();
-  int64_t in = cfg.dims.d_ego + 3 + cfg.d_model + cfg.dims.d_task;
+  int64_t in = cfg.dims.d_ego + cfg.dims.d_prev_action + cfg.d_model + cfg.dims.d_task;
   for (int64_t width : cfg.hidden) {
     trunk_->push_back(torch::nn::Linear(in, width));
     trunk_->push_back(torch::nn::ReLU());
@@ -25,7 +25,7 @@ HlCriticImpl::HlCriticImpl(const HlCriticConfig& cfg) : cfg_(cfg) {
 
 int64_t HlCriticImpl::flops_per_sample() const {
   int64_t flops = encoder_->flops_per_sample();
-  int64_t in = cfg_.dims.d_ego + 3 + cfg_.d_model + cfg_.dims.d_task;
+  int64_t in = cfg_.dims.d_ego + cfg_.dims.d_prev_action + cfg_.d_model + cfg_.dims.d_task;
   for (int64_t width : cfg_.hidden) {
     flops += 2 * in * width;
     in = width;

@@ -34,7 +34,7 @@ LlActorCriticImpl::LlActorCriticImpl(const LlActorCriticConfig& cfg) : cfg_(cfg)
   encoder_ = register_module("encoder", AttentionEncoder(AttentionEncoderConfig{cfg.dims.d_ego, cfg.dims.d_ado,
                                                                                  cfg.dims.n_other, cfg.d_model,
                                                                                  cfg.n_heads}));
-  const int64_t in = cfg.dims.d_ego + 3 + cfg.d_model + cfg.dims.d_task;
+  const int64_t in = cfg.dims.d_ego + cfg.dims.d_goal + cfg.d_model + cfg.dims.d_task;
   actor_ = register_module("actor", make_mlp(in, cfg.hidden, cfg.action_dim, 0.01));
   critic_ = register_module("critic", make_mlp(in, cfg.hidden, 1, 1.0));
   log_std_ = register_parameter("log_std", torch::full({cfg.action_dim}, cfg.init_log_std));
@@ -43,7 +43,7 @@ LlActorCriticImpl::LlActorCriticImpl(const LlActorCriticConfig& cfg) : cfg_(cfg)
 int64_t LlActorCriticImpl::flops_per_sample() const {
   // Actor and critic share the input and the hidden widths; only their outputs differ.
   auto mlp = [&](int64_t out) {
-    int64_t flops = 0, in = cfg_.dims.d_ego + 3 + cfg_.d_model + cfg_.dims.d_task;
+    int64_t flops = 0, in = cfg_.dims.d_ego + cfg_.dims.d_goal + cfg_.d_model + cfg_.dims.d_task;
     for (int64_t width : cfg_.hidden) {
       flops += 2 * in * width;
       in = width;

@@ -22,6 +22,8 @@ struct ObsDims {
   int64_t d_ado = 0;
   int64_t d_task = 0;
   int64_t n_other = 0;
+  int64_t d_prev_action = 3;  // HL input: the previous LL action (race::kActionDim)
+  int64_t d_goal = 3;         // LL input: the goal (race::kGoalDim)
 };
 
 struct HlObs {

@@ -35,7 +35,9 @@ torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const {
 
 ObsNormalizerImpl::ObsNormalizerImpl(const ObsDims& dims, double clip) : dims_(dims) {
   ego_ = register_module("ego", RunningNorm(dims.d_ego, clip));
-  extra_ = register_module("extra", RunningNorm(3, clip));
+  // One normaliser for the 3-wide input of either level: prev_action (HL) or goal (LL).
+  TORCH_CHECK(dims.d_prev_action == dims.d_goal, "ObsNormalizer: prev_action and goal widths must match");
+  extra_ = register_module("extra", RunningNorm(dims.d_goal, clip));
   ado_norm_ = register_module("ado", RunningNorm(dims.d_ado, clip));
   task_ = register_module("task", RunningNorm(dims.d_task, clip));
 }

@@ -1,0 +1,71 @@
+#include "models/obs.hpp"
+
+#include <sstream>
+
+namespace f16race::models {
+
+void check_tensor(const torch::Tensor& t, const char* name, std::initializer_list<int64_t> shape,
+                  torch::ScalarType dtype) {
+  TORCH_CHECK(t.defined(), "tensor '", name, "' is undefined");
+  TORCH_CHECK(t.scalar_type() == dtype, "tensor '", name, "' has dtype ", t.scalar_type(), ", expected ", dtype);
+  bool ok = t.dim() == static_cast<int64_t>(shape.size());
+  int64_t d = 0;
+  for (int64_t s : shape) {
+    if (!ok) break;
+    ok = (s < 0 || t.size(d) == s);
+    ++d;
+  }
+  if (!ok) {
+    std::ostringstream want;
+    want << "[";
+    d = 0;
+    for (int64_t s : shape) want << (d++ ? ", " : "") << (s < 0 ? std::string("*") : std::to_string(s));
+    want << "]";
+    TORCH_CHECK(false, "tensor '", name, "' has shape ", t.sizes(), ", expected ", want.str());
+  }
+}
+
+namespace {
+template <class Obs>
+void check_common(const Obs& obs, const ObsDims& dims, int64_t b) {
+  check_tensor(obs.ado, "ado", {b, dims.n_other, dims.d_ado}, torch::kFloat32);
+  check_tensor(obs.ado_alive, "ado_alive", {b, dims.n_other}, torch::kBool);
+  check_tensor(obs.task, "task", {b, dims.d_task}, torch::kFloat32);
+}
+}  // namespace
+
+int64_t check_obs(const HlObs& obs, const ObsDims& dims) {
+  check_tensor(obs.ego, "ego", {-1, dims.d_ego}, torch::kFloat32);
+  const int64_t b = obs.ego.size(0);
+  check_tensor(obs.prev_action, "prev_action", {b, dims.d_prev_action}, torch::kFloat32);
+  check_common(obs, dims, b);
+  return b;
+}
+
+int64_t check_obs(const LlObs& obs, const ObsDims& dims) {
+  check_tensor(obs.ego, "ego", {-1, dims.d_ego}, torch::kFloat32);
+  const int64_t b = obs.ego.size(0);
+  check_tensor(obs.goal, "goal", {b, dims.d_goal}, torch::kFloat32);
+  check_common(obs, dims, b);
+  return b;
+}
+
+HlObs index_rows(const HlObs& o, const torch::Tensor& i) {
+  return {o.ego.index_select(0, i), o.prev_action.index_select(0, i), o.ado.index_select(0, i),
+          o.ado_alive.index_select(0, i), o.task.index_select(0, i)};
+}
+LlObs index_rows(const LlObs& o, const torch::Tensor& i) {
+  return {o.ego.index_select(0, i), o.goal.index_select(0, i), o.ado.index_select(0, i),
+          o.ado_alive.index_select(0, i), o.task.index_select(0, i)};
+}
+
+HlObs flatten2(const HlObs& o) {
+  return {o.ego.flatten(0, 1), o.prev_action.flatten(0, 1), o.ado.flatten(0, 1), o.ado_alive.flatten(0, 1),
+          o.task.flatten(0, 1)};
+}
+LlObs flatten2(const LlObs& o) {
+  return {o.ego.flatten(0, 1), o.goal.flatten(0, 1), o.ado.flatten(0, 1), o.ado_alive.flatten(0, 1),
+          o.task.flatten(0, 1)};
+}
+
+}  // namespace f16race::models
