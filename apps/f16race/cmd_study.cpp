@@ -67,27 +67,8 @@ std::string hms(double s) {
   return buf;
 }
 
-// env_steps (column 3) of the last complete row of RUN/metrics.csv, 0 without one.
 std::int64_t last_env_steps(const std::string& run_dir) {
-  std::ifstream in(run_dir + "/metrics.csv");
-  std::string line, last;
-  bool header = true;
-  while (std::getline(in, line)) {
-    if (header) {
-      header = false;
-      continue;
-    }
-    if (!line.empty() && !in.eof()) last = line;
-  }
-  std::stringstream ss(last);
-  std::string field;
-  for (int k = 0; k < 3 && std::getline(ss, field, ','); ++k) {
-  }
-  try {
-    return field.empty() ? 0 : std::stoll(field);
-  } catch (const std::exception&) {
-    return 0;
-  }
+  return static_cast<std::int64_t>(eval::last_metrics_value(run_dir, eval::kMetricsEnvStepsColumn));
 }
 
 std::string cell_label(const eval::StudyCell& c) {

@@ -69,10 +69,7 @@ std::vector<StudyCell> plan_study(const StudyConfig& config, const std::string& 
   return cells;
 }
 
-namespace {
-
-// wall_s (column 4) of the last complete row of RUN/metrics.csv; 0 without one.
-double last_wall_s(const std::string& run_dir) {
+double last_metrics_value(const std::string& run_dir, int column) {
   std::ifstream in(run_dir + "/metrics.csv");
   std::string line, last;
   bool header = true;
@@ -85,7 +82,7 @@ double last_wall_s(const std::string& run_dir) {
   }
   std::stringstream ss(last);
   std::string field;
-  for (int k = 0; k < 4 && std::getline(ss, field, ','); ++k) {
+  for (int k = 0; k <= column && std::getline(ss, field, ','); ++k) {
   }
   try {
     return field.empty() ? 0.0 : std::stod(field);
@@ -93,8 +90,6 @@ double last_wall_s(const std::string& run_dir) {
     return 0.0;
   }
 }
-
-}  // namespace
 
 CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
   CellStatus st;
@@ -118,7 +113,7 @@ CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
                          train::checkpoint_error_reason(e) + "); restore it, or move the run folder aside to retrain");
   }
   st.state = st.env_steps >= st.total_env_steps ? CellState::finished : CellState::partial;
-  st.wall_s = last_wall_s(cell.run_dir);
+  st.wall_s = last_metrics_value(cell.run_dir, kMetricsWallColumn);
   return st;
 }
 

@@ -56,6 +56,11 @@ struct CellStatus {
 // whose checkpoint cannot be read, naming the folder and the fix.
 CellStatus cell_status(const StudyConfig& config, const StudyCell& cell);
 
+// A column of RUN/metrics.csv's last complete row (0 without one, or when a running writer has
+// not finished the line): the study's progress and compute time.
+inline constexpr int kMetricsEnvStepsColumn = 2, kMetricsWallColumn = 3;
+double last_metrics_value(const std::string& run_dir, int column);
+
 // The `train` arguments that start (fresh) or continue (partial) a cell, after the executable.
 std::vector<std::string> cell_train_args(const StudyConfig& config, const StudyCell& cell, CellState state);
 

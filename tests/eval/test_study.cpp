@@ -88,6 +88,14 @@ TEST(Study, PlanOrdersCellsByIntervalSeedVariant) {
   EXPECT_EQ(interval_name(12.5), "dt12.5");
 }
 
+TEST(Study, MetricsTailSkipsALineStillBeingWritten) {
+  const fs::path d = fresh_dir("tail");
+  write(d / "metrics.csv", "update,phase_hl,env_steps,wall_s\n1,0,100,2.5\n2,0,200,5.0\n3,0,3");
+  EXPECT_EQ(last_metrics_value(d.string(), kMetricsEnvStepsColumn), 200.0);
+  EXPECT_EQ(last_metrics_value(d.string(), kMetricsWallColumn), 5.0);
+  EXPECT_EQ(last_metrics_value((d / "none").string(), kMetricsWallColumn), 0.0);  // no file yet
+}
+
 TEST(Study, CellStateFollowsTheRunAndRefusesAnotherConfig) {
   const fs::path d = fresh_dir("cells");
   write(d / "base.yaml", kTinyBase);
