@@ -1,7 +1,7 @@
 // `f16race study`: the Fig. 3 study in pieces. Trains every cell of a study config that is not
 // finished (a partial run resumes from its checkpoint), `jobs` at a time as child `f16race train`
-// processes of one thread each, then runs one tournament per HL interval and writes
-// OUT/report.md. Interrupt it at any time (Ctrl-C: the children checkpoint and stop) and run
+// processes of one thread each, one HL interval at a time: its runs, then its tournament, then
+// OUT/report.md with every interval raced so far. Interrupt it at any time (Ctrl-C: the children checkpoint and stop) and run
 // the same command again to continue.
 #include <fcntl.h>
 #include <omp.h>
@@ -28,6 +28,7 @@
 #include "commands.hpp"
 #include "eval/study.hpp"
 #include "eval/tournament.hpp"
+#include "eval/tournament_report.hpp"
 #include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
 #include "io/plot.hpp"
@@ -237,6 +238,8 @@ void write_curves(const eval::StudyConfig& cfg, const std::vector<eval::StudyCel
   if (!io::render_plot(spec, spec.output.substr(0, spec.output.size() - 4) + ".gp", &msg)) *note += msg + "\n";
 }
 
+// The report holds every interval whose tournament is written; an interval still training is
+// named as such, so a study stopped half way already publishes its finished horizon.
 void write_report(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, const std::string& out,
                   const std::string& config_path, double tournament_s) {
   std::ostringstream md;
@@ -245,12 +248,17 @@ void write_report(const eval::StudyConfig& cfg, const std::vector<eval::StudyCel
   md << "Written by `f16race study --config " << config_path << " --out " << out << "` at commit "
      << command_output("git rev-parse --short HEAD 2>/dev/null") << " on " << cpu_model() << ".\n\n";
   double train_s = 0.0;
-  for (const auto& c : cells) train_s += eval::cell_status(cfg, c).wall_s;
+  int n_finished = 0;
+  for (const auto& c : cells) {
+    const eval::CellStatus s = eval::cell_status(cfg, c);
+    train_s += s.wall_s;
+    n_finished += s.state == eval::CellState::finished;
+  }
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "Compute: %.1f h of training summed over the %zu runs (one thread each, %d at a time), %.0f s in "
-                "the last tournament pass.\n\n",
-                train_s / 3600.0, cells.size(), cfg.jobs, tournament_s);
+                "Compute: %.1f h of training summed over %d of %zu runs finished (one thread each, %d at a time), "
+                "%.0f s of tournaments in this pass.\n\n",
+                train_s / 3600.0, n_finished, cells.size(), cfg.jobs, tournament_s);
   md << buf;
   md << "Each run: `f16race --threads 1 train --config " << cfg.base_config
      << " --set hl.agent=V --seed S --set race.dt_hl_s=D --set train.total_env_steps=" << cfg.total_env_steps
@@ -260,10 +268,15 @@ void write_report(const eval::StudyConfig& cfg, const std::vector<eval::StudyCel
   for (double dt : cfg.dt_hl_s) {
     const std::string name = eval::interval_name(dt);
     md << "## HL interval " << name.substr(2) << " s\n\n";
+    const fs::path summary = fs::path(eval::interval_dir(out, dt)) / "tournament" / "summary.md";
+    if (!fs::exists(summary)) {
+      md << "Not raced yet: its runs are still training. Run the study command again to continue.\n\n";
+      continue;
+    }
     md << "![tournament](" << name << "/tournament/tournament.png)\n\n";
     write_curves(cfg, cells, dt, out, &notes);
     md << "![learning curves](curves_" << name << ".png)\n\n";
-    std::ifstream in(fs::path(eval::interval_dir(out, dt)) / "tournament" / "summary.md");
+    std::ifstream in(summary);
     std::string text((std::istreambuf_iterator<char>(in)), {});
     // The tournament's own title becomes a sub-heading here.
     if (text.rfind("# ", 0) == 0) text = "#" + text;
@@ -292,13 +305,19 @@ void run_study(const StudyOptions& o) {
     io::write_file_atomic((fs::path(o.out) / "study.yaml").string(),
                           std::string((std::istreambuf_iterator<char>(in)), {}));
   }
-  if (!train_cells(cfg, cells, o.out)) {
-    std::printf("study: stopped; every run kept its checkpoint. Run the same command again to continue.\n");
-    throw ExitStatus{130};
-  }
-  torch::set_num_threads(omp_get_max_threads());
-  const auto t0 = Clock::now();
+  // One interval at a time: its runs, then its tournament and the report so far, so a study
+  // cut short (a session's end) has its first horizon finished instead of every run half done.
+  torch::set_num_threads(omp_get_max_threads());  // for the tournaments; the trainings are child processes
+  double tournament_s = 0.0;
   for (double dt : cfg.dt_hl_s) {
+    std::vector<eval::StudyCell> interval_cells;
+    for (const auto& c : cells)
+      if (eval::interval_name(c.dt_hl_s) == eval::interval_name(dt)) interval_cells.push_back(c);
+    std::printf("study: %s\n", eval::interval_name(dt).c_str());
+    if (!train_cells(cfg, interval_cells, o.out)) {
+      std::printf("study: stopped; every run kept its checkpoint. Run the same command again to continue.\n");
+      throw ExitStatus{130};
+    }
     const eval::TournamentOptions t = eval::interval_tournament(cfg, cells, dt, o.out);
     if (fs::exists(fs::path(t.out_dir) / "summary.json")) {
       std::printf("study: %s tournament already written (delete %s to race it again)\n", eval::interval_name(dt).c_str(),
@@ -308,12 +327,16 @@ void run_study(const StudyOptions& o) {
     std::printf("study: %s tournament, %zu runs%s, %d races per pair\n", eval::interval_name(dt).c_str(), t.runs.size(),
                 cfg.controls ? " with controls" : "", cfg.races_per_pair);
     std::fflush(stdout);
+    const auto t0 = Clock::now();
     fs::create_directories(t.out_dir);
     const eval::TournamentResult r = eval::run_tournament(t);
     eval::write_tournament_report(r, t);
     if (g_stop) throw ExitStatus{130};
+    tournament_s += std::chrono::duration<double>(Clock::now() - t0).count();
+    write_report(cfg, cells, o.out, o.config, tournament_s);
+    std::printf("study: %s done; report so far in %s/report.md\n", eval::interval_name(dt).c_str(), o.out.c_str());
   }
-  write_report(cfg, cells, o.out, o.config, std::chrono::duration<double>(Clock::now() - t0).count());
+  write_report(cfg, cells, o.out, o.config, tournament_s);
   std::printf("study: done; report in %s/report.md\n", o.out.c_str());
 }
 
