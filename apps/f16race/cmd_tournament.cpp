@@ -16,6 +16,7 @@
 #include "commands.hpp"
 #include "progress_bar.hpp"
 #include "eval/tournament.hpp"
+#include "eval/tournament_report.hpp"
 
 namespace f16race::app {
 namespace {

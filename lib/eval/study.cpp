@@ -107,7 +107,9 @@ CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
                          "trained with");
   const fs::path dir = fs::path(cell.run_dir) / "checkpoint" / train::latest_checkpoint_name(cell.run_dir);
   try {
-    st.env_steps = train::check_checkpoint_meta(dir.string(), have.hash);
+    // A finished cell is only raced, so a checkpoint whose policy this build loads is enough;
+    // resuming an unfinished one checks the resume format itself.
+    st.env_steps = train::check_checkpoint_meta(dir.string(), have.hash, train::CheckpointUse::policy);
   } catch (const std::exception& e) {
     throw io::InputError((dir / "meta.yaml").string() + ": cannot read the checkpoint (" +
                          train::checkpoint_error_reason(e) + "); restore it, or move the run folder aside to retrain");

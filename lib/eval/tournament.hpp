@@ -91,9 +91,6 @@ struct TournamentResult {
 TournamentResult run_tournament(const TournamentOptions& options,
                                 const std::function<void(long, long)>& progress = {});
 
-// Writes races.csv, pairings.csv, summary.json, summary.md, tournament.png (per-variant bars,
-// IQM, variant vs variant) and pairings.png (entry vs entry) with their data and scripts.
-// Returns summary.md's text, for the caller to print.
-std::string write_tournament_report(const TournamentResult& result, const TournamentOptions& options);
+// Its outputs (summary tables, CSVs, figures): eval/tournament_report.hpp.
 
 }  // namespace f16race::eval

@@ -80,6 +80,22 @@ F16BatchConfig batch_config(const RaceConfig& c) {
 }
 }  // namespace
 
+std::size_t RaceEnv::extent_size(Extent x) const {
+  const ObservationSizes o(config_);
+  switch (x) {
+    case Extent::env: return static_cast<std::size_t>(n_env());
+    case Extent::aircraft: return static_cast<std::size_t>(n_aircraft());
+    case Extent::aircraft_hl: return static_cast<std::size_t>(n_aircraft()) * kHlDims;
+    case Extent::obs_ego: return o.ego;
+    case Extent::obs_action: return o.action;
+    case Extent::obs_goal: return o.goal;
+    case Extent::obs_ado: return o.ado;
+    case Extent::obs_ado_rows: return o.ado_rows;
+    case Extent::obs_task: return o.task;
+  }
+  return 0;
+}
+
 RaceEnv::RaceEnv(const RaceConfig& config)
     : config_(config),
       n_agent_(config.n_agent()),
@@ -120,7 +136,6 @@ RaceEnv::RaceEnv(const RaceConfig& config)
     }
   }
 
-  const int n = n_aircraft();
   const std::size_t slice_bytes = (Track::storage_bytes(config_.track) + 4095) / 4096 * 4096;
   track_memory_ = std::make_unique<HugePageMemory>(slice_bytes * n_env());
   track_slices_.reserve(n_env());
@@ -132,46 +147,9 @@ RaceEnv::RaceEnv(const RaceConfig& config)
   }
   rng_.reserve(n_env());
   for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(e));
-  time_s_.assign(n_env(), 0.0);
-  hl_time_left_s_.assign(n_env(), 0.0);
-  hl_due_.assign(n_env(), 1);
-  env_done_.assign(n_env(), 0);
-  race_winner_.assign(n_env(), -1);
-  race_end_.assign(n_env(), 0);
-  alive_.assign(n, 0);
-  acted_.assign(n, 0);
-  terminated_.assign(n, 0);
-  truncated_.assign(n, 0);
-  cause_.assign(n, kCauseNone);
-  step_cause_.assign(n, kCauseNone);
-  track_hint_.assign(n, -1);
-  ego_rank_.assign(n, 0);
-  prev_ego_rank_.assign(n, 0);
-  progress_ft_.assign(n, 0.0);
-  lateral_ft_.assign(n, 0.0);
-  vertical_ft_.assign(n, 0.0);
-  dist_ft_.assign(n, 0.0);
-  radius_ft_.assign(n, 1.0);
-  tube_out_s_.assign(n, 0.0);
-  team_rank_.assign(n, 0.0);
-  goal_dist_ft_.assign(n, 0.0);
-  start_lateral_ft_.assign(n, 0.0);
-  start_vertical_ft_.assign(n, 0.0);
-  goal_point_.assign(n, Vec3{});
-  goal_progress_ft_.assign(n, 0.0);
-  goal_lateral_ft_.assign(n, 0.0);
-  goal_vertical_ft_.assign(n, 0.0);
-  goal_bins_.assign(static_cast<std::size_t>(n) * kHlDims, config_.hl_center_bin());
-  last_action_.assign(static_cast<std::size_t>(n) * kActionDim, 0.0f);
-  const ObservationSizes sizes(config_);
-  ego_.assign(sizes.ego, 0.0f);
-  prev_action_.assign(sizes.action, 0.0f);
-  goal_obs_.assign(sizes.goal, 0.0f);
-  ado_.assign(sizes.ado, 0.0f);
-  ado_alive_.assign(sizes.ado_rows, 0);
-  task_.assign(sizes.task, 0.0f);
-  ll_reward_.assign(n, 0.0f);
-  hl_reward_.assign(n, 0.0f);
+  visit_arrays(*this, [&](const char*, auto& v, Extent x, auto init) {
+    v.assign(extent_size(x), static_cast<typename std::decay_t<decltype(v)>::value_type>(init));
+  });
   step_stats_.assign(n_env(), StepStats{});
   final_ego_ = ego_;  // copies into the huge-page block: pmr assignment keeps the target's memory
   final_goal_ = goal_obs_;
@@ -257,12 +235,11 @@ void RaceEnv::reset_env(int env) {
     // than the rest of the reset, and the start point's nearest sample is known.
     track_hint_[i] = std::clamp(static_cast<int>(config_.start_s_ft / tr.spacing_ft()), 0, tr.n_samples() - 1);
     // The trim's own commands, in action units, are the "previous action" of the first step.
-    float* la = &last_action_[static_cast<std::size_t>(i) * kActionDim];
+    float* la = &prev_action_[static_cast<std::size_t>(i) * kActionDim];
     la[0] = static_cast<float>(2.0 * (trim.u_ref[kThrottleDelta] + lqr::kThrottleEquil) - 1.0);
     la[1] = static_cast<float>(2.0 * (trim.u_ref[kNzRef] - config_.nz_ref_min_g) /
                                    (config_.nz_ref_max_g - config_.nz_ref_min_g) - 1.0);
     la[2] = 0.0f;
-    for (int q = 0; q < kActionDim; ++q) prev_action_[static_cast<std::size_t>(i) * kActionDim + q] = la[q];
   }
   update_track_geometry(env);
   compute_ranks(env);
@@ -395,13 +372,12 @@ void RaceEnv::apply_actions(int i0, int i1, const float* actions) {
     truncated_[i] = 0;
     if (!alive_[i]) continue;
     const float* a = actions + static_cast<std::size_t>(i) * kActionDim;
-    float* la = &last_action_[static_cast<std::size_t>(i) * kActionDim];
+    float* la = &prev_action_[static_cast<std::size_t>(i) * kActionDim];  // read, then overwritten
     double da2 = 0.0;
     for (int k = 0; k < kActionDim; ++k) {
       // NaN from a broken policy counts as 0 (neutral) rather than reaching the flight model.
       const float v = std::isnan(a[k]) ? 0.0f : std::min(std::max(a[k], -1.0f), 1.0f);
       da2 += (v - la[k]) * (v - la[k]);
-      prev_action_[static_cast<std::size_t>(i) * kActionDim + k] = v;
       la[k] = v;
     }
     ll_reward_[i] = static_cast<float>(-c.w_action_change * da2);
@@ -753,7 +729,15 @@ void RaceEnv::save_state(std::ostream& out) const {
     out.write(reinterpret_cast<const char*>(&n), sizeof n);
     out.write(reinterpret_cast<const char*>(w.data()), static_cast<std::streamsize>(n * sizeof(double)));
   }
-  visit_snapshot_arrays(*this, [&](const char*, const auto& v) { put_vec(out, v); });
+  visit_arrays(*this, [&](const char*, const auto& v, Extent, auto) { put_vec(out, v); });
+}
+
+std::vector<RaceEnv::SnapshotArray> RaceEnv::snapshot_layout() const {
+  std::vector<SnapshotArray> out;
+  visit_arrays(*this, [&](const char* name, const auto& v, Extent, auto) {
+    out.push_back({name, v.size(), v.size() * sizeof(typename std::decay_t<decltype(v)>::value_type)});
+  });
+  return out;
 }
 
 void RaceEnv::load_state(std::istream& in) {
@@ -772,7 +756,7 @@ void RaceEnv::load_state(std::istream& in) {
     for (std::int64_t k = 0; k < n; k += 4) wp.push_back({{w[k], w[k + 1], w[k + 2]}, w[k + 3]});
     tracks_[e] = Track::from_waypoints(std::move(wp), config_.track.spacing_ft);
   }
-  visit_snapshot_arrays(*this, [&](const char* name, auto& v) { get_vec(in, &v, name); });
+  visit_arrays(*this, [&](const char* name, auto& v, Extent, auto) { get_vec(in, &v, name); });
 }
 
 }  // namespace f16race::race

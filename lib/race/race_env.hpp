@@ -10,6 +10,7 @@
 #include <iosfwd>
 #include <memory>
 #include <memory_resource>
+#include <string>
 #include <vector>
 
 #include "dynamics/f16_batch.hpp"
@@ -142,25 +143,48 @@ class RaceEnv {
   // std::runtime_error on a mismatch or a truncated stream.
   void save_state(std::ostream& out) const;
   void load_state(std::istream& in);
+  // The listed arrays of a snapshot, in its order (for tests and for reading a snapshot by hand).
+  struct SnapshotArray {
+    std::string name;
+    std::size_t elements = 0, bytes = 0;
+  };
+  std::vector<SnapshotArray> snapshot_layout() const;
 
  private:
-  // Every per-env and per-aircraft array a snapshot holds after the simulator, the random streams
-  // and the tracks, in snapshot order, with the name a short or mismatched snapshot is reported
-  // by: the one list save_state and load_state walk (a new field is added here, once).
+  // How long a listed array is: per env, per aircraft, or one of the observation buffers.
+  enum class Extent { env, aircraft, aircraft_hl, obs_ego, obs_action, obs_goal, obs_ado, obs_ado_rows, obs_task };
+  std::size_t extent_size(Extent x) const;
+
+  // Every per-env and per-aircraft array after the simulator, the random streams and the tracks:
+  // its snapshot name (a short or mismatched snapshot is reported by it), its length and its value
+  // after construction. The one list the constructor sizes from and save_state / load_state walk,
+  // in snapshot order: a new field is its declaration plus one line here.
   template <class Self, class F>
-  static void visit_snapshot_arrays(Self& s, F&& f) {
-    f("time", s.time_s_); f("hl timer", s.hl_time_left_s_); f("hl due", s.hl_due_); f("env done", s.env_done_);
-    f("alive", s.alive_); f("acted", s.acted_); f("terminated", s.terminated_); f("truncated", s.truncated_);
-    f("cause", s.cause_); f("step cause", s.step_cause_); f("track hint", s.track_hint_); f("ego rank", s.ego_rank_);
-    f("previous ego rank", s.prev_ego_rank_); f("progress", s.progress_ft_); f("lateral", s.lateral_ft_);
-    f("vertical", s.vertical_ft_); f("distance", s.dist_ft_); f("radius", s.radius_ft_);
-    f("tube timer", s.tube_out_s_); f("team rank", s.team_rank_); f("goal distance", s.goal_dist_ft_);
-    f("start lateral", s.start_lateral_ft_); f("start vertical", s.start_vertical_ft_);
-    f("goal point", s.goal_point_); f("goal progress", s.goal_progress_ft_); f("goal lateral", s.goal_lateral_ft_);
-    f("goal vertical", s.goal_vertical_ft_); f("goal bins", s.goal_bins_); f("last action", s.last_action_);
-    f("ego obs", s.ego_); f("prev action obs", s.prev_action_); f("goal obs", s.goal_obs_); f("ado obs", s.ado_);
-    f("task obs", s.task_); f("ado alive", s.ado_alive_); f("ll reward", s.ll_reward_); f("hl reward", s.hl_reward_);
-    f("race winner", s.race_winner_); f("race end", s.race_end_);
+  static void visit_arrays(Self& s, F&& f) {
+    using X = Extent;
+    f("time", s.time_s_, X::env, 0.0); f("hl timer", s.hl_time_left_s_, X::env, 0.0);
+    f("hl due", s.hl_due_, X::env, 1); f("env done", s.env_done_, X::env, 0);
+    f("alive", s.alive_, X::aircraft, 0); f("acted", s.acted_, X::aircraft, 0);
+    f("terminated", s.terminated_, X::aircraft, 0); f("truncated", s.truncated_, X::aircraft, 0);
+    f("cause", s.cause_, X::aircraft, kCauseNone); f("step cause", s.step_cause_, X::aircraft, kCauseNone);
+    f("track hint", s.track_hint_, X::aircraft, -1); f("ego rank", s.ego_rank_, X::aircraft, 0);
+    f("previous ego rank", s.prev_ego_rank_, X::aircraft, 0); f("progress", s.progress_ft_, X::aircraft, 0.0);
+    f("lateral", s.lateral_ft_, X::aircraft, 0.0); f("vertical", s.vertical_ft_, X::aircraft, 0.0);
+    f("distance", s.dist_ft_, X::aircraft, 0.0); f("radius", s.radius_ft_, X::aircraft, 1.0);
+    f("tube timer", s.tube_out_s_, X::aircraft, 0.0); f("team rank", s.team_rank_, X::aircraft, 0.0);
+    f("goal distance", s.goal_dist_ft_, X::aircraft, 0.0);
+    f("start lateral", s.start_lateral_ft_, X::aircraft, 0.0);
+    f("start vertical", s.start_vertical_ft_, X::aircraft, 0.0);
+    f("goal point", s.goal_point_, X::aircraft, Vec3{});
+    f("goal progress", s.goal_progress_ft_, X::aircraft, 0.0);
+    f("goal lateral", s.goal_lateral_ft_, X::aircraft, 0.0);
+    f("goal vertical", s.goal_vertical_ft_, X::aircraft, 0.0);
+    f("goal bins", s.goal_bins_, X::aircraft_hl, s.config_.hl_center_bin());
+    f("ego obs", s.ego_, X::obs_ego, 0.0f); f("prev action obs", s.prev_action_, X::obs_action, 0.0f);
+    f("goal obs", s.goal_obs_, X::obs_goal, 0.0f); f("ado obs", s.ado_, X::obs_ado, 0.0f);
+    f("task obs", s.task_, X::obs_task, 0.0f); f("ado alive", s.ado_alive_, X::obs_ado_rows, 0);
+    f("ll reward", s.ll_reward_, X::aircraft, 0.0f); f("hl reward", s.hl_reward_, X::aircraft, 0.0f);
+    f("race winner", s.race_winner_, X::env, -1); f("race end", s.race_end_, X::env, 0);
   }
 
   void apply_actions(int i0, int i1, const float* actions);
@@ -201,7 +225,6 @@ class RaceEnv {
   std::vector<double> goal_progress_ft_;   // [N] center-line progress of the goal's point
   std::vector<double> goal_lateral_ft_, goal_vertical_ft_;  // [N] the goal's offset in its tube cross-section
   std::vector<std::int64_t> goal_bins_;    // [N, 3] the HL bins the goal was placed with
-  std::vector<float> last_action_;  // [N, 3]
 
   // Outputs. The observation buffers (megabytes, rewritten every step) share one huge-page
   // block like the tracks.

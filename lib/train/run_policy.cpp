@@ -48,7 +48,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   p.checkpoint_dir = dir.string();
   std::string step = "meta.yaml";
   try {
-    p.env_steps = check_checkpoint_meta(dir.string(), run.hash);
+    p.env_steps = check_checkpoint_meta(dir.string(), run.hash, CheckpointUse::policy);
     step = "ll.pt";
     p.ll->load((dir / "ll.pt").string());
     step = "hl.pt";

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 
@@ -68,6 +69,73 @@ std::vector<float> flat_parameters(const torch::nn::Module& m) {
 }  // namespace
 
 // Open high-level decisions of the learner team, one slot per env.
+// The two sides of Trainer::State::visit_checkpoint: each key is written by one and read back
+// by the other from the same list, so saving and loading cannot drift apart.
+struct CheckpointWriter {
+  torch::serialize::OutputArchive a;
+  void tensor(const char* key, torch::Tensor& t) { a.write(key, t); }
+  template <class... T>
+  void integers(const char* key, T&... x) {
+    a.write(key, torch::tensor(std::vector<std::int64_t>{static_cast<std::int64_t>(x)...}));
+  }
+  // Double precision explicitly: torch::tensor of doubles would default to float32.
+  template <class... T>
+  void reals(const char* key, T&... x) {
+    a.write(key, torch::tensor(std::vector<double>{x...}, torch::kFloat64));
+  }
+  template <class T>
+  void integer_list(const char* key, std::vector<T>& v, bool /*fixed_size*/) {
+    a.write(key, torch::tensor(std::vector<std::int64_t>(v.begin(), v.end()), torch::kInt64));
+  }
+  void real_list(const char* key, std::vector<double>& v) { a.write(key, torch::tensor(v, torch::kFloat64)); }
+  void bytes(const char* key, const std::function<void(std::ostream&)>& save, const std::function<void(std::istream&)>&) {
+    std::ostringstream out;
+    save(out);
+    a.write(key, bytes_tensor(out.str()));
+  }
+};
+
+struct CheckpointReader {
+  torch::serialize::InputArchive a;
+  // A fresh tensor per key: reading into a defined tensor would reuse (and reinterpret) it.
+  torch::Tensor get(const char* key, std::int64_t want_numel = -1) {
+    torch::Tensor t;
+    a.read(key, t);
+    TORCH_CHECK(want_numel < 0 || t.numel() == want_numel, "'", key, "' holds ", t.numel(), " values, expected ",
+                want_numel, " (another config?)");
+    return t;
+  }
+  void tensor(const char* key, torch::Tensor& t) { t.copy_(get(key, t.numel())); }
+  template <class... T>
+  void integers(const char* key, T&... x) {
+    const torch::Tensor t = get(key, sizeof...(T)).to(torch::kInt64).contiguous();
+    const std::int64_t* p = t.data_ptr<std::int64_t>();
+    std::size_t k = 0;
+    ((x = static_cast<T>(p[k++])), ...);
+  }
+  template <class... T>
+  void reals(const char* key, T&... x) {
+    const torch::Tensor t = get(key, sizeof...(T)).to(torch::kFloat64).contiguous();
+    const double* p = t.data_ptr<double>();
+    std::size_t k = 0;
+    ((x = p[k++]), ...);
+  }
+  template <class T>
+  void integer_list(const char* key, std::vector<T>& v, bool fixed_size) {
+    const torch::Tensor t = get(key, fixed_size ? static_cast<std::int64_t>(v.size()) : -1).to(torch::kInt64).contiguous();
+    const std::int64_t* p = t.data_ptr<std::int64_t>();
+    v.assign(p, p + t.numel());
+  }
+  void real_list(const char* key, std::vector<double>& v) {
+    const torch::Tensor t = get(key, static_cast<std::int64_t>(v.size())).to(torch::kFloat64).contiguous();
+    v.assign(t.data_ptr<double>(), t.data_ptr<double>() + t.numel());
+  }
+  void bytes(const char* key, const std::function<void(std::ostream&)>&, const std::function<void(std::istream&)>& load) {
+    std::istringstream in(tensor_bytes(get(key)));
+    load(in);
+  }
+};
+
 struct OpenHl {
   HlObs obs;                  // fields [n_env, team_size, ...]
   torch::Tensor actions;      // [n_env, ts, 3] int64
@@ -168,7 +236,37 @@ struct Trainer::State {
   void load_opponent();
   void save_checkpoint();
   void load_checkpoint();
+  // Everything trainer.pt holds, in one list both adapters walk. The clock and the stream are
+  // passed as plain values: saved from wall() and stream.state(), restored by the caller.
+  template <class V>
+  void visit_checkpoint(V& v, double& wall_s, std::uint64_t& stream_state);
 };
+
+template <class V>
+void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& stream_state) {
+  v.bytes("env", [&](std::ostream& out) { env->save_state(out); }, [&](std::istream& in) { env->load_state(in); });
+  v.integers("counters", env_steps, ppo_updates, es_updates, phase, phase_updates, opponent, hl_grad_steps);
+  v.integer_list("pool", pool, false);
+  v.integer_list("side", side, true);
+  v.integer_list("vs_pool", vs_pool, true);
+  v.integers("stream", stream_state);
+  v.tensor("open_ego", open.obs.ego);
+  v.tensor("open_prev_action", open.obs.prev_action);
+  v.tensor("open_ado", open.obs.ado);
+  v.tensor("open_alive", open.obs.ado_alive);
+  v.tensor("open_task", open.obs.task);
+  v.tensor("open_actions", open.actions);
+  v.tensor("open_reward", open.reward);
+  v.tensor("open_active", open.active);
+  v.integer_list("open_flag", open.open, true);
+  v.real_list("returns", ll_ret);
+  v.real_list("hl_returns", hl_ret);
+  // The last updates' statistics, so metrics rows after a resume match an unbroken run.
+  v.reals("last_stats", last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
+          last_ppo.learning_rate, last_es.loss, last_es.q_mean, last_es.end_atom_share, last_es.huber_share,
+          last_es.q_spread, last_es.greedy_entropy, last_es.off_center_share, last_es.loss_before);
+  v.reals("wall", wall_s);
+}
 
 Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
 Trainer::~Trainer() = default;
@@ -636,38 +734,12 @@ void Trainer::State::save_checkpoint() {
     fs::create_directories(dir);
     ppo->save((dir / "ll.pt").string());
     es->save((dir / "hl.pt").string());
-    torch::serialize::OutputArchive a;
-    std::ostringstream env_bytes;
-    env->save_state(env_bytes);
-    a.write("env", bytes_tensor(env_bytes.str()));
-    a.write("counters", torch::tensor({env_steps, ppo_updates, es_updates, static_cast<std::int64_t>(phase),
-                                       static_cast<std::int64_t>(phase_updates), opponent, hl_grad_steps}));
-    a.write("pool", torch::tensor(pool.empty() ? std::vector<std::int64_t>{-1} : pool));
-    std::vector<std::int64_t> sides(side.begin(), side.end()), vp(vs_pool.begin(), vs_pool.end());
-    a.write("side", torch::tensor(sides));
-    a.write("vs_pool", torch::tensor(vp));
-    a.write("stream", torch::tensor({static_cast<std::int64_t>(stream.state())}));
-    a.write("generator", gen.get_state());
-    a.write("open_ego", open.obs.ego);
-    a.write("open_prev_action", open.obs.prev_action);
-    a.write("open_ado", open.obs.ado);
-    a.write("open_alive", open.obs.ado_alive);
-    a.write("open_task", open.obs.task);
-    a.write("open_actions", open.actions);
-    a.write("open_reward", open.reward);
-    a.write("open_active", open.active);
-    a.write("open_flag", torch::tensor(std::vector<std::int64_t>(open.open.begin(), open.open.end())));
-    // Double precision explicitly: torch::tensor of doubles would default to float32.
-    a.write("returns", torch::tensor(std::vector<double>(ll_ret.begin(), ll_ret.end()), torch::kFloat64));
-    a.write("hl_returns", torch::tensor(std::vector<double>(hl_ret.begin(), hl_ret.end()), torch::kFloat64));
-    // The last updates' statistics, so metrics rows after a resume match an unbroken run.
-    a.write("last_stats", torch::tensor({last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
-                                         last_ppo.learning_rate, last_es.loss, last_es.q_mean, last_es.end_atom_share,
-                                         last_es.huber_share, last_es.q_spread, last_es.greedy_entropy,
-                                         last_es.off_center_share, last_es.loss_before},
-                                        torch::kFloat64));
-    a.write("wall", torch::tensor({wall()}, torch::kFloat64));
-    agents::save_archive_atomic(a, (dir / "trainer.pt").string());
+    CheckpointWriter w;
+    double wall_s = wall();
+    std::uint64_t stream_state = stream.state();
+    visit_checkpoint(w, wall_s, stream_state);
+    w.a.write("generator", gen.get_state());
+    agents::save_archive_atomic(w.a, (dir / "trainer.pt").string());
     std::ostringstream meta;
     meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
          << "\nupdates: " << ppo_updates + es_updates << "\n";
@@ -704,11 +776,18 @@ std::string checkpoint_error_reason(const std::exception& e) {
   return what;
 }
 
-std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash) {
+std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash,
+                                   CheckpointUse use) {
   const YAML::Node meta = YAML::LoadFile(checkpoint_dir + "/meta.yaml");
-  if (meta["format"].as<int>() != kCheckpointFormat)
+  const int format = meta["format"].as<int>();
+  const int oldest = use == CheckpointUse::policy ? kOldestPolicyFormat : kCheckpointFormat;
+  if (format < oldest || format > kCheckpointFormat)
     throw std::runtime_error("checkpoint format " + meta["format"].as<std::string>() + ", this build reads " +
-                             std::to_string(kCheckpointFormat));
+                             (oldest == kCheckpointFormat ? "" : std::to_string(oldest) + " to ") +
+                             std::to_string(kCheckpointFormat) +
+                             (use == CheckpointUse::resume && format < oldest && format >= kOldestPolicyFormat
+                                  ? " to resume (its policy can still be raced, replayed and exported)"
+                                  : ""));
   if (meta["config_hash"].as<std::uint64_t>() != expected_config_hash)
     throw std::runtime_error("it was written with a different config.yaml (hash mismatch); restore that file");
   return meta["env_steps"].as<std::int64_t>();
@@ -727,69 +806,12 @@ void Trainer::State::load_checkpoint() {
     file = dir / "hl.pt";
     es->load(file.string());
     file = dir / "trainer.pt";
-    torch::serialize::InputArchive a;
-    a.load_from(file.string());
-    // A fresh tensor per key: reading into a defined tensor would reuse (and reinterpret) it.
-    auto get = [&](const char* key) {
-      torch::Tensor x;
-      a.read(key, x);
-      return x;
-    };
-    torch::Tensor t;
-    t = get("env");
-    std::istringstream env_bytes(tensor_bytes(t));
-    env->load_state(env_bytes);
-    t = get("counters");
-    env_steps = t[0].item<std::int64_t>();
-    ppo_updates = t[1].item<std::int64_t>();
-    es_updates = t[2].item<std::int64_t>();
-    phase = static_cast<int>(t[3].item<std::int64_t>());
-    phase_updates = static_cast<int>(t[4].item<std::int64_t>());
-    opponent = t[5].item<std::int64_t>();
-    hl_grad_steps = t[6].item<std::int64_t>();
-    t = get("pool");
-    pool.clear();
-    for (std::int64_t k = 0; k < t.numel(); ++k)
-      if (t[k].item<std::int64_t>() >= 0) pool.push_back(t[k].item<std::int64_t>());
-    t = get("side");
-    TORCH_CHECK(t.numel() == n_env, "env count differs");
-    for (int e = 0; e < n_env; ++e) side[e] = static_cast<int>(t[e].item<std::int64_t>());
-    t = get("vs_pool");
-    for (int e = 0; e < n_env; ++e) vs_pool[e] = static_cast<std::uint8_t>(t[e].item<std::int64_t>());
-    t = get("stream");
-    stream.set_state(static_cast<std::uint64_t>(t[0].item<std::int64_t>()));
-    t = get("generator");
-    gen.set_state(t);
-    open.obs.ego.copy_(get("open_ego"));
-    open.obs.prev_action.copy_(get("open_prev_action"));
-    open.obs.ado.copy_(get("open_ado"));
-    open.obs.ado_alive.copy_(get("open_alive"));
-    open.obs.task.copy_(get("open_task"));
-    open.actions.copy_(get("open_actions"));
-    open.reward.copy_(get("open_reward"));
-    open.active.copy_(get("open_active"));
-    t = get("open_flag");
-    for (int e = 0; e < n_env; ++e) open.open[e] = static_cast<std::uint8_t>(t[e].item<std::int64_t>());
-    t = get("returns");
-    for (std::size_t k = 0; k < ll_ret.size(); ++k) ll_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
-    t = get("hl_returns");
-    for (std::size_t k = 0; k < hl_ret.size(); ++k) hl_ret[k] = t[static_cast<std::int64_t>(k)].item<double>();
-    t = get("last_stats");
-    last_ppo.policy_loss = t[0].item<double>();
-    last_ppo.value_loss = t[1].item<double>();
-    last_ppo.entropy = t[2].item<double>();
-    last_ppo.approx_kl = t[3].item<double>();
-    last_ppo.learning_rate = t[4].item<double>();
-    last_es.loss = t[5].item<double>();
-    last_es.q_mean = t[6].item<double>();
-    last_es.end_atom_share = t[7].item<double>();
-    last_es.huber_share = t[8].item<double>();
-    last_es.q_spread = t[9].item<double>();
-    last_es.greedy_entropy = t[10].item<double>();
-    last_es.off_center_share = t[11].item<double>();
-    last_es.loss_before = t[12].item<double>();
-    t = get("wall");
-    wall_offset = t.item<double>();
+    CheckpointReader r;
+    r.a.load_from(file.string());
+    std::uint64_t stream_state = 0;
+    visit_checkpoint(r, wall_offset, stream_state);
+    stream.set_state(stream_state);
+    gen.set_state(r.get("generator"));
     t0 = std::chrono::steady_clock::now();
     wall_at_row = wall_offset;
     steps_at_row = env_steps;

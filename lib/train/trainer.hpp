@@ -25,11 +25,17 @@
 namespace f16race::train {
 
 // 2: HL reward scale, elimination rule and HL diagnostics (a format-1 run learned other targets).
-inline constexpr int kCheckpointFormat = 2;
+// 3: the race snapshot no longer holds a copy of the previous actions beside their observation.
+inline constexpr int kCheckpointFormat = 3;
+// The oldest format whose networks (ll.pt, hl.pt) this build still loads to evaluate, replay or
+// export: formats 2 and 3 differ only in the trainer's resume state.
+inline constexpr int kOldestPolicyFormat = 2;
+enum class CheckpointUse { resume, policy };
 
 // Reads CHECKPOINT_DIR/meta.yaml and returns its env_steps; throws std::runtime_error (the caller
 // adds the path) unless it has this build's format and was written under `expected_config_hash`.
-std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash);
+std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint64_t expected_config_hash,
+                                   CheckpointUse use = CheckpointUse::resume);
 
 // The checkpoint folder RUN/checkpoint/LATEST names (surrounding whitespace ignored, so a file
 // edited by hand reads the same everywhere); "" when LATEST is missing or empty.

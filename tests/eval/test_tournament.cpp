@@ -11,6 +11,7 @@
 #include <set>
 
 #include "eval/tournament.hpp"
+#include "eval/tournament_report.hpp"
 #include "io/yaml_config.hpp"
 #include "train/trainer.hpp"
 

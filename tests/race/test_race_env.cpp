@@ -2,10 +2,12 @@
 // permutation invariance, determinism across thread counts, a long random soak, and proof that
 // tracks are flyable by the scripted pilot.
 #include <gtest/gtest.h>
+
 #include <omp.h>
 
 #include <cmath>
 #include <cstring>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <vector>
@@ -344,6 +346,35 @@ TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
   for (int i = 0; i < a.n_aircraft(); ++i) EXPECT_EQ(a.sim().state(kAlt)[i], b.sim().state(kAlt)[i]);
   std::stringstream bad("short");
   EXPECT_THROW(b.load_state(bad), std::runtime_error);
+}
+
+// The field list sizes every array: each is non-empty, a whole number of per-env or per-aircraft
+// rows, named once, and the snapshot holds each of them (its bytes plus a length word).
+TEST(RaceEnv, EveryListedArrayIsSizedOnceAndSnapshotted) {
+  RaceConfig c = small_config(3, 2);
+  RaceEnv env(c);
+  const auto layout = env.snapshot_layout();
+  ASSERT_GE(layout.size(), 30u);
+  std::set<std::string> names;
+  std::size_t listed = 0;
+  for (const auto& a : layout) {
+    EXPECT_TRUE(names.insert(a.name).second) << a.name << " listed twice";
+    EXPECT_GT(a.elements, 0u) << a.name;
+    EXPECT_EQ(a.elements % static_cast<std::size_t>(env.n_env()), 0u) << a.name;
+    listed += sizeof(std::int64_t) + a.bytes;
+  }
+  std::stringstream snap;
+  env.save_state(snap);
+  const std::size_t total = snap.str().size();
+  EXPECT_GT(total, listed);
+  // What precedes the listed arrays (simulator, random streams, tracks) does not depend on them:
+  // the snapshot ends with exactly the listed bytes, so the tail read back is the same list.
+  RaceEnv other(c);
+  std::stringstream again(snap.str());
+  other.load_state(again);
+  std::stringstream snap2;
+  other.save_state(snap2);
+  EXPECT_EQ(snap.str(), snap2.str());
 }
 
 }  // namespace

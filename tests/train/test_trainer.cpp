@@ -241,6 +241,38 @@ TEST(Trainer, RefusesACheckpointWrittenWithAnotherConfig) {
   }
 }
 
+// A checkpoint of the previous format (its meta.yaml says so) is refused by name before any
+// of its bytes are read as this build's layout.
+TEST(Trainer, RefusesACheckpointOfThePreviousFormat) {
+  const std::string dir = fresh_dir("old_format");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  const std::string meta = dir + "/checkpoint/" + latest_checkpoint_name(dir) + "/meta.yaml";
+  YAML::Node m = YAML::LoadFile(meta);
+  m["format"] = kCheckpointFormat - 1;
+  std::ofstream(meta, std::ios::trunc) << m;
+  try {
+    Trainer::resume(dir);
+    FAIL() << "a previous-format checkpoint was accepted";
+  } catch (const std::runtime_error& e) {
+    const std::string want = "checkpoint format " + std::to_string(kCheckpointFormat - 1) + ", this build reads " +
+                             std::to_string(kCheckpointFormat) + " to resume";
+    EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << "one line";
+  }
+  // Its networks are unchanged since kOldestPolicyFormat: still raced, replayed and exported.
+  EXPECT_GT(check_checkpoint_meta(fs::path(meta).parent_path().string(), read_run_config(dir).hash,
+                                  CheckpointUse::policy),
+            0);
+  m["format"] = kOldestPolicyFormat - 1;
+  std::ofstream(meta, std::ios::trunc) << m;
+  EXPECT_THROW(check_checkpoint_meta(fs::path(meta).parent_path().string(), read_run_config(dir).hash,
+                                     CheckpointUse::policy),
+               std::runtime_error);
+}
+
 TEST(Trainer, AtomicCheckpointsLeaveNoTemporaryFilesAndPruneOldOnes) {
   const std::string dir = fresh_dir("atomic");
   Trainer t(smoke(), dir);
