@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "io/provenance.hpp"
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
 #include "race/race_env.hpp"
@@ -21,18 +22,6 @@ namespace f16race::app {
 namespace {
 
 using namespace f16race::dynamics;
-
-std::string cpu_model() {
-  std::ifstream f("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(f, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      const auto p = line.find(':');
-      if (p != std::string::npos) return line.substr(p + 2);
-    }
-  }
-  return "unknown CPU";
-}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -88,7 +77,7 @@ void run_bench_sim(const SimBenchOptions& o) {
   }
   if (!o.json) {
     std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s\n", o.dt_s);
-    std::printf("machine: %s, %d cores; %d aircraft, %d substeps per run, median of %d runs\n", cpu_model().c_str(),
+    std::printf("machine: %s, %d cores; %d aircraft, %d substeps per run, median of %d runs\n", io::cpu_model().c_str(),
                 omp_get_num_procs(), o.aircraft, o.substeps, o.repeats);
     std::printf("%-8s %8s %10s %22s\n", "model", "threads", "aircraft", "aircraft-substeps/s");
   }
@@ -130,7 +119,7 @@ void run_bench_env(const EnvBenchOptions& o) {
   if (!o.json) {
     std::printf("f16race bench env: %d envs x %d aircraft, %d RK4 substeps per LL step, %d LL steps per run, median of %d\n",
                 o.envs, 2 * o.team_size, cfg.substeps, o.steps, o.repeats);
-    std::printf("machine: %s, %d cores\n", cpu_model().c_str(), omp_get_num_procs());
+    std::printf("machine: %s, %d cores\n", io::cpu_model().c_str(), omp_get_num_procs());
     std::printf("%8s %16s %20s %22s %10s\n", "threads", "env_steps/s", "aircraft_steps/s", "sim_only_aircraft/s", "overhead");
   }
   for (int t : threads) {
@@ -199,7 +188,7 @@ void run_bench_soak(const SoakBenchOptions& o) {
   if (!o.json)
     std::printf("f16race bench soak: %.3g aircraft-steps of random, NaN, +-inf, +-1e30 and sign-flipping actions and "
                 "out-of-range HL bins, %d envs x %d aircraft, %d threads\nmachine: %s\n",
-                o.aircraft_steps, o.envs, 2 * o.team_size, omp_get_max_threads(), cpu_model().c_str());
+                o.aircraft_steps, o.envs, 2 * o.team_size, omp_get_max_threads(), io::cpu_model().c_str());
   const race::SoakResult r = race::run_soak(so);
   if (o.json) {
     std::printf("{\"bench\": \"soak\", \"aircraft_steps\": %lld, \"non_finite\": %lld, \"races_finished\": %lld, "

@@ -32,6 +32,7 @@
 #include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
 #include "io/plot.hpp"
+#include "io/provenance.hpp"
 
 extern char** environ;
 
@@ -98,29 +99,6 @@ pid_t spawn_train(const std::vector<std::string>& args, const std::string& log_p
   posix_spawn_file_actions_destroy(&fa);
   if (rc != 0) throw std::runtime_error("study: cannot start a training process: " + std::string(std::strerror(rc)));
   return pid;
-}
-
-std::string command_output(const char* cmd) {
-  std::string out;
-  if (FILE* p = popen(cmd, "r")) {
-    char buf[256];
-    while (std::fgets(buf, sizeof buf, p)) out += buf;
-    pclose(p);
-  }
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  return out.empty() ? "unknown" : out;
-}
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line, family, model, name;
-  while (std::getline(in, line)) {
-    const auto value = [&]() { return line.substr(line.find(':') + 2); };
-    if (name.empty() && line.rfind("model name", 0) == 0) name = value();
-    else if (family.empty() && line.rfind("cpu family", 0) == 0) family = value();
-    else if (model.empty() && line.rfind("model\t", 0) == 0) model = value();
-  }
-  return name + " (family " + family + " model " + model + "), " + std::to_string(omp_get_num_procs()) + " cores";
 }
 
 // Trains the unfinished cells; returns false when stopped by a signal.
@@ -245,8 +223,8 @@ void write_report(const eval::StudyConfig& cfg, const std::vector<eval::StudyCel
   std::ostringstream md;
   md << "# Fig. 3 study: " << cfg.variants.size() << " variants x " << cfg.seeds.size() << " seeds x "
      << cfg.dt_hl_s.size() << " HL intervals\n\n";
-  md << "Written by `f16race study --config " << config_path << " --out " << out << "` at commit "
-     << command_output("git rev-parse --short HEAD 2>/dev/null") << " on " << cpu_model() << ".\n\n";
+  md << "Written by `f16race study --config " << config_path << " --out " << out << "`, a build of commit "
+     << io::build_commit() << ", on " << io::cpu_model() << ", " << omp_get_num_procs() << " cores.\n\n";
   double train_s = 0.0;
   int n_finished = 0;
   for (const auto& c : cells) {

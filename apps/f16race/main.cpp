@@ -13,6 +13,7 @@
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/input_error.hpp"
+#include "io/provenance.hpp"
 #include "io/yaml_config.hpp"
 
 // OpenBLAS (LibTorch's BLAS on Debian) runs its own thread pool that spins against the
@@ -27,7 +28,7 @@ int main(int argc, char** argv) {
   single_threaded_blas();
   CLI::App app{"f16race: simulate, race, train and evaluate teams of F-16 aircraft (AeroBench dynamics)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "f16race 0.1.0");
+  app.set_version_flag("--version", std::string("f16race 0.1.0, commit ") + f16race::io::build_commit());
   int threads = 0;
   // Bounded by the machine: more threads than 4 x its cores only spin against each other (OpenMP
   // waits actively), which made a large count look like a hang.
