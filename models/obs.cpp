@@ -26,29 +26,26 @@ void check_tensor(const torch::Tensor& t, const char* name, std::initializer_lis
 }
 
 namespace {
+// Every check an HL and an LL observation share; `extra` is the one tensor they differ in
+// (the previous HL action or the goal) and its width.
 template <class Obs>
-void check_common(const Obs& obs, const ObsDims& dims, int64_t b) {
+int64_t check_common(const Obs& obs, const ObsDims& dims, const torch::Tensor& extra, const char* extra_name,
+                     int64_t d_extra) {
+  check_tensor(obs.ego, "ego", {-1, dims.d_ego}, torch::kFloat32);
+  const int64_t b = obs.ego.size(0);
+  check_tensor(extra, extra_name, {b, d_extra}, torch::kFloat32);
   check_tensor(obs.ado, "ado", {b, dims.n_other, dims.d_ado}, torch::kFloat32);
   check_tensor(obs.ado_alive, "ado_alive", {b, dims.n_other}, torch::kBool);
   check_tensor(obs.task, "task", {b, dims.d_task}, torch::kFloat32);
+  return b;
 }
 }  // namespace
 
 int64_t check_obs(const HlObs& obs, const ObsDims& dims) {
-  check_tensor(obs.ego, "ego", {-1, dims.d_ego}, torch::kFloat32);
-  const int64_t b = obs.ego.size(0);
-  check_tensor(obs.prev_action, "prev_action", {b, dims.d_prev_action}, torch::kFloat32);
-  check_common(obs, dims, b);
-  return b;
+  return check_common(obs, dims, obs.prev_action, "prev_action", dims.d_prev_action);
 }
 
-int64_t check_obs(const LlObs& obs, const ObsDims& dims) {
-  check_tensor(obs.ego, "ego", {-1, dims.d_ego}, torch::kFloat32);
-  const int64_t b = obs.ego.size(0);
-  check_tensor(obs.goal, "goal", {b, dims.d_goal}, torch::kFloat32);
-  check_common(obs, dims, b);
-  return b;
-}
+int64_t check_obs(const LlObs& obs, const ObsDims& dims) { return check_common(obs, dims, obs.goal, "goal", dims.d_goal); }
 
 HlObs index_rows(const HlObs& o, const torch::Tensor& i) {
   return {o.ego.index_select(0, i), o.prev_action.index_select(0, i), o.ado.index_select(0, i),

@@ -51,8 +51,11 @@ LlObs index_rows(const LlObs& obs, const torch::Tensor& index);
 HlObs flatten2(const HlObs& obs);
 LlObs flatten2(const LlObs& obs);
 
-// Explicit CPU generator: all sampling in the project goes through one of these, never the
-// global RNG, so runs are reproducible from their seed.
+// Explicit CPU generator: every draw during training and evaluation (actions, exploration,
+// minibatches) goes through one of these, so runs are reproducible from their seed. The one
+// use of LibTorch's global generator is the initial weights: LibTorch 1.13's nn::init functions
+// take no generator, so the trainer and RunPolicy seed it (torch::manual_seed) right before the
+// networks are built.
 inline at::Generator make_generator(uint64_t seed) { return at::detail::createCPUGenerator(seed); }
 
 }  // namespace f16race::models

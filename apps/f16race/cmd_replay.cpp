@@ -17,7 +17,7 @@ struct ReplayCliOptions {
 };
 
 void run_replay_command(const ReplayCliOptions& o) {
-  const eval::ReplayResult r = eval::run_replay(o.replay);
+  const eval::RaceReplay r = eval::run_replay(o.replay);
   std::string msg;
   const bool drawn = eval::write_replay(r, o.out, &msg);
   const auto& t = r.trace;

@@ -18,21 +18,18 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "commands.hpp"
 #include "eval/study.hpp"
+#include "eval/study_report.hpp"
 #include "eval/tournament.hpp"
 #include "eval/tournament_report.hpp"
 #include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
-#include "io/plot.hpp"
-#include "io/provenance.hpp"
 
 extern char** environ;
 
@@ -187,83 +184,6 @@ bool train_cells(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell
   return !g_stop;
 }
 
-// One figure per interval: every run's winrate against its training opponents and its finish
-// rate over env steps, a colour per variant.
-void write_curves(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, double dt,
-                  const std::string& out, std::string* note) {
-  static const std::map<std::string, std::string> colour{
-      {"es", "#7f7f7f"}, {"es_d1", "#1f77b4"}, {"es_d2", "#2ca02c"}, {"es_d3", "#d62728"}};
-  io::PlotSpec spec;
-  spec.output = (fs::path(out) / ("curves_" + eval::interval_name(dt) + ".png")).string();
-  spec.rows = 1;
-  spec.cols = 2;
-  spec.width_px = 1400;
-  spec.height_px = 550;
-  spec.atomic_output = true;
-  spec.title = "Learning curves, HL interval " + eval::interval_name(dt).substr(2) + " s (smoothed)";
-  io::PlotPanel win{"winrate vs training opponents (self-play and pool)", "env steps", "winrate", {}, "set yrange [0:1]"};
-  io::PlotPanel fin{"finish rate", "env steps", "races ended at the finish line", {}, "set yrange [0:1]"};
-  for (const auto& c : cells) {
-    if (eval::interval_name(c.dt_hl_s) != eval::interval_name(dt)) continue;
-    const std::string data = fs::absolute(fs::path(c.run_dir) / "metrics.csv").string();
-    const std::string style = "lines lw 1.2 lc rgb '" + colour.at(c.variant) + "'";
-    const std::string title = c.seed == cfg.seeds.front() ? c.variant : "";
-    win.series.push_back({data, "3:9 smooth bezier", style, title, ""});
-    fin.series.push_back({data, "3:10 smooth bezier", style, title, ""});
-  }
-  spec.panels = {win, fin};
-  std::string msg;
-  if (!io::render_plot(spec, spec.output.substr(0, spec.output.size() - 4) + ".gp", &msg)) *note += msg + "\n";
-}
-
-// The report holds every interval whose tournament is written; an interval still training is
-// named as such, so a study stopped half way already publishes its finished horizon.
-void write_report(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, const std::string& out,
-                  const std::string& config_path, double tournament_s) {
-  std::ostringstream md;
-  md << "# Fig. 3 study: " << cfg.variants.size() << " variants x " << cfg.seeds.size() << " seeds x "
-     << cfg.dt_hl_s.size() << " HL intervals\n\n";
-  md << "Written by `f16race study --config " << config_path << " --out " << out << "`, a build of commit "
-     << io::build_commit() << ", on " << io::cpu_model() << ", " << omp_get_num_procs() << " cores.\n\n";
-  double train_s = 0.0;
-  int n_finished = 0;
-  for (const auto& c : cells) {
-    const eval::CellStatus s = eval::cell_status(cfg, c);
-    train_s += s.wall_s;
-    n_finished += s.state == eval::CellState::finished;
-  }
-  char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "Compute: %.1f h of training summed over %d of %zu runs finished (one thread each, %d at a time), "
-                "%.0f s of tournaments in this pass.\n\n",
-                train_s / 3600.0, n_finished, cells.size(), cfg.jobs, tournament_s);
-  md << buf;
-  md << "Each run: `f16race --threads 1 train --config " << cfg.base_config
-     << " --set hl.agent=V --seed S --set race.dt_hl_s=D --set train.total_env_steps=" << cfg.total_env_steps
-     << "`; each interval's tournament: `f16race tournament --runs <its runs>" << (cfg.controls ? " --controls" : "")
-     << " --races " << cfg.races_per_pair << " --seed " << cfg.tournament_seed << "`.\n\n";
-  std::string notes;
-  for (double dt : cfg.dt_hl_s) {
-    const std::string name = eval::interval_name(dt);
-    md << "## HL interval " << name.substr(2) << " s\n\n";
-    const fs::path summary = fs::path(eval::interval_dir(out, dt)) / "tournament" / "summary.md";
-    if (!fs::exists(summary)) {
-      md << "Not raced yet: its runs are still training. Run the study command again to continue.\n\n";
-      continue;
-    }
-    md << "![tournament](" << name << "/tournament/tournament.png)\n\n";
-    write_curves(cfg, cells, dt, out, &notes);
-    md << "![learning curves](curves_" << name << ".png)\n\n";
-    std::ifstream in(summary);
-    std::string text((std::istreambuf_iterator<char>(in)), {});
-    // The tournament's own title becomes a sub-heading here.
-    if (text.rfind("# ", 0) == 0) text = "#" + text;
-    md << text << "\n";
-  }
-  if (!notes.empty()) md << "Figures not drawn: " << notes << "\n";
-  io::write_file_atomic((fs::path(out) / "report.md").string(), md.str());
-}
-
 void run_study(const StudyOptions& o) {
   const eval::StudyConfig cfg = eval::read_study_config(o.config);
   const std::vector<eval::StudyCell> cells = eval::plan_study(cfg, o.out);
@@ -311,10 +231,10 @@ void run_study(const StudyOptions& o) {
     eval::write_tournament_report(r, t);
     if (g_stop) throw ExitStatus{130};
     tournament_s += std::chrono::duration<double>(Clock::now() - t0).count();
-    write_report(cfg, cells, o.out, o.config, tournament_s);
+    eval::write_study_report(cfg, cells, o.out, o.config, tournament_s);
     std::printf("study: %s done; report so far in %s/report.md\n", eval::interval_name(dt).c_str(), o.out.c_str());
   }
-  write_report(cfg, cells, o.out, o.config, tournament_s);
+  eval::write_study_report(cfg, cells, o.out, o.config, tournament_s);
   std::printf("study: done; report in %s/report.md\n", o.out.c_str());
 }
 

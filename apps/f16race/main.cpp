@@ -10,11 +10,8 @@
 #include <string>
 
 #include "commands.hpp"
-#include "io/atomic_file.hpp"
-#include "io/csv_table.hpp"
 #include "io/input_error.hpp"
 #include "io/provenance.hpp"
-#include "io/yaml_config.hpp"
 
 // OpenBLAS (LibTorch's BLAS on Debian) runs its own thread pool that spins against the
 // OpenMP threads of the simulator and of LibTorch; measured 2.7x slower training. Parallelism
@@ -57,19 +54,7 @@ int main(int argc, char** argv) {
     return rc == 0 ? 0 : 2;
   } catch (const f16race::app::ExitStatus& e) {
     return e.code;
-  } catch (const f16race::app::UserError& e) {
-    std::fprintf(stderr, "f16race: error: %s\n", e.what());
-    return 2;
-  } catch (const f16race::io::ConfigError& e) {
-    std::fprintf(stderr, "f16race: error: %s\n", e.what());
-    return 2;
-  } catch (const f16race::io::InputError& e) {  // a run folder, checkpoint or request the user can fix
-    std::fprintf(stderr, "f16race: error: %s\n", e.what());
-    return 2;
-  } catch (const f16race::io::CsvError& e) {
-    std::fprintf(stderr, "f16race: error: %s\n", e.what());
-    return 2;
-  } catch (const f16race::io::FileWriteError& e) {  // the user's disk or folder, not our bug
+  } catch (const f16race::io::InputError& e) {  // every user error: config, CSV, run folder, disk, option
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
   } catch (const std::filesystem::filesystem_error& e) {

@@ -18,29 +18,19 @@ inline void save_archive_atomic(torch::serialize::OutputArchive& archive, const 
   io::write_file_atomic(path, bytes.str());
 }
 
-inline void write_module(torch::serialize::OutputArchive& root, const std::string& key, const torch::nn::Module& m) {
+// A module or an optimizer as a sub-archive under `key`: both have save/load on archives.
+template <class Saveable>
+void write_sub_archive(torch::serialize::OutputArchive& root, const std::string& key, const Saveable& part) {
   torch::serialize::OutputArchive sub;
-  m.save(sub);
+  part.save(sub);
   root.write(key, sub);
 }
 
-inline void read_module(torch::serialize::InputArchive& root, const std::string& key, torch::nn::Module& m) {
+template <class Loadable>
+void read_sub_archive(torch::serialize::InputArchive& root, const std::string& key, Loadable& part) {
   torch::serialize::InputArchive sub;
   root.read(key, sub);
-  m.load(sub);
-}
-
-inline void write_optimizer(torch::serialize::OutputArchive& root, const std::string& key,
-                            const torch::optim::Optimizer& opt) {
-  torch::serialize::OutputArchive sub;
-  opt.save(sub);
-  root.write(key, sub);
-}
-
-inline void read_optimizer(torch::serialize::InputArchive& root, const std::string& key, torch::optim::Optimizer& opt) {
-  torch::serialize::InputArchive sub;
-  root.read(key, sub);
-  opt.load(sub);
+  part.load(sub);
 }
 
 inline int64_t read_int(torch::serialize::InputArchive& root, const std::string& key) {
@@ -53,16 +43,16 @@ inline int64_t read_int(torch::serialize::InputArchive& root, const std::string&
 // update counter and the minibatch generator, so a resumed agent continues exactly.
 inline void write_agent_state(torch::serialize::OutputArchive& root, const torch::nn::Module& normalizer,
                               const torch::optim::Optimizer& opt, int64_t update_count, const at::Generator& generator) {
-  write_module(root, "normalizer", normalizer);
-  write_optimizer(root, "optimizer", opt);
+  write_sub_archive(root, "normalizer", normalizer);
+  write_sub_archive(root, "optimizer", opt);
   root.write("update_count", torch::tensor(update_count));
   root.write("generator_state", generator.get_state());
 }
 
 inline void read_agent_state(torch::serialize::InputArchive& root, torch::nn::Module& normalizer,
                              torch::optim::Optimizer& opt, int64_t* update_count, at::Generator& generator) {
-  read_module(root, "normalizer", normalizer);
-  read_optimizer(root, "optimizer", opt);
+  read_sub_archive(root, "normalizer", normalizer);
+  read_sub_archive(root, "optimizer", opt);
   *update_count = read_int(root, "update_count");
   torch::Tensor state;
   root.read("generator_state", state);

@@ -345,8 +345,8 @@ EsStats EsAgent::update(const EsBatch& batch) {
 
 void EsAgent::save(const std::string& path) const {
   torch::serialize::OutputArchive root;
-  write_module(root, "critic", *critic_);
-  write_module(root, "target", *target_);
+  write_sub_archive(root, "critic", *critic_);
+  write_sub_archive(root, "target", *target_);
   root.write("variant", torch::tensor(static_cast<int64_t>(cfg_.variant)));
   write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
   save_archive_atomic(root, path);
@@ -358,8 +358,8 @@ void EsAgent::load(const std::string& path) {
   const auto variant = static_cast<EsVariant>(read_int(root, "variant"));
   TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: ", path, " holds variant ", es_variant_name(variant),
               ", this agent is ", es_variant_name(cfg_.variant));
-  read_module(root, "critic", *critic_);
-  read_module(root, "target", *target_);
+  read_sub_archive(root, "critic", *critic_);
+  read_sub_archive(root, "target", *target_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
 }
 

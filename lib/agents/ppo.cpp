@@ -158,7 +158,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
 
 void PpoAgent::save(const std::string& path) const {
   torch::serialize::OutputArchive root;
-  write_module(root, "net", *net_);
+  write_sub_archive(root, "net", *net_);
   write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
   save_archive_atomic(root, path);
 }
@@ -166,7 +166,7 @@ void PpoAgent::save(const std::string& path) const {
 void PpoAgent::load(const std::string& path) {
   torch::serialize::InputArchive root;
   root.load_from(path);
-  read_module(root, "net", *net_);
+  read_sub_archive(root, "net", *net_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
 }
 

@@ -66,18 +66,23 @@ struct BatchView {
 
 F16_INLINE bool is_finite(double v) { return std::fabs(v) <= DBL_MAX; }
 
+// State and references of aircraft i from the column-major batch block into locals.
+F16_INLINE void load_lane(const double* __restrict data, int stride, int i, double* __restrict x,
+                          double* __restrict u) {
+#pragma GCC unroll 16
+  for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
+#pragma GCC unroll 4
+  for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
+}
+
 // One aircraft, one fixed step, inlined into the SIMD lane loop of step_block. Frozen lanes
 // are computed too (SIMD has no per-lane branches) but their results are discarded.
 template <AeroModel MODEL, Integrator INTEGRATOR>
 F16_INLINE void step_lane(double* __restrict data, int stride, std::int32_t* __restrict status_arr, int i,
                           double dt, const EnvelopeLimits& lim) {
   const std::int32_t status = status_arr[i];
-  double x[kNumStates];
-#pragma GCC unroll 16
-  for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
-  double u[kNumRefs];
-#pragma GCC unroll 4
-  for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
+  double x[kNumStates], u[kNumRefs];
+  load_lane(data, stride, i, x, u);
 
   double xn[kNumStates];
   if constexpr (INTEGRATOR == Integrator::kRk4) {
@@ -133,12 +138,8 @@ void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimi
 // in the SIMD loop body, where GCC would turn them into per-lane memory arrays.
 template <AeroModel MODEL>
 F16_INLINE void outputs_lane(double* __restrict data, int stride, int i) {
-  double x[kNumStates];
-#pragma GCC unroll 16
-  for (int s = 0; s < kNumStates; ++s) x[s] = data[s * stride + i];
-  double u[kNumRefs];
-#pragma GCC unroll 4
-  for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
+  double x[kNumStates], u[kNumRefs];
+  load_lane(data, stride, i, x, u);
   const ClosedLoopOutputs o = closed_loop_derivative<MODEL>(x, u);
   double* out = data + (kNumStates + kNumRefs) * stride + i;
   out[kOutNz * stride] = o.nz_g;

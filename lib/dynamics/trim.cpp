@@ -54,7 +54,7 @@ TrimResult trim_level_flight(const TrimRequest& req) {
     std::ostringstream msg;
     msg << "trim at vt=" << req.vt_ftps << " ft/s, alt=" << req.alt_ft << " ft (" << aero_model_name(req.model)
         << "): " << why << "; choose a speed/altitude the F-16 can hold level (e.g. 400-900 ft/s below 40000 ft)";
-    throw std::runtime_error(msg.str());
+    throw TrimError(msg.str());
   };
   if (!(req.vt_ftps > 0.0) || !std::isfinite(req.alt_ft)) fail("invalid request");
 

@@ -1,11 +1,19 @@
 #pragma once
 // Wings-level, constant-altitude trim of the closed-loop F-16, the start condition of the
 // AeroBench reference scenarios and of every race.
+#include <stdexcept>
 #include <string>
 
 #include "dynamics/state.hpp"
 
 namespace f16race::dynamics {
+
+// No level trim at the requested speed and altitude: a request the caller can change, so the
+// callers turn it into their user-facing error with the option or key it came from.
+class TrimError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct TrimRequest {
   AeroModel model = AeroModel::kMorelli;
@@ -25,7 +33,7 @@ struct TrimResult {
 
 // Solves d(vt) = d(alpha) = d(q) = 0 for (alpha, elevator, throttle) by Newton's method on the
 // plant, then preloads int_e_Nz so that the LQR elevator equals the trim elevator, as the
-// reference README describes. Throws std::runtime_error naming the request when no trim exists
+// reference README describes. Throws TrimError naming the request when no trim exists
 // (e.g. too slow to fly level, or beyond full afterburner).
 TrimResult trim_level_flight(const TrimRequest& request);
 

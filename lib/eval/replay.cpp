@@ -58,7 +58,7 @@ std::string seconds(double t) {
 
 }  // namespace
 
-ReplayResult run_replay(const ReplayOptions& o) {
+RaceReplay run_replay(const ReplayOptions& o) {
   torch::NoGradGuard no_grad;
   const auto [blue_path, blue_rule] = parse_entry_spec(o.run);
   Side blue{"", train::load_run_policy(blue_path), blue_rule};
@@ -125,10 +125,10 @@ ReplayResult run_replay(const ReplayOptions& o) {
     rec.after_step(env);
     block_counter.after_step(race::block_view(env));
   }
-  return ReplayResult{rec.trace(0), blue.name, red.name, block_counter.events()};
+  return RaceReplay{rec.trace(0), blue.name, red.name, block_counter.events()};
 }
 
-bool write_replay(const ReplayResult& r, const std::string& out_dir, std::string* message) {
+bool write_replay(const RaceReplay& r, const std::string& out_dir, std::string* message) {
   fs::create_directories(out_dir);
   const race::RaceTrace& t = r.trace;
   race::write_trace_csv(t, out_dir, "replay");

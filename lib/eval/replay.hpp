@@ -21,7 +21,9 @@ struct ReplayOptions {
   double epsilon = 0.0;    // HL exploration of both teams
 };
 
-struct ReplayResult {
+// One replayed race: its trace, who flew it and the blocks in it (dynamics::ReplayResult is the
+// unrelated one-aircraft reference replay).
+struct RaceReplay {
   race::RaceTrace trace;
   std::string blue, red;                 // entry names
   std::vector<race::BlockEvent> blocks;  // in the order they happened (race/block_events.hpp)
@@ -29,11 +31,11 @@ struct ReplayResult {
 
 // Throws io::InputError naming the folder when a run is missing, corrupt or was trained for
 // another race shape than the blue run.
-ReplayResult run_replay(const ReplayOptions& options);
+RaceReplay run_replay(const ReplayOptions& options);
 
 // replay_agentK.csv, replay_goals.csv, replay_track.csv, replay_tube.csv, replay_blocks.csv, replay.png (+ .gp),
 // replay.acmi and replay.md (who won, how, each aircraft's fate) into out_dir. Returns false
 // with `message` when gnuplot is missing (everything else is still written).
-bool write_replay(const ReplayResult& result, const std::string& out_dir, std::string* message);
+bool write_replay(const RaceReplay& result, const std::string& out_dir, std::string* message);
 
 }  // namespace f16race::eval

@@ -2,7 +2,8 @@
 // The Fig. 3 study (issue 14): every (variant x seed x HL interval) training run a study config
 // lists, each in its own run folder under the study's output folder, and a tournament per HL
 // interval. This file holds the plan and the state of each cell (what is done, what resumes); the
-// `f16race study` command runs the trainings as child processes and writes the report.
+// `f16race study` command runs the trainings as child processes; eval/study_report writes the
+// report.
 #include <cstdint>
 #include <string>
 #include <vector>

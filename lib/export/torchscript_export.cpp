@@ -54,7 +54,8 @@ std::string linear(const std::string& x, const std::string& layer) {
 void copy_normalizer(torch::jit::Module& out, const models::ObsNormalizer& norm, bool enabled, const models::ObsDims& d) {
   const std::pair<const char*, const models::RunningNorm*> fields[] = {
       {"ego", &norm->ego()}, {"extra", &norm->extra()}, {"ado", &norm->ado()}, {"task", &norm->task()}};
-  const int64_t dims[] = {d.d_ego, 3, d.d_ado, d.d_task};
+  // The "extra" field is prev_action (HL) or goal (LL): both are 3 wide (race::kActionDim, kGoalDim).
+  const int64_t dims[] = {d.d_ego, d.d_goal, d.d_ado, d.d_task};
   int k = 0;
   for (const auto& [name, rn] : fields) {
     const int64_t n = dims[k++];
@@ -177,8 +178,8 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "assert (out[\"mean\"] - io[\"ll_mean\"]).abs().max() < 1e-5\n```\n\n";
   o << "## Inputs\n\n| name | shape | dtype | meaning |\n|---|---|---|---|\n"
     << "| ego | [B, " << d.d_ego << "] | float32 | own state s̄, angles as sin/cos (table below) |\n"
-    << "| prev_action | [B, 3] | float32 | HL only: the aircraft's last LL action in [-1, 1] |\n"
-    << "| goal | [B, 3] | float32 | LL only: the HL goal as a lane, ahead along the track and across it |\n"
+    << "| prev_action | [B, " << d.d_prev_action << "] | float32 | HL only: the aircraft's last LL action in [-1, 1] |\n"
+    << "| goal | [B, " << d.d_goal << "] | float32 | LL only: the HL goal as a lane, ahead along the track and across it |\n"
     << "| ado | [B, " << d.n_other << ", " << d.d_ado
     << "] | float32 | one row per other aircraft, in agent order with self skipped (teammates first for blue) |\n"
     << "| ado_alive | [B, " << d.n_other << "] | bool | false = that aircraft is out (its row is ignored) |\n"
@@ -199,10 +200,12 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << 5 * rc.preview_points + 7 << " team rank (0, 0.5, 1).\n\n";
   o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
-    << "| bins | [B, 3] int64 | greedy goal bin per axis (north, east, up), each in [0, " << nb << ") |\n";
+    << "| bins | [B, 3] int64 | greedy goal bin per axis ("
+    << (rc.goal_frame == race::GoalFrame::kTrack ? "along the track, right, up" : "north, east, up") << "), each in [0, "
+    << nb << ") |\n";
   if (joint)
-    o << "| q | [B, " << nb * nb * nb << "] | utility of each joint action b_n·" << nb * nb << " + b_e·" << nb
-      << " + b_u (bins = its argmax, decoded) |\n";
+    o << "| q | [B, " << nb * nb * nb << "] | utility of each joint action b_0·" << nb * nb << " + b_1·" << nb
+      << " + b_2, b_k the bin of axis k (bins = its argmax, decoded) |\n";
   else
     o << "| q | [B, 3, " << nb << "] | utility of each bin per axis" << (d3 ? " (expected value of the atoms)" : "")
       << " |\n";

@@ -6,13 +6,15 @@
 #include <string>
 #include <string_view>
 
+#include "io/input_error.hpp"
+
 namespace f16race::io {
 
 // A file could not be written; the message is one line naming the file, the cause and what
 // was left untouched. The apps report it as a user error (exit 2): the disk is the user's.
-class FileWriteError : public std::runtime_error {
+class FileWriteError : public InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using InputError::InputError;
 };
 
 // Writes `bytes` to `path` through a temporary in the same folder (created with its parents),

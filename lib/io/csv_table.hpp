@@ -6,13 +6,15 @@
 #include <unordered_map>
 #include <vector>
 
+#include "io/input_error.hpp"
+
 namespace f16race::io {
 
 // Thrown for any bad input; what() is one line naming the file (and line/column
 // where known) and how to fix it.
-class CsvError : public std::runtime_error {
+class CsvError : public InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using InputError::InputError;
 };
 
 // A CSV file with a header row, kept as text cells; numeric columns are

@@ -10,11 +10,13 @@
 #include <string>
 #include <vector>
 
+#include "io/input_error.hpp"
+
 namespace f16race::io {
 
-class ConfigError : public std::runtime_error {
+class ConfigError : public InputError {
  public:
-  using std::runtime_error::runtime_error;
+  using InputError::InputError;
 };
 
 // Loads a YAML file (ConfigError when missing or malformed, with the line).

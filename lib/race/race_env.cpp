@@ -131,7 +131,7 @@ RaceEnv::RaceEnv(const RaceConfig& config)
     req.alt_ft = trim_alt0_ft_ + k * trim_step_ft_;
     try {
       trims_.push_back(trim_level_flight(req));
-    } catch (const std::runtime_error& e) {
+    } catch (const TrimError& e) {
       throw io::ConfigError(std::string("race.start_speed_ftps: ") + e.what());
     }
   }
@@ -558,17 +558,18 @@ void RaceEnv::write_observations(int env) {
   // Positions relative to the first aircraft keep float precision on long tracks.
   // Padded to kMaxAgents with zeros: the vector loops below run the full fixed length (one
   // 16-lane iteration), which is faster than a loop of na iterations and its remainder.
-  float px[kMaxAgents] = {}, py[kMaxAgents] = {}, pz[kMaxAgents] = {}, vx[kMaxAgents] = {}, vy[kMaxAgents] = {};
-  float vz[kMaxAgents] = {}, prog[kMaxAgents] = {}, alive_f[kMaxAgents] = {};
+  float pn_rel_ft[kMaxAgents] = {}, pe_rel_ft[kMaxAgents] = {}, pu_rel_ft[kMaxAgents] = {};  // north/east/up
+  float vn_ftps[kMaxAgents] = {}, ve_ftps[kMaxAgents] = {}, vu_ftps[kMaxAgents] = {};
+  float prog[kMaxAgents] = {}, alive_f[kMaxAgents] = {};
   float ang[5][kMaxAgents] = {};
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
-    px[a] = static_cast<float>(sim_.state(kPn)[i] - sim_.state(kPn)[base]);
-    py[a] = static_cast<float>(sim_.state(kPe)[i] - sim_.state(kPe)[base]);
-    pz[a] = static_cast<float>(sim_.state(kAlt)[i] - sim_.state(kAlt)[base]);
-    vx[a] = static_cast<float>(sim_.output(kOutVn)[i]);
-    vy[a] = static_cast<float>(sim_.output(kOutVe)[i]);
-    vz[a] = static_cast<float>(sim_.output(kOutVu)[i]);
+    pn_rel_ft[a] = static_cast<float>(sim_.state(kPn)[i] - sim_.state(kPn)[base]);
+    pe_rel_ft[a] = static_cast<float>(sim_.state(kPe)[i] - sim_.state(kPe)[base]);
+    pu_rel_ft[a] = static_cast<float>(sim_.state(kAlt)[i] - sim_.state(kAlt)[base]);
+    vn_ftps[a] = static_cast<float>(sim_.output(kOutVn)[i]);
+    ve_ftps[a] = static_cast<float>(sim_.output(kOutVe)[i]);
+    vu_ftps[a] = static_cast<float>(sim_.output(kOutVu)[i]);
     prog[a] = static_cast<float>((progress_ft_[i] - progress_ft_[base]) / 5000.0);
     alive_f[a] = alive_[i] ? 1.0f : 0.0f;
     ang[0][a] = static_cast<float>(sim_.state(kAlpha)[i]);
@@ -616,22 +617,22 @@ void RaceEnv::write_observations(int env) {
     float f[8][kMaxAgents];
 #pragma omp simd
     for (int b = 0; b < kMaxAgents; ++b) {
-      // Heading frame of the ego: x forward, y right, z up.
-      const float dn = px[b] - px[a], de = py[b] - py[a], du = pz[b] - pz[a];
+      // North/east/up differences, then the ego's heading frame (_hdg): x forward, y right.
+      const float dn = pn_rel_ft[b] - pn_rel_ft[a], de = pe_rel_ft[b] - pe_rel_ft[a], du = pu_rel_ft[b] - pu_rel_ft[a];
       const float h2 = dn * dn + de * de, rh = std::sqrt(h2), r = std::sqrt(h2 + du * du);
-      const float x = ca * dn + sa * de, y = -sa * dn + ca * de;
+      const float x_hdg = ca * dn + sa * de, y_hdg = -sa * dn + ca * de;
       const float inv_rh = rh > 1e-3f ? 1.0f / rh : 0.0f, inv_r = r > 1e-3f ? 1.0f / r : 0.0f;
-      const float vn = vx[b] - vx[a], ve = vy[b] - vy[a];
+      const float vn = vn_ftps[b] - vn_ftps[a], ve = ve_ftps[b] - ve_ftps[a];
       // Masked by a multiply (GCC does not vectorise the select here): a dead aircraft's frozen
       // state is its last finite one, so m = 0 gives exact zeros.
       const float m = alive_f[b];
       f[0][b] = m * std::min(r * (1.0f / 5000.0f), 10.0f);
-      f[1][b] = m * (inv_rh > 0.0f ? y * inv_rh : 0.0f);
-      f[2][b] = m * (inv_rh > 0.0f ? x * inv_rh : 1.0f);
+      f[1][b] = m * (inv_rh > 0.0f ? y_hdg * inv_rh : 0.0f);
+      f[2][b] = m * (inv_rh > 0.0f ? x_hdg * inv_rh : 1.0f);
       f[3][b] = m * (du * inv_r);
       f[4][b] = m * ((ca * vn + sa * ve) * (1.0f / 500.0f));
       f[5][b] = m * ((-sa * vn + ca * ve) * (1.0f / 500.0f));
-      f[6][b] = m * ((vz[b] - vz[a]) * (1.0f / 500.0f));
+      f[6][b] = m * ((vu_ftps[b] - vu_ftps[a]) * (1.0f / 500.0f));
       f[7][b] = m * std::min(std::max(prog[b] - prog[a], -10.0f), 10.0f);
     }
     // Other aircraft in agent order (self skipped), so permuting them permutes rows only.

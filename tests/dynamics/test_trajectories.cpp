@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "aerobench_files/aerobench_csv.hpp"
 #include "dynamics/reference_replay.hpp"
 #include "reference_data.hpp"
 
@@ -24,21 +25,13 @@ struct Errors {
 
 Errors replay_and_compare(const Case& c) {
   const io::CsvTable ref = test::load_reference(std::string(c.scenario) + "_" + aero_model_name(c.model) + ".csv");
-  ReplayRequest req;
-  req.model = c.model;
-  req.integrator = Integrator::kRk4;
-  req.dt_s = 0.01;
-  req.output_times_s = ref.numeric("t_s");
-  for (int s = 0; s < kNumStates; ++s) req.x0[s] = ref.numeric(kStateNames[s]).front();
-  req.refs.t_s = req.output_times_s;
-  req.refs.interp = c.interp;
-  for (int r = 0; r < kNumRefs; ++r) req.refs.values[r] = ref.numeric(kRefNames[r]);
-  // The autopilot's mode column marks where references jump rather than vary smoothly.
-  const std::size_t mode_col = ref.column_index("mode");
-  for (std::size_t k = 0; k < ref.rows(); ++k) {
-    const bool changed = k > 0 && ref.cell(k, mode_col) != ref.cell(k - 1, mode_col);
-    req.refs.segment.push_back(k == 0 ? 0 : req.refs.segment.back() + (changed ? 1 : 0));
-  }
+  aerobench_files::ReplaySettings settings;
+  settings.model = c.model;
+  settings.integrator = Integrator::kRk4;
+  settings.interp = c.interp;
+  settings.dt_s = 0.01;
+  // The file's `mode` column becomes reference segments (jumps are never interpolated across).
+  const ReplayRequest req = aerobench_files::request_from_reference(ref, settings);
   const ReplayResult res = replay_references(req);
   EXPECT_EQ(res.status, kStatusOk);
   EXPECT_EQ(res.samples.size(), ref.rows());

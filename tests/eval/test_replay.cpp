@@ -38,7 +38,7 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
     o.run = run;
     o.opponent = opp;
     o.seed = 5;
-    const ReplayResult r = run_replay(o);
+    const RaceReplay r = run_replay(o);
     const race::RaceTrace& t = r.trace;
     EXPECT_TRUE(t.done) << opp;
     EXPECT_GT(t.duration_s, 0.0);
@@ -59,7 +59,7 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
   ReplayOptions o;
   o.run = run;
   o.seed = 5;
-  const ReplayResult a = run_replay(o), b = run_replay(o);
+  const RaceReplay a = run_replay(o), b = run_replay(o);
   ASSERT_EQ(a.trace.rows[1].size(), b.trace.rows[1].size());
   EXPECT_EQ(a.trace.rows[1].back().pn_ft, b.trace.rows[1].back().pn_ft);
 }
@@ -75,7 +75,7 @@ TEST(Replay, BlocksAgreeWithTheRecordedTrajectories) {
     o.run = run;
     o.opponent = "scripted";
     o.seed = seed;
-    const ReplayResult r = run_replay(o);
+    const RaceReplay r = run_replay(o);
     const race::RaceTrace& t = r.trace;
     const auto row_at = [&](int a, double t_s) {
       const race::TraceRow* best = &t.rows[a].front();
@@ -108,7 +108,7 @@ TEST(Replay, FixedHighLevelControls) {
   o.run = run + "@center";
   o.opponent = run + "@random";
   o.seed = 4;
-  const ReplayResult r = run_replay(o);
+  const RaceReplay r = run_replay(o);
   EXPECT_EQ(r.blue, "f16race_replay_ctl@center");
   EXPECT_EQ(r.red, "f16race_replay_ctl@random");
   ASSERT_EQ(r.trace.goals.size(), 4u);
@@ -127,7 +127,7 @@ TEST(Replay, FixedHighLevelControls) {
   }
   EXPECT_GT(red_off, 10.0);
   // Deterministic for a seed.
-  const ReplayResult again = run_replay(o);
+  const RaceReplay again = run_replay(o);
   ASSERT_EQ(again.trace.goals[2].size(), r.trace.goals[2].size());
   EXPECT_EQ(again.trace.goals[2].back().lateral_ft, r.trace.goals[2].back().lateral_ft);
   o.opponent = "scripted@center";
