@@ -23,8 +23,8 @@ export ASAN_OPTIONS="detect_leaks=0:abort_on_error=1" UBSAN_OPTIONS="print_stack
 export OPENBLAS_NUM_THREADS=1
 start=$(date +%s)
 if [ "$quick" = 1 ]; then
-  cmake --build build-sanitize -j "$(nproc)" --target dynamics_tests race_tests io_tests
-  for t in dynamics_tests race_tests io_tests; do build-sanitize/tests/$t --gtest_brief=1 "$@"; done
+  cmake --build build-sanitize -j "$(nproc)" --target dynamics_tests aerobench_files_tests race_tests io_tests
+  for t in dynamics_tests aerobench_files_tests race_tests io_tests; do build-sanitize/tests/$t --gtest_brief=1 "$@"; done
 else
   cmake --build build-sanitize -j "$(nproc)"
   (cd build-sanitize && ctest --output-on-failure -j "$(nproc)" "$@")
