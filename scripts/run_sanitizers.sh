@@ -1,11 +1,10 @@
 #!/usr/bin/env bash
 # Builds everything with AddressSanitizer and UndefinedBehaviorSanitizer in build-sanitize/ and
-# runs the unit tests there. Not part of CI (the instrumented build and tests take longer than
-# the CI budget allows on 2 cores); README "Sanitizers" gives the run time and the result.
+# runs the whole test suite there. Not part of CI: about 20 min on 2 cores from an empty folder,
+# on top of CI's own build and tests (README "Sanitizers": the run time and the result).
 # Usage: scripts/run_sanitizers.sh [--quick] [ctest arguments, e.g. -R RaceEnv]
-#   --quick: only the torch-free half (simulator, race env, I/O and their tests), minutes instead
-#            of the better part of an hour on 2 cores (the LibTorch translation units are slow to
-#            compile instrumented).
+#   --quick: only the torch-free half (simulator, AeroBench files, race env, I/O and their tests),
+#            a few minutes.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
