@@ -148,6 +148,19 @@ double max_abs_diff(const torch::Tensor& a, const torch::Tensor& b) {
   return (a.to(torch::kFloat64) - b.to(torch::kFloat64)).abs().max().item<double>();
 }
 
+// "0 meaning; 1-2 meaning; ..." for a row of the observation spec, offsets shifted by `base`.
+template <std::size_t N>
+std::string field_list(const race::ObsField (&fields)[N], int base) {
+  std::ostringstream o;
+  for (std::size_t k = 0; k < N; ++k) {
+    const race::ObsField& f = fields[k];
+    o << (k > 0 ? "; " : "") << base + f.offset;
+    if (f.width > 1) o << "-" << base + f.offset + f.width - 1;
+    o << " " << f.meaning;
+  }
+  return o.str();
+}
+
 std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   const auto& d = p.dims;
   const auto& rc = p.config.race;
@@ -184,20 +197,15 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "] | float32 | one row per other aircraft, in agent order with self skipped (teammates first for blue) |\n"
     << "| ado_alive | [B, " << d.n_other << "] | bool | false = that aircraft is out (its row is ignored) |\n"
     << "| task | [B, " << d.d_task << "] | float32 | track preview and tube offsets |\n\n";
-  o << "ego: 0 vt/1000 ft/s; 1-10 sin, cos of α, β, φ, θ, ψ; 11-13 p/2, q, r [rad/s] (±10); 14 altitude/10 000 ft;\n"
-    << "15 engine power/100; 16-18 inner-loop integrators ∫(Nz−Nz_ref)/5, ∫(ps−ps_ref)/2, ∫(Ny+r)/2 (±10);\n"
-    << "19 Nz/5 g.\n\n"
-    << "goal: 0 distance ahead along the track/" << rc.goal_ahead() << " ft (0..10); 1, 2 the goal's offset in its tube "
-       "cross-section minus the aircraft's, right and up, / the local tube radius (±10).\n\n"
-    << "ado row: 0 range/5 000 ft (≤ 10); 1, 2 sin, cos of azimuth; 3 sin of elevation; 4-6 relative velocity\n"
-    << "x, y, up / 500 ft/s; 7 progress difference/5 000 ft; 8 same team (1/0); 9 alive (1/0).\n\n"
-    << "task: for p = 0.." << rc.preview_points - 1 << ", entries 5p..5p+4 describe the center-line point "
-    << "(p+1)·" << rc.preview_spacing_ft << " ft ahead: range/5 000 ft, sin az, cos az, sin el, tube radius/2 000 ft; then "
-    << 5 * rc.preview_points << "-" << 5 * rc.preview_points + 1 << " lateral, vertical offset / radius; "
-    << 5 * rc.preview_points + 2 << " distance from the center-line / radius; " << 5 * rc.preview_points + 3
-    << " progress/track length; " << 5 * rc.preview_points + 4 << " 1 − race time/time limit; "
-    << 5 * rc.preview_points + 5 << " HL time left/dt_hl; " << 5 * rc.preview_points + 6 << " ego rank/(n_agent−1); "
-    << 5 * rc.preview_points + 7 << " team rank (0, 0.5, 1).\n\n";
+  // Entry lists from the one observation spec (race/observation_spec.hpp).
+  o << "ego: " << field_list(race::kEgoFields, 0) << ".\n\n"
+    << "goal: " << field_list(race::kGoalFields, 0) << " (the goal distance is " << rc.goal_ahead() << " ft).\n\n"
+    << "ado row: " << field_list(race::kAdoFields, 0) << ".\n\n"
+    << "task: for p = 0.." << rc.preview_points - 1 << ", entries " << race::kPreviewWidth << "p.."
+    << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
+    << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
+    << field_list(race::kPreviewFields, 0) << "; then "
+    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points) << ".\n\n";
   o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
     << "| bins | [B, 3] int64 | greedy goal bin per axis ("

@@ -51,7 +51,7 @@ const char* cause_name(int cause) {
   }
 }
 
-int task_dim(const RaceConfig& c) { return 5 * c.preview_points + 8; }
+int task_dim(const RaceConfig& c) { return task_width(c.preview_points); }
 
 namespace {
 // Element counts of the observation buffers, and the bytes of all of them plus their final
@@ -539,9 +539,11 @@ double RaceEnv::goal_lane_error_ft(int i) const {
 void RaceEnv::write_goal_observation(int i) {
   const double ahead = std::min(goal_progress_ft_[i], tracks_[i / n_agent_].length_ft()) - progress_ft_[i];
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
-  g[0] = static_cast<float>(std::clamp(ahead / config_.goal_ahead(), 0.0, 10.0));
-  g[1] = static_cast<float>(std::clamp((goal_lateral_ft_[i] - lateral_ft_[i]) / radius_ft_[i], -10.0, 10.0));
-  g[2] = static_cast<float>(std::clamp((goal_vertical_ft_[i] - vertical_ft_[i]) / radius_ft_[i], -10.0, 10.0));
+  g[kGoalAhead] = static_cast<float>(std::clamp(ahead / config_.goal_ahead(), 0.0, 10.0));
+  g[kGoalLaneRight] =
+      static_cast<float>(std::clamp((goal_lateral_ft_[i] - lateral_ft_[i]) / radius_ft_[i], -10.0, 10.0));
+  g[kGoalLaneUp] =
+      static_cast<float>(std::clamp((goal_vertical_ft_[i] - vertical_ft_[i]) / radius_ft_[i], -10.0, 10.0));
 }
 
 void RaceEnv::write_observations(int env) {
@@ -594,27 +596,27 @@ void RaceEnv::write_observations(int env) {
     const int i = base + a;
     write_goal_observation(i);
     float* o = &ego_[static_cast<std::size_t>(i) * kEgoDim];
-    o[0] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
+    o[kEgoVt] = static_cast<float>(sim_.state(kVt)[i] / 1000.0);
     for (int k = 0; k < 5; ++k) {
-      o[1 + 2 * k] = sn[k][a];
-      o[2 + 2 * k] = cs[k][a];
+      o[kEgoAttitudeTrig + 2 * k] = sn[k][a];
+      o[kEgoAttitudeTrig + 1 + 2 * k] = cs[k][a];
     }
-    o[11] = clampf(sim_.state(kP)[i] / 2.0, -10.0, 10.0);
-    o[12] = clampf(sim_.state(kQ)[i], -10.0, 10.0);
-    o[13] = clampf(sim_.state(kR)[i], -10.0, 10.0);
-    o[14] = static_cast<float>(sim_.state(kAlt)[i] / 10000.0);
-    o[15] = static_cast<float>(sim_.state(kPow)[i] / 100.0);
-    o[16] = clampf(sim_.state(kIntNz)[i] / 5.0, -10.0, 10.0);
-    o[17] = clampf(sim_.state(kIntPs)[i] / 2.0, -10.0, 10.0);
-    o[18] = clampf(sim_.state(kIntNyR)[i] / 2.0, -10.0, 10.0);
-    o[19] = clampf(sim_.output(kOutNz)[i] / 5.0, -10.0, 10.0);
+    o[kEgoBodyRates] = clampf(sim_.state(kP)[i] / 2.0, -10.0, 10.0);
+    o[kEgoBodyRates + 1] = clampf(sim_.state(kQ)[i], -10.0, 10.0);
+    o[kEgoBodyRates + 2] = clampf(sim_.state(kR)[i], -10.0, 10.0);
+    o[kEgoAltitude] = static_cast<float>(sim_.state(kAlt)[i] / 10000.0);
+    o[kEgoPower] = static_cast<float>(sim_.state(kPow)[i] / 100.0);
+    o[kEgoIntegrators] = clampf(sim_.state(kIntNz)[i] / 5.0, -10.0, 10.0);
+    o[kEgoIntegrators + 1] = clampf(sim_.state(kIntPs)[i] / 2.0, -10.0, 10.0);
+    o[kEgoIntegrators + 2] = clampf(sim_.state(kIntNyR)[i] / 2.0, -10.0, 10.0);
+    o[kEgoNz] = clampf(sim_.output(kOutNz)[i] / 5.0, -10.0, 10.0);
   }
   const int my_team_end = c.team_size;
   for (int a = 0; a < na; ++a) {
     const int i = base + a;
     const float ca = cs[4][a], sa = sn[4][a];
     // Features of every aircraft b as seen from a ([feature][b]); a dead b gets zeros.
-    float f[8][kMaxAgents];
+    float f[kAdoSameTeam][kMaxAgents];  // the geometric entries, before the team and alive flags
 #pragma omp simd
     for (int b = 0; b < kMaxAgents; ++b) {
       // North/east/up differences, then the ego's heading frame (_hdg): x forward, y right.
@@ -626,14 +628,14 @@ void RaceEnv::write_observations(int env) {
       // Masked by a multiply (GCC does not vectorise the select here): a dead aircraft's frozen
       // state is its last finite one, so m = 0 gives exact zeros.
       const float m = alive_f[b];
-      f[0][b] = m * std::min(r * (1.0f / 5000.0f), 10.0f);
-      f[1][b] = m * (inv_rh > 0.0f ? y_hdg * inv_rh : 0.0f);
-      f[2][b] = m * (inv_rh > 0.0f ? x_hdg * inv_rh : 1.0f);
-      f[3][b] = m * (du * inv_r);
-      f[4][b] = m * ((ca * vn + sa * ve) * (1.0f / 500.0f));
-      f[5][b] = m * ((-sa * vn + ca * ve) * (1.0f / 500.0f));
-      f[6][b] = m * ((vu_ftps[b] - vu_ftps[a]) * (1.0f / 500.0f));
-      f[7][b] = m * std::min(std::max(prog[b] - prog[a], -10.0f), 10.0f);
+      f[kAdoRange][b] = m * std::min(r * (1.0f / 5000.0f), 10.0f);
+      f[kAdoAzimuth][b] = m * (inv_rh > 0.0f ? y_hdg * inv_rh : 0.0f);
+      f[kAdoAzimuth + 1][b] = m * (inv_rh > 0.0f ? x_hdg * inv_rh : 1.0f);
+      f[kAdoSinElevation][b] = m * (du * inv_r);
+      f[kAdoRelVelocity][b] = m * ((ca * vn + sa * ve) * (1.0f / 500.0f));
+      f[kAdoRelVelocity + 1][b] = m * ((-sa * vn + ca * ve) * (1.0f / 500.0f));
+      f[kAdoRelVelocity + 2][b] = m * ((vu_ftps[b] - vu_ftps[a]) * (1.0f / 500.0f));
+      f[kAdoProgress][b] = m * std::min(std::max(prog[b] - prog[a], -10.0f), 10.0f);
     }
     // Other aircraft in agent order (self skipped), so permuting them permutes rows only.
     const bool a_blue = a < my_team_end;
@@ -642,9 +644,9 @@ void RaceEnv::write_observations(int env) {
       if (b == a) continue;
       const std::size_t r = static_cast<std::size_t>(i) * (na - 1) + row++;
       float* d = &ado_[r * kAdoDim];
-      for (int q = 0; q < 8; ++q) d[q] = f[q][b];
-      d[8] = (b < my_team_end) == a_blue ? 1.0f : 0.0f;
-      d[9] = alive_f[b];
+      for (int q = 0; q < kAdoSameTeam; ++q) d[q] = f[q][b];
+      d[kAdoSameTeam] = (b < my_team_end) == a_blue ? 1.0f : 0.0f;
+      d[kAdoAlive] = alive_f[b];
       ado_alive_[r] = alive_[base + b];
     }
   }
@@ -673,22 +675,22 @@ void RaceEnv::write_observations(int env) {
     float* t = &task_[static_cast<std::size_t>(i) * task_dim_];
     for (int p = 0; p < np; ++p) {
       const int k = a * np + p;
-      float* tp = t + 5 * p;
-      tp[0] = g[0][k];
-      tp[1] = g[1][k];
-      tp[2] = g[2][k];
-      tp[3] = g[3][k];
-      tp[4] = qr[k] * (1.0f / 2000.0f);
+      float* tp = t + kPreviewWidth * p;
+      tp[kPreviewRange] = g[0][k];
+      tp[kPreviewAzimuth] = g[1][k];
+      tp[kPreviewAzimuth + 1] = g[2][k];
+      tp[kPreviewSinElevation] = g[3][k];
+      tp[kPreviewRadius] = qr[k] * (1.0f / 2000.0f);
     }
-    float* u = t + 5 * np;
-    u[0] = clampf(lateral_ft_[i] / radius_ft_[i], -10.0, 10.0);
-    u[1] = clampf(vertical_ft_[i] / radius_ft_[i], -10.0, 10.0);
-    u[2] = clampf(dist_ft_[i] / radius_ft_[i], 0.0, 10.0);
-    u[3] = static_cast<float>(progress_ft_[i] / tr.length_ft());
-    u[4] = static_cast<float>(1.0 - time_s_[env] / c.time_limit_s);
-    u[5] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
-    u[6] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
-    u[7] = static_cast<float>(team_rank_[i]);
+    float* u = t + kPreviewWidth * np;
+    u[kTaskOffsets] = clampf(lateral_ft_[i] / radius_ft_[i], -10.0, 10.0);
+    u[kTaskOffsets + 1] = clampf(vertical_ft_[i] / radius_ft_[i], -10.0, 10.0);
+    u[kTaskCenterDistance] = clampf(dist_ft_[i] / radius_ft_[i], 0.0, 10.0);
+    u[kTaskProgress] = static_cast<float>(progress_ft_[i] / tr.length_ft());
+    u[kTaskTimeLeft] = static_cast<float>(1.0 - time_s_[env] / c.time_limit_s);
+    u[kTaskHlTimeLeft] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
+    u[kTaskEgoRank] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
+    u[kTaskTeamRank] = static_cast<float>(team_rank_[i]);
   }
 }
 

@@ -16,16 +16,14 @@
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
 #include "race/huge_page_memory.hpp"
+#include "race/observation_spec.hpp"
 #include "race/race_config.hpp"
 #include "race/random_stream.hpp"
 #include "race/track.hpp"
 
 namespace f16race::race {
 
-// Observation widths (see docs/race.md for the order of every entry).
-inline constexpr int kEgoDim = 20;   // s-bar: state with angles as sin/cos, scaled to O(1)
-inline constexpr int kAdoDim = 10;   // one other aircraft
-inline constexpr int kGoalDim = 3;   // HL goal: distance ahead along the track, lane error across it
+// Observation widths and entries: race/observation_spec.hpp (kEgoDim, kAdoDim, kGoalDim).
 inline constexpr int kActionDim = 3; // LL action: throttle, Nz_ref, ps_ref in [-1, 1]
 inline constexpr int kHlDims = 3;    // HL action: bins for (d_north, d_east, d_up)
 int task_dim(const RaceConfig& config);
