@@ -77,7 +77,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
   race::ScriptedPilotConfig pilot;
   pilot.speed_ftps = rc.start_speed_ftps;
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
-  race::RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
+  RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
   for (int a = 0; a < n_agent; ++a) learned[a] = (a < ts ? blue : red).policy.has_value();
   // Each side's networks act on its own team's rows only: policy 0 is blue's, 1 red's; the

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 
 namespace f16race::eval {
 
@@ -51,7 +51,7 @@ Interval iqm_with_ci(const std::vector<std::vector<double>>& scores, int replica
   for (const auto& r : scores) all.insert(all.end(), r.begin(), r.end());
   Interval out;
   out.point = iqm(all);
-  race::RandomStream rng(seed, 0xB007);
+  RandomStream rng(seed, 0xB007);
   std::vector<double> reps, sample(runs * tasks);
   reps.reserve(static_cast<std::size_t>(replicates));
   for (int b = 0; b < replicates; ++b) {

@@ -54,7 +54,7 @@ std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec) {
   return {spec, HlOverride::none};
 }
 
-void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, race::RandomStream& rng, std::int64_t* out) {
+void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& rng, std::int64_t* out) {
   const std::size_t n = static_cast<std::size_t>(n_aircraft) * race::kHlDims;
   switch (rule) {
     case HlOverride::center:
@@ -69,9 +69,9 @@ void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, race::RandomStr
   throw std::invalid_argument("fixed_hl_bins: HlOverride::none means the run's own HL policy, not a fixed rule");
 }
 
-race::RandomStream control_stream(std::uint64_t seed, int env) {
+RandomStream control_stream(std::uint64_t seed, int env) {
   // Not the (seed * 1000003, env) streams that draw the tracks: its own ids under the plain seed.
-  return race::RandomStream(seed, 0xC0470000ULL + static_cast<std::uint64_t>(env));
+  return RandomStream(seed, 0xC0470000ULL + static_cast<std::uint64_t>(env));
 }
 
 bool in_variant_statistics(const Entry& entry, const TournamentOptions& options) {
@@ -145,7 +145,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   race::RaceEnv env(rc);
   race::BlockCounter blocks(env);
   // The @random rule's draws: one stream per env, used only at that env's own HL decisions.
-  std::vector<race::RandomStream> control_rng;
+  std::vector<RandomStream> control_rng;
   for (int e = 0; e < n; ++e) control_rng.push_back(control_stream(o.seed, e));
   std::vector<long> env_game(n, -1);  // game index raced in each env, -1 idle
   std::vector<int> race_in_env(n, 0);

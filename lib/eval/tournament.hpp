@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 
 namespace f16race::eval {
 
@@ -30,11 +30,11 @@ std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec);
 // each, aircraft-major) into `out`. center: hl_bins / 2 everywhere, `rng` untouched; random:
 // uniform in [0, hl_bins), three draws per aircraft from `rng` in aircraft order. `rule` must not
 // be none (that is the run's policy).
-void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, race::RandomStream& rng, std::int64_t* out);
+void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& rng, std::int64_t* out);
 
 // The random stream of the @random rule in env `env` of a tournament (or replay) seeded `seed`:
 // independent of the track streams, and of the thread count (drawn serially, per env).
-race::RandomStream control_stream(std::uint64_t seed, int env);
+RandomStream control_stream(std::uint64_t seed, int env);
 
 struct TournamentOptions {
   std::vector<std::string> runs;  // run folders written by `f16race train`

@@ -18,7 +18,7 @@
 #include "race/huge_page_memory.hpp"
 #include "race/observation_spec.hpp"
 #include "race/race_config.hpp"
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 #include "race/track.hpp"
 
 namespace f16race::race {

@@ -5,7 +5,7 @@
 #include <limits>
 #include <vector>
 
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 
 namespace f16race::race {
 

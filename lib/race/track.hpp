@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 
 namespace f16race::race {
 

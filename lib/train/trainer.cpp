@@ -20,7 +20,7 @@
 #include "io/learning_curves.hpp"
 #include "io/run_folder.hpp"
 #include "race/race_env.hpp"
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
 
@@ -157,7 +157,7 @@ struct Trainer::State {
   std::unique_ptr<agents::RolloutBuffer> buffer;
   PolicyRows ll_rows{2, 0}, hl_rows{2, 0};  // [n_env * n_agent] learner (0) and pool (1) rows
   at::Generator gen;
-  race::RandomStream stream{1, 0xC0FFEE};
+  RandomStream stream{1, 0xC0FFEE};
   int n_env = 0, n_agent = 0, ts = 0;
   models::ObsDims dims;
 
@@ -338,7 +338,7 @@ void Trainer::State::build(bool fresh) {
   buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
                                                    race::kActionDim);
   gen = models::make_generator(cfg.seed * 7919 + 3);
-  stream = race::RandomStream(cfg.seed, 0xC0FFEE);
+  stream = RandomStream(cfg.seed, 0xC0FFEE);
   side.assign(n_env, 0);
   vs_pool.assign(n_env, 0);
   ll_rows = PolicyRows(2, n_env * n_agent);
@@ -356,7 +356,7 @@ void Trainer::State::build(bool fresh) {
     for (int e = 0; e < n_env; ++e) draw_matchup(e);
 }
 
-Matchup draw_matchup(race::RandomStream& stream, const PoolConfig& pool, bool pool_available) {
+Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available) {
   Matchup m;
   // Both numbers are always drawn, so the stream advances the same way whatever the settings.
   const double u_side = stream.uniform(), u_pool = stream.uniform();
@@ -365,7 +365,7 @@ Matchup draw_matchup(race::RandomStream& stream, const PoolConfig& pool, bool po
   return m;
 }
 
-std::size_t draw_pool_entry(race::RandomStream& stream, std::size_t n) {
+std::size_t draw_pool_entry(RandomStream& stream, std::size_t n) {
   return std::min(n - 1, static_cast<std::size_t>(stream.uniform() * static_cast<double>(n)));
 }
 

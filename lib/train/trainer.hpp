@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "race/race_env.hpp"
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 #include "train/train_config.hpp"
 
 namespace f16race::train {
@@ -50,9 +50,9 @@ struct Matchup {
   int learner_side = 0;   // 0 blue, 1 red
   bool vs_pool = false;   // opponent is the current pool snapshot (else the current policy)
 };
-Matchup draw_matchup(race::RandomStream& stream, const PoolConfig& pool, bool pool_available);
+Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available);
 // Which pool snapshot the next phase plays: uniform over the n stored ones.
-std::size_t draw_pool_entry(race::RandomStream& stream, std::size_t n);
+std::size_t draw_pool_entry(RandomStream& stream, std::size_t n);
 
 // One metrics row; also what the progress display shows.
 struct MetricsRow {

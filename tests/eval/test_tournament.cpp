@@ -89,14 +89,14 @@ TEST(Tournament, CountsEveryRaceOnceWithSidesSwapped) {
 
 TEST(TournamentControls, CenterRuleIsTheMiddleBinEverywhere) {
   for (int hl_bins : {1, 5, 7, 63}) {
-    race::RandomStream rng = control_stream(3, 0);
+    RandomStream rng = control_stream(3, 0);
     const std::uint64_t before = rng.state();
     std::vector<std::int64_t> bins(4 * 3, -1);
     fixed_hl_bins(HlOverride::center, hl_bins, 4, rng, bins.data());
     for (std::int64_t b : bins) EXPECT_EQ(b, hl_bins / 2) << hl_bins;
     EXPECT_EQ(rng.state(), before);  // no draws
   }
-  race::RandomStream rng(1, 2);
+  RandomStream rng(1, 2);
   std::int64_t b[3];
   EXPECT_THROW(fixed_hl_bins(HlOverride::none, 7, 1, rng, b), std::invalid_argument);
 }
@@ -106,7 +106,7 @@ TEST(TournamentControls, RandomRuleIsUniformAndDeterministic) {
   // quantile (22.46), every bin drawn, every axis and aircraft position alike.
   const int n_aircraft = 20000, hl_bins = 7;
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n_aircraft) * 3);
-  race::RandomStream rng = control_stream(5, 1);
+  RandomStream rng = control_stream(5, 1);
   fixed_hl_bins(HlOverride::random, hl_bins, n_aircraft, rng, bins.data());
   std::vector<std::vector<double>> count(3, std::vector<double>(hl_bins, 0.0));
   for (std::size_t k = 0; k < bins.size(); ++k) {
@@ -122,7 +122,7 @@ TEST(TournamentControls, RandomRuleIsUniformAndDeterministic) {
   }
   // Same seed and env: the same bins, also when drawn a team (2 aircraft) at a time.
   std::vector<std::int64_t> again(bins.size());
-  race::RandomStream rng2 = control_stream(5, 1);
+  RandomStream rng2 = control_stream(5, 1);
   for (int a = 0; a < n_aircraft; a += 2) fixed_hl_bins(HlOverride::random, hl_bins, 2, rng2, again.data() + 3 * a);
   EXPECT_EQ(again, bins);
   // Another env or another seed: other bins.

@@ -15,7 +15,7 @@
 #include "dynamics/inner_loop.hpp"
 #include "race/race_env.hpp"
 #include "race/ranking.hpp"
-#include "race/random_stream.hpp"
+#include "random/random_stream.hpp"
 #include "race/scripted_pilot.hpp"
 #include "race/soak.hpp"
 

@@ -298,7 +298,7 @@ TEST(Trainer, AtomicCheckpointsLeaveNoTemporaryFilesAndPruneOldOnes) {
 }
 
 TEST(SelfPlay, MatchupAndPoolDrawFrequencies) {
-  race::RandomStream s(5, 1);
+  RandomStream s(5, 1);
   PoolConfig p;
   p.p_self_play = 0.5;
   const int n = 40000;

@@ -2,11 +2,12 @@
 // A small counter-free random stream with a fixed, documented algorithm (SplitMix64, Steele et
 // al. 2014), so the same (seed, stream id) gives the same numbers on every machine and compiler.
 // std:: distributions are implementation-defined, which would make tracks differ across
-// standard libraries.
+// standard libraries. Header-only, with no project dependency: the race task, training and
+// evaluation statistics all draw from it.
 #include <cmath>
 #include <cstdint>
 
-namespace f16race::race {
+namespace f16race {
 
 class RandomStream {
  public:
@@ -37,4 +38,4 @@ class RandomStream {
   std::uint64_t state_;
 };
 
-}  // namespace f16race::race
+}  // namespace f16race
