@@ -58,7 +58,7 @@ void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& r
   const std::size_t n = static_cast<std::size_t>(n_aircraft) * race::kHlDims;
   switch (rule) {
     case HlOverride::center:
-      std::fill(out, out + n, static_cast<std::int64_t>(hl_bins / 2));
+      std::fill(out, out + n, static_cast<std::int64_t>(race::center_hl_bin(hl_bins)));
       return;
     case HlOverride::random:
       for (std::size_t k = 0; k < n; ++k) out[k] = rng.below(hl_bins);

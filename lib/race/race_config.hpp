@@ -19,6 +19,9 @@ enum class TubeExit { kTerminate, kGrace };
 // frame at the goal (along, right, up), where each axis is one kind of lane change.
 enum class GoalFrame { kWorld, kTrack };
 
+// The middle bin of an HL axis (the center-line lane): the neutral HL action, in one place.
+constexpr int center_hl_bin(int hl_bins) { return hl_bins / 2; }
+
 struct RaceConfig {
   int n_env = 64;
   int team_size = 4;                 // aircraft per team; two teams, blue (0) and red (1)
@@ -95,7 +98,7 @@ struct RaceConfig {
   // Distance of the goal's center-line point ahead of the aircraft [ft].
   double goal_ahead() const { return goal_ahead_ft > 0.0 ? goal_ahead_ft : preview_points * preview_spacing_ft; }
   // The middle bin on every HL axis: the center-line point itself.
-  int hl_center_bin() const { return hl_bins / 2; }
+  int hl_center_bin() const { return center_hl_bin(hl_bins); }
 };
 
 // Reads the `race:` section (absent keys keep defaults) and checks cross-field consistency.
