@@ -65,15 +65,20 @@ RolloutBuffer make_buffer(PpoAgent& agent, Rng& r, int64_t n) {
   return buffer;
 }
 
-TEST(Checkpoint, PpoRoundTripGivesIdenticalOutputsAndNextUpdate) {
-  const std::string dir = ::testing::TempDir() + "/f16race_ckpt_ppo";
-  std::filesystem::create_directories(dir);
-  const std::string path = dir + "/ppo.pt";
+PpoConfig small_ppo_config() {
   PpoConfig cfg;
   cfg.net.dims = dims();
   cfg.n_steps = 4;
   cfg.total_updates = 10;
   cfg.seed = 3;
+  return cfg;
+}
+
+TEST(Checkpoint, PpoRoundTripGivesIdenticalOutputsAndNextUpdate) {
+  const std::string dir = ::testing::TempDir() + "/f16race_ckpt_ppo";
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/ppo.pt";
+  const PpoConfig cfg = small_ppo_config();
   torch::manual_seed(1);
   PpoAgent a(cfg);
   Rng r(5);
@@ -120,13 +125,8 @@ TEST(Checkpoint, SameHistorySameBytes) {
   std::string bytes[2];
   std::unique_ptr<PpoAgent> alive[2];  // both at once, so their parameters cannot share addresses
   for (int k = 0; k < 2; ++k) {
-    PpoConfig cfg;
-    cfg.net.dims = dims();
-    cfg.n_steps = 4;
-    cfg.total_updates = 10;
-    cfg.seed = 3;
     torch::manual_seed(1);
-    alive[k] = std::make_unique<PpoAgent>(cfg);
+    alive[k] = std::make_unique<PpoAgent>(small_ppo_config());
     PpoAgent& a = *alive[k];
     Rng r(5);
     a.update(make_buffer(a, r, 64));
