@@ -208,7 +208,7 @@ void run_bench_soak(const SoakBenchOptions& o) {
       std::printf(" %s %lld", race::cause_name(c), static_cast<long long>(r.out[c]));
     std::printf("\n");
   }
-  if (r.non_finite > 0) throw UserError("bench soak: non-finite values reached the env's outputs (a bug: please report it)");
+  if (r.non_finite > 0) throw io::InputError("bench soak: non-finite values reached the env's outputs (a bug: please report it)");
 }
 
 }  // namespace

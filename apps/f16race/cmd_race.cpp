@@ -41,7 +41,7 @@ void run_race(const RaceOptions& o) {
   read_race_config(rr, &cfg);
   cfg.n_env = o.races;
   if (o.seed >= 0) cfg.seed = static_cast<std::uint64_t>(o.seed);
-  if (o.policy != "scripted") throw UserError("--policy '" + o.policy + "': only 'scripted' is built in so far");
+  if (o.policy != "scripted") throw io::InputError("--policy '" + o.policy + "': only 'scripted' is built in so far");
 
   RaceEnv env(cfg);
   const int n = env.n_aircraft(), n_agent = env.n_agent();

@@ -34,7 +34,7 @@ struct SimulateOptions {
 
 AeroModel parse_model(const std::string& text) {
   AeroModel m;
-  if (!parse_aero_model(text.c_str(), &m)) throw UserError("--model '" + text + "': use morelli or stevens");
+  if (!parse_aero_model(text.c_str(), &m)) throw io::InputError("--model '" + text + "': use morelli or stevens");
   return m;
 }
 
@@ -47,10 +47,10 @@ aerobench_files::ReplaySettings replay_settings(const SimulateOptions& o) {
   aerobench_files::ReplaySettings s;
   s.model = parse_model(o.model);
   if (!parse_integrator(o.integrator.c_str(), &s.integrator))
-    throw UserError("--integrator '" + o.integrator + "': use rk4 or euler");
+    throw io::InputError("--integrator '" + o.integrator + "': use rk4 or euler");
   if (o.interp == "hold") s.interp = RefInterp::kHold;
   else if (o.interp == "linear") s.interp = RefInterp::kLinear;
-  else throw UserError("--interp '" + o.interp + "': use hold or linear");
+  else throw io::InputError("--interp '" + o.interp + "': use hold or linear");
   s.dt_s = o.dt_s;
   return s;
 }
@@ -77,12 +77,12 @@ void run_trajectory(const SimulateOptions& o) {
     std::snprintf(buf, sizeof buf,
                   "the aircraft left the model's envelope (%s) at t=%.4f s; %zu rows up to then written to %s",
                   status_name(result.status), result.failed_at_s, rows.size(), o.out.c_str());
-    throw UserError(buf);
+    throw io::InputError(buf);
   }
   std::printf("simulated %zu samples (%s, %s, dt %.4g s) -> %s\n", rows.size(), aero_model_name(settings.model),
               integrator_name(req.integrator), req.dt_s, o.out.c_str());
   if (o.compare) {
-    if (!ref_table) throw UserError("--compare needs --reference");
+    if (!ref_table) throw io::InputError("--compare needs --reference");
     print_comparison(aerobench_files::compare_columns(*ref_table, header, rows, 1, /*relative=*/false), false);
   }
 }
@@ -131,11 +131,11 @@ void add_simulate_command(CLI::App& app) {
   cmd->callback([opts]() {
     if (!opts->derivatives.empty()) {
       if (!opts->reference.empty() || !opts->commands.empty())
-        throw UserError("--derivatives cannot be combined with --reference or --commands");
+        throw io::InputError("--derivatives cannot be combined with --reference or --commands");
       run_derivatives(*opts);
     } else {
       if (!opts->reference.empty() && !opts->commands.empty())
-        throw UserError("give either --reference or --commands, not both");
+        throw io::InputError("give either --reference or --commands, not both");
       run_trajectory(*opts);
     }
   });

@@ -30,7 +30,7 @@ void run(const eval::TournamentOptions& o) {
   // The output folder first: a folder that cannot be made fails now, not after every race.
   std::error_code ec;
   std::filesystem::create_directories(o.out_dir, ec);
-  if (ec) throw UserError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
+  if (ec) throw io::InputError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
   r = eval::run_tournament(o, [&](long done, long total) {
     const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

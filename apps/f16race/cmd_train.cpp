@@ -76,7 +76,7 @@ void run_train(const TrainOptions& o) {
   std::unique_ptr<train::Trainer> trainer;
   if (!o.resume.empty()) {
     if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0 || o.overwrite)
-      throw UserError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
+      throw io::InputError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
     trainer = train::Trainer::resume(o.resume);
     spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
   } else {

@@ -9,10 +9,9 @@
 
 namespace f16race::app {
 
-// An error the user can fix (bad flag, missing file, bad value): lib's one user-error type,
-// io::InputError. main prints its one-line message and exits with status 2; anything else is
+// An error the user can fix (bad flag, missing file, bad value) is an io::InputError, lib's one
+// user-error type: main prints its one-line message and exits with status 2; anything else is
 // reported as an internal error (status 1).
-using UserError = io::InputError;
 
 // A seed option: a non-negative integer (CLI11's NonNegativeNumber prints a 300-digit bound).
 inline const CLI::Validator kNonNegativeSeed(
