@@ -30,7 +30,7 @@ struct NetsBenchOptions {
   // The race environment's sizes for the default 4 vs 4 race (6 preview points).
   int d_ego = race::kEgoDim;
   int d_ado = race::kAdoDim;
-  int d_task = 5 * 6 + 8;
+  int d_task = race::task_width(6);
   int n_other = 7;
 };
 

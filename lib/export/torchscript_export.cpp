@@ -200,12 +200,16 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   // Entry lists from the one observation spec (race/observation_spec.hpp).
   o << "ego: " << field_list(race::kEgoFields, 0) << ".\n\n"
     << "goal: " << field_list(race::kGoalFields, 0) << " (the goal distance is " << rc.goal_ahead() << " ft).\n\n"
-    << "ado row: " << field_list(race::kAdoFields, 0) << ".\n\n"
+    << "ado row: " << field_list(race::kAdoFields, 0)
+    << (rc.observe_team_lanes ? "; " + field_list(race::kAdoTeamLaneFields, 0) : std::string()) << ".\n\n"
     << "task: for p = 0.." << rc.preview_points - 1 << ", entries " << race::kPreviewWidth << "p.."
     << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
     << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
     << field_list(race::kPreviewFields, 0) << "; then "
-    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points) << ".\n\n";
+    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points)
+    << (rc.observe_team_lanes ? "; " + field_list(race::kTaskOwnLaneFields, race::kPreviewWidth * rc.preview_points)
+                              : std::string())
+    << ".\n\n";
   o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
     << "| bins | [B, 3] int64 | greedy goal bin per axis ("

@@ -78,6 +78,9 @@ struct RaceConfig {
   // Observations.
   int preview_points = 6;
   double preview_spacing_ft = 2000.0;
+  // Team lanes: every aircraft also observes its own goal lane and its teammates' (observation
+  // spec, kAdoTeamLane / kTaskOwnLane), so the HL can tell which lanes the team already covers.
+  bool observe_team_lanes = false;
 
   // LL reward weights (per LL step unless noted).
   double w_goal_progress = 1.0;      // closing speed toward the goal, per goal_scale_ft

@@ -51,7 +51,8 @@ const char* cause_name(int cause) {
   }
 }
 
-int task_dim(const RaceConfig& c) { return task_width(c.preview_points); }
+int task_dim(const RaceConfig& c) { return task_width(c.preview_points, c.observe_team_lanes); }
+int ado_dim(const RaceConfig& c) { return ado_width(c.observe_team_lanes); }
 
 namespace {
 // Element counts of the observation buffers, and the bytes of all of them plus their final
@@ -64,7 +65,7 @@ struct ObservationSizes {
     action = n * kActionDim;
     goal = n * kGoalDim;
     ado_rows = n * (c.n_agent() - 1);
-    ado = ado_rows * kAdoDim;
+    ado = ado_rows * ado_dim(c);
     task = n * task_dim(c);
   }
   std::size_t bytes() const { return 2 * ((ego + action + goal + ado + task) * sizeof(float) + ado_rows + 6 * 64); }
@@ -100,6 +101,7 @@ RaceEnv::RaceEnv(const RaceConfig& config)
     : config_(config),
       n_agent_(config.n_agent()),
       task_dim_(race::task_dim(config)),
+      ado_dim_(race::ado_dim(config)),
       sim_(batch_config(config)),
       obs_memory_(std::make_unique<HugePageMemory>(ObservationSizes(config).bytes())),
       obs_slice_(std::make_unique<std::pmr::monotonic_buffer_resource>(obs_memory_->data(), obs_memory_->size(),
@@ -177,7 +179,7 @@ void RaceEnv::copy_final_observations(int env) {
   copy(ego_, final_ego_, kEgoDim);
   copy(goal_obs_, final_goal_, kGoalDim);
   copy(prev_action_, final_prev_action_, kActionDim);
-  copy(ado_, final_ado_, static_cast<std::size_t>(n_agent_ - 1) * kAdoDim);
+  copy(ado_, final_ado_, static_cast<std::size_t>(n_agent_ - 1) * ado_dim_);
   copy(ado_alive_, final_ado_alive_, static_cast<std::size_t>(n_agent_ - 1));
   copy(task_, final_task_, static_cast<std::size_t>(task_dim_));
 }
@@ -313,7 +315,10 @@ void RaceEnv::set_hl_actions(const std::int64_t* bins) {
     hl_due_[e] = 0;
     hl_time_left_s_[e] = config_.dt_hl_s;
     for (int a = 0; a < n_agent_; ++a)  // the task entry "time to the next HL decision"
-      task_[static_cast<std::size_t>(e * n_agent_ + a) * task_dim_ + 5 * config_.preview_points + 5] = 1.0f;
+      task_[static_cast<std::size_t>(e * n_agent_ + a) * task_dim_ + kPreviewWidth * config_.preview_points +
+            kTaskHlTimeLeft] = 1.0f;
+    // The new lanes, seen from the first LL step of the interval on.
+    if (config_.observe_team_lanes) write_lane_observations(e);
   }
 }
 
@@ -643,7 +648,7 @@ void RaceEnv::write_observations(int env) {
     for (int b = 0; b < na; ++b) {
       if (b == a) continue;
       const std::size_t r = static_cast<std::size_t>(i) * (na - 1) + row++;
-      float* d = &ado_[r * kAdoDim];
+      float* d = &ado_[r * ado_dim_];
       for (int q = 0; q < kAdoSameTeam; ++q) d[q] = f[q][b];
       d[kAdoSameTeam] = (b < my_team_end) == a_blue ? 1.0f : 0.0f;
       d[kAdoAlive] = alive_f[b];
@@ -691,6 +696,38 @@ void RaceEnv::write_observations(int env) {
     u[kTaskHlTimeLeft] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
     u[kTaskEgoRank] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
     u[kTaskTeamRank] = static_cast<float>(team_rank_[i]);
+  }
+  if (c.observe_team_lanes) write_lane_observations(env);
+}
+
+void RaceEnv::write_lane_observations(int env) {
+  constexpr int kMaxAgents = 16;
+  const int na = n_agent_, base = env * na;
+  const Track& tr = tracks_[env];
+  // Each aircraft's goal lane in its tube cross-section at the goal, / R there: what its bins
+  // chose (the tube may be wider or narrower at the aircraft), in kTaskOffsets' units.
+  float right[kMaxAgents] = {}, up[kMaxAgents] = {};
+  for (int a = 0; a < na; ++a) {
+    const int i = base + a;
+    const double r_ft = tr.frame_at(goal_progress_ft_[i]).radius_ft;
+    right[a] = clampf(goal_lateral_ft_[i] / r_ft, -10.0, 10.0);
+    up[a] = clampf(goal_vertical_ft_[i] / r_ft, -10.0, 10.0);
+  }
+  const int team_size = config_.team_size;
+  for (int a = 0; a < na; ++a) {
+    const int i = base + a;
+    float* u = &task_[static_cast<std::size_t>(i) * task_dim_ + kPreviewWidth * config_.preview_points];
+    u[kTaskOwnLane] = right[a];
+    u[kTaskOwnLane + 1] = up[a];
+    int row = 0;
+    for (int b = 0; b < na; ++b) {
+      if (b == a) continue;
+      float* d = &ado_[(static_cast<std::size_t>(i) * (na - 1) + row++) * ado_dim_];
+      // Teammates only, alive only (a dead row is all zeros, as in the entries before).
+      const bool mate = (a < team_size) == (b < team_size) && alive_[base + b];
+      d[kAdoTeamLane] = mate ? right[b] : 0.0f;
+      d[kAdoTeamLane + 1] = mate ? up[b] : 0.0f;
+    }
   }
 }
 

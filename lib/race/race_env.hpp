@@ -27,6 +27,7 @@ namespace f16race::race {
 inline constexpr int kActionDim = 3; // LL action: throttle, Nz_ref, ps_ref in [-1, 1]
 inline constexpr int kHlDims = 3;    // HL action: bins for (d_north, d_east, d_up)
 int task_dim(const RaceConfig& config);
+int ado_dim(const RaceConfig& config);
 
 // Why an aircraft left the race. Each is counted separately in StepStats.
 enum TerminationCause : std::int8_t {
@@ -62,6 +63,7 @@ class RaceEnv {
   int n_agent() const { return n_agent_; }
   int n_aircraft() const { return n_env() * n_agent_; }
   int task_dim() const { return task_dim_; }
+  int ado_dim() const { return ado_dim_; }
 
   // Starts every race afresh (new tracks from each env's stream) and writes observations.
   void reset();
@@ -75,7 +77,7 @@ class RaceEnv {
   const float* obs_ego() const { return ego_.data(); }            // [n_env, n_agent, kEgoDim]
   const float* obs_prev_action() const { return prev_action_.data(); }  // [n_env, n_agent, 3]
   const float* obs_goal() const { return goal_obs_.data(); }      // [n_env, n_agent, kGoalDim]
-  const float* obs_ado() const { return ado_.data(); }            // [n_env, n_agent, n_agent-1, kAdoDim]
+  const float* obs_ado() const { return ado_.data(); }            // [n_env, n_agent, n_agent-1, ado_dim]
   const std::uint8_t* obs_ado_alive() const { return ado_alive_.data(); }  // [n_env, n_agent, n_agent-1]
   const float* obs_task() const { return task_.data(); }          // [n_env, n_agent, task_dim]
 
@@ -193,12 +195,14 @@ class RaceEnv {
   void compute_ranks(int env);
   void write_observations(int env);
   void write_goal_observation(int i);
+  void write_lane_observations(int env);
   double goal_lane_error_ft(int i) const;
   void place_goal(int i, const std::int64_t* bins3);
 
   RaceConfig config_;
   int n_agent_;
   int task_dim_;
+  int ado_dim_;
   dynamics::F16Batch sim_;
   std::vector<dynamics::TrimResult> trims_;  // level trims at start_speed every trim_step_ft
   double trim_alt0_ft_ = 0.0, trim_step_ft_ = 50.0;

@@ -62,7 +62,7 @@ SoakResult run_soak(const SoakOptions& o) {
     r.non_finite += count_non_finite(env.obs_ego(), static_cast<std::int64_t>(n) * kEgoDim) +
                     count_non_finite(env.obs_goal(), static_cast<std::int64_t>(n) * kGoalDim) +
                     count_non_finite(env.obs_prev_action(), static_cast<std::int64_t>(n) * kActionDim) +
-                    count_non_finite(env.obs_ado(), n_other * kAdoDim) +
+                    count_non_finite(env.obs_ado(), n_other * env.ado_dim()) +
                     count_non_finite(env.obs_task(), static_cast<std::int64_t>(n) * env.task_dim()) +
                     count_non_finite(env.ll_reward(), n) + count_non_finite(env.hl_reward(), n);
     // A new race gets new kinds of pilot.

@@ -12,10 +12,10 @@
 namespace f16race::train {
 
 inline models::ObsDims obs_dims(const race::RaceEnv& env) {
-  return models::ObsDims{race::kEgoDim, race::kAdoDim, env.task_dim(), env.n_agent() - 1, race::kActionDim, race::kGoalDim};
+  return models::ObsDims{race::kEgoDim, env.ado_dim(), env.task_dim(), env.n_agent() - 1, race::kActionDim, race::kGoalDim};
 }
 inline models::ObsDims obs_dims(const race::RaceConfig& rc) {
-  return models::ObsDims{race::kEgoDim, race::kAdoDim, race::task_dim(rc), rc.n_agent() - 1, race::kActionDim, race::kGoalDim};
+  return models::ObsDims{race::kEgoDim, race::ado_dim(rc), race::task_dim(rc), rc.n_agent() - 1, race::kActionDim, race::kGoalDim};
 }
 
 // final_obs: the observations saved when a race ended by the time limit (for bootstrapping).
