@@ -100,7 +100,10 @@ CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
   const train::TrainConfig want =
       train::read_train_config(io::load_yaml_with_overrides(config.base_config, cell.overrides), config.base_config);
   const train::RunConfig have = train::read_run_config(cell.run_dir);
-  if (have.hash != train::config_hash(train::train_config_yaml(want)))
+  // Compared as this build reads both (defaults filled in), so a key added since the run was
+  // trained, at its default, does not orphan the run; its checkpoint is still checked against
+  // the run's own config.yaml below.
+  if (train::train_config_yaml(have.config) != train::train_config_yaml(want))
     throw io::InputError(cell.run_dir +
                          ": holds a run of another configuration than this study cell (the study or base config "
                          "changed since it was trained); move the folder aside, or restore the config it was "

@@ -126,6 +126,26 @@ TEST(Study, CellStateFollowsTheRunAndRefusesAnotherConfig) {
   const CellStatus done = cell_status(c, cell);
   EXPECT_EQ(done.state, CellState::finished);
   EXPECT_GE(done.env_steps, 1000);
+  {
+    // A run trained before a config key existed (its config.yaml lacks it, its checkpoint hashes
+    // that text) is still its cell's run when the key's default is what the cell asks for.
+    const fs::path yaml = fs::path(cell.run_dir) / "config.yaml";
+    std::ifstream in(yaml);
+    std::string text, line;
+    while (std::getline(in, line))
+      if (line.find("observe_team_lanes") == std::string::npos) text += line + "\n";
+    in.close();
+    ASSERT_NE(text.size(), fs::file_size(yaml)) << "the key to drop is not in config.yaml";
+    write(yaml, text);
+    const fs::path ckpt = fs::path(cell.run_dir) / "checkpoint" / train::latest_checkpoint_name(cell.run_dir);
+    std::ifstream meta_in(ckpt / "meta.yaml");
+    std::string meta, m;
+    while (std::getline(meta_in, m))
+      meta += (m.rfind("config_hash:", 0) == 0 ? "config_hash: " + std::to_string(train::config_hash(text)) : m) + "\n";
+    meta_in.close();
+    write(ckpt / "meta.yaml", meta);
+    EXPECT_EQ(cell_status(c, cell).state, CellState::finished);
+  }
   StudyConfig other = c;
   other.total_env_steps = 2000;  // the study changed: this folder is not its cell's run
   EXPECT_THROW(cell_status(other, plan_study(other, (d / "out").string()).front()), io::InputError);
