@@ -2,13 +2,16 @@
 // evaluate the model's derivatives at given points, and compare with AeroBench's own numbers.
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "aerobench_files/aerobench_csv.hpp"
 #include "commands.hpp"
+#include "dynamics/gcas_autopilot.hpp"
 #include "dynamics/reference_replay.hpp"
+#include "dynamics/waypoint_autopilot.hpp"
 #include "io/csv_table.hpp"
 
 namespace f16race::app {
@@ -23,14 +26,36 @@ struct SimulateOptions {
   std::string reference;
   std::string derivatives;
   std::string commands;
+  std::string autopilot;  // gcas | waypoint: the outer loop flown natively
+  std::string waypoints;
+  std::string init;
   std::string out;
   double dt_s = 0.01;
   double trim_vt_ftps = 540.0;
   double trim_alt_ft = 5000.0;
   double duration_s = 15.0;
   double sample_s = 0.02;
+  bool sample_given = false;
   bool compare = false;
 };
+
+// The outer loop named by --autopilot; its initial mode from `mode_text` (a file's first `mode`
+// cell; GCAS only) when given.
+std::unique_ptr<OuterLoop> make_autopilot(const SimulateOptions& o, const std::string& mode_text) {
+  if (o.autopilot == "gcas") {
+    if (!o.waypoints.empty()) throw io::InputError("--waypoints is for --autopilot waypoint, not gcas");
+    GcasMode mode = GcasMode::kStandby;
+    if (!mode_text.empty() && !parse_gcas_mode(mode_text, &mode))
+      throw io::InputError("the start mode '" + mode_text + "' (first row's `mode`) is not a GCAS mode: use standby, "
+                           "roll, pull or waiting");
+    return std::make_unique<GcasAutopilot>(mode);
+  }
+  if (o.autopilot == "waypoint") {
+    if (o.waypoints.empty()) throw io::InputError("--autopilot waypoint needs --waypoints FILE (columns e_ft, n_ft, alt_ft)");
+    return std::make_unique<WaypointAutopilot>(aerobench_files::read_waypoints(io::CsvTable::read(o.waypoints)));
+  }
+  throw io::InputError("--autopilot '" + o.autopilot + "': use gcas or waypoint");
+}
 
 AeroModel parse_model(const std::string& text) {
   AeroModel m;
@@ -59,19 +84,36 @@ void run_trajectory(const SimulateOptions& o) {
   const aerobench_files::ReplaySettings settings = replay_settings(o);
   ReplayRequest req;
   std::optional<io::CsvTable> ref_table;
+  std::unique_ptr<OuterLoop> autopilot;
   if (!o.reference.empty()) {
     ref_table = io::CsvTable::read(o.reference);
     req = aerobench_files::request_from_reference(*ref_table, settings);
+    // The reference gives the start state and the sample times; the autopilot its references.
+    if (!o.autopilot.empty()) autopilot = make_autopilot(o, aerobench_files::initial_mode(*ref_table));
+  } else if (!o.autopilot.empty()) {
+    if (o.init.empty()) throw io::InputError("--autopilot without --reference needs --init FILE (the start state)");
+    const io::CsvTable init = io::CsvTable::read(o.init);
+    // AeroBench samples its autopilot runs at 30 Hz.
+    req = aerobench_files::request_from_initial_state(init, o.duration_s, o.sample_given ? o.sample_s : 1.0 / 30.0,
+                                                      settings);
+    autopilot = make_autopilot(o, aerobench_files::initial_mode(init));
   } else {
     std::optional<io::CsvTable> commands;
     if (!o.commands.empty()) commands = io::CsvTable::read(o.commands);
     const aerobench_files::ScriptedRun run{o.trim_vt_ftps, o.trim_alt_ft, o.duration_s, o.sample_s};
     req = aerobench_files::request_from_commands(commands ? &*commands : nullptr, run, settings);
   }
+  req.autopilot = autopilot.get();
   const ReplayResult result = replay_references(req);
   const std::vector<std::vector<double>> rows = aerobench_files::trajectory_rows(result);
   const std::vector<std::string> header = aerobench_files::trajectory_header();
-  aerobench_files::write_rows(o.out, header, rows);
+  if (autopilot) {  // the mode column, as in AeroBench's runs
+    std::vector<std::string> modes;
+    for (const ReplaySample& s : result.samples) modes.push_back(s.mode);
+    aerobench_files::write_rows(o.out, header, rows, {"mode"}, {modes});
+  } else {
+    aerobench_files::write_rows(o.out, header, rows);
+  }
   if (result.status != kStatusOk) {
     char buf[256];
     std::snprintf(buf, sizeof buf,
@@ -79,8 +121,9 @@ void run_trajectory(const SimulateOptions& o) {
                   status_name(result.status), result.failed_at_s, rows.size(), o.out.c_str());
     throw io::InputError(buf);
   }
-  std::printf("simulated %zu samples (%s, %s, dt %.4g s) -> %s\n", rows.size(), aero_model_name(settings.model),
-              integrator_name(req.integrator), req.dt_s, o.out.c_str());
+  std::printf("simulated %zu samples (%s, %s, dt %.4g s%s%s) -> %s\n", rows.size(), aero_model_name(settings.model),
+              integrator_name(req.integrator), req.dt_s, autopilot ? ", autopilot " : "",
+              autopilot ? (o.autopilot + (result.autopilot_finished ? ", finished" : "")).c_str() : "", o.out.c_str());
   if (o.compare) {
     if (!ref_table) throw io::InputError("--compare needs --reference");
     print_comparison(aerobench_files::compare_columns(*ref_table, header, rows, 1, /*relative=*/false), false);
@@ -119,10 +162,19 @@ void add_simulate_command(CLI::App& app) {
                   "Points CSV in deriv_plant_* / deriv_closed_loop_* format: evaluate the model at each row");
   cmd->add_option("--commands", opts->commands,
                   "Scripted run: CSV with t_s and any reference columns, as offsets from the trim references");
+  cmd->add_option("--autopilot", opts->autopilot,
+                  "Fly AeroBench's outer loop natively, evaluated at every RK stage: gcas or waypoint. With "
+                  "--reference: its start state, start mode and sample times; without: --init and --duration");
+  cmd->add_option("--waypoints", opts->waypoints, "--autopilot waypoint: CSV with e_ft, n_ft, alt_ft, one waypoint a row");
+  cmd->add_option("--init", opts->init,
+                  "--autopilot without --reference: CSV whose first row holds the start state (reference-format "
+                  "state columns; integrators optional) and optionally the start `mode`");
   cmd->add_option("--trim-vt", opts->trim_vt_ftps, "Scripted run: trim airspeed [ft/s]")->check(CLI::PositiveNumber);
   cmd->add_option("--trim-alt", opts->trim_alt_ft, "Scripted run: trim altitude [ft]");
-  cmd->add_option("--duration", opts->duration_s, "Scripted run: length [s]")->check(CLI::PositiveNumber);
-  cmd->add_option("--sample", opts->sample_s, "Scripted run: output interval [s]")->check(CLI::PositiveNumber);
+  cmd->add_option("--duration", opts->duration_s, "Scripted or autopilot run: length [s]")->check(CLI::PositiveNumber);
+  cmd->add_option("--sample", opts->sample_s, "Scripted or autopilot run: output interval [s] (default 0.02; autopilot 1/30)")
+      ->check(CLI::PositiveNumber)
+      ->each([opts](const std::string&) { opts->sample_given = true; });
   cmd->add_option("--dt", opts->dt_s, "Largest integration step [s]")->check(CLI::Range(1e-6, 1.0));
   cmd->add_option("--integrator", opts->integrator, "rk4 (default) or euler");
   cmd->add_option("--interp", opts->interp, "Reference interpolation: hold (default, step inputs) or linear (smooth inputs); never across a change of the file's `mode` column");
@@ -136,6 +188,10 @@ void add_simulate_command(CLI::App& app) {
     } else {
       if (!opts->reference.empty() && !opts->commands.empty())
         throw io::InputError("give either --reference or --commands, not both");
+      if (!opts->autopilot.empty() && !opts->commands.empty())
+        throw io::InputError("--autopilot sets the references itself: leave out --commands");
+      if (!opts->init.empty() && !opts->reference.empty())
+        throw io::InputError("--init and --reference both give a start state: use one");
       run_trajectory(*opts);
     }
   });

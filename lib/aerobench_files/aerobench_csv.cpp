@@ -111,6 +111,35 @@ ReplayRequest request_from_commands(const io::CsvTable* commands, const Scripted
   return req;
 }
 
+std::vector<Waypoint> read_waypoints(const io::CsvTable& t) {
+  const std::vector<double> e = require_column(t, "e_ft"), n = require_column(t, "n_ft"), alt = require_column(t, "alt_ft");
+  if (e.empty()) throw io::InputError(t.source() + ": no waypoints; give one row per waypoint (e_ft, n_ft, alt_ft)");
+  std::vector<Waypoint> w(e.size());
+  for (std::size_t k = 0; k < e.size(); ++k) w[k] = Waypoint{n[k], e[k], alt[k]};
+  return w;
+}
+
+std::string initial_mode(const io::CsvTable& t) {
+  return t.has_column("mode") && t.rows() > 0 ? t.cell(0, t.column_index("mode")) : std::string();
+}
+
+ReplayRequest request_from_initial_state(const io::CsvTable& init, double duration_s, double sample_s,
+                                         const ReplaySettings& settings) {
+  ReplayRequest req = settings_request(settings);
+  if (!(duration_s > 0.0) || !(sample_s > 0.0)) throw io::InputError("--duration and --sample must be > 0");
+  if (duration_s / sample_s > ScriptedRun::kMaxSamples)
+    throw io::InputError("--duration " + std::to_string(duration_s) + " s at --sample " + std::to_string(sample_s) +
+                         " s would write more than 10 000 000 samples; shorten --duration or raise --sample");
+  if (init.rows() == 0) throw io::InputError(init.source() + ": no data rows; the first row is the start state");
+  for (int s = 0; s < kNumStates; ++s) {
+    const bool integrator = s >= kNumPlantStates;
+    req.x0[s] = integrator && !init.has_column(kStateNames[s]) ? 0.0 : require_column(init, kStateNames[s]).front();
+  }
+  // Accumulated like run_f16_sim's sample times, so mode switches see the same clock values.
+  for (double t = 0.0; t <= duration_s; t += sample_s) req.output_times_s.push_back(t);
+  return req;
+}
+
 std::vector<std::string> trajectory_header() {
   std::vector<std::string> h{"t_s"};
   for (const char* n : kStateNames) h.push_back(n);

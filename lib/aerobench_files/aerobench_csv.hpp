@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dynamics/reference_replay.hpp"
+#include "dynamics/waypoint_autopilot.hpp"
 #include "io/csv_table.hpp"
 
 namespace f16race::aerobench_files {
@@ -41,6 +42,17 @@ struct ScriptedRun {
 // `commands` may be null (fly the trim).
 dynamics::ReplayRequest request_from_commands(const io::CsvTable* commands, const ScriptedRun& run,
                                               const ReplaySettings& settings);
+
+// Autopilot runs (`simulate --autopilot`). Waypoints: columns e_ft, n_ft, alt_ft, one waypoint a
+// row, in order (AeroBench's (east, north, altitude) tuples).
+std::vector<dynamics::Waypoint> read_waypoints(const io::CsvTable& waypoints);
+// The first row's `mode` column (an autopilot's initial mode), or "" when there is none.
+std::string initial_mode(const io::CsvTable& table);
+// No reference: the start state from the first row of `init` (the state columns of the
+// reference format; the three integrators may be left out and start at 0), outputs every
+// sample_s from 0 while <= duration_s, the times accumulated (t += sample_s) as AeroBench's are.
+dynamics::ReplayRequest request_from_initial_state(const io::CsvTable& init, double duration_s, double sample_s,
+                                                   const ReplaySettings& settings);
 
 // Trajectory columns: t_s, the 16 states, Nz_g, ps_radps, Ny_r_mixed, Ny_g, the 4 references,
 // the 4 surfaces and the 16 state derivatives: the reference format minus `mode`.

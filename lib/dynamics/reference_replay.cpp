@@ -68,14 +68,35 @@ ReplaySample evaluate_closed_loop(AeroModel model, double t_s, const StateVector
   return s;
 }
 
+namespace {
+// Recorded references as an outer loop without a mode.
+class RecordedReferences final : public OuterLoop {
+ public:
+  explicit RecordedReferences(const ReferenceSeries& refs) : refs_(refs) {}
+  RefVector u_ref(double t_s, const StateVector&, bool left_limit) const override { return refs_.at(t_s, left_limit); }
+
+ private:
+  const ReferenceSeries& refs_;
+};
+}  // namespace
+
 ReplayResult replay_references(const ReplayRequest& req) {
   if (!(req.dt_s > 0.0)) throw std::invalid_argument("replay: dt must be > 0");
   const std::vector<double>& times = req.output_times_s;
   ReplayResult result;
   if (times.empty()) return result;
   result.samples.reserve(times.size());
+  RecordedReferences recorded(req.refs);
+  OuterLoop& loop = req.autopilot ? *req.autopilot : static_cast<OuterLoop&>(recorded);
   StateVector x = req.x0;
-  result.samples.push_back(evaluate_closed_loop(req.model, times[0], x, req.refs.at(times[0])));
+  // A sample: the discrete update first (AeroBench: "mode can change at time 0"), then the
+  // outputs under the new mode, as its extended states are.
+  auto record = [&](double t) {
+    loop.at_sample(t, x);
+    result.samples.push_back(evaluate_closed_loop(req.model, t, x, loop.u_ref(t, x, false)));
+    result.samples.back().mode = loop.mode();
+  };
+  record(times[0]);
 
   for (std::size_t k = 0; k + 1 < times.size(); ++k) {
     const double t0 = times[k], t1 = times[k + 1];
@@ -88,22 +109,19 @@ ReplayResult replay_references(const ReplayRequest& req) {
       const double t_end = (step + 1 == n) ? t1 : t + h;
       StateVector xn;
       if (req.integrator == Integrator::kRk4) {
-        const RefVector u_a = req.refs.at(t);
-        const RefVector u_m = req.refs.at(t + 0.5 * h);
-        const RefVector u_b = req.refs.at(t_end, /*left_limit=*/true);
-        const ClosedLoopOutputs k1 = derivative(req.model, x.data(), u_a.data());
+        // The outer loop at every stage, on the stage's state (AeroBench's right-hand side).
+        const ClosedLoopOutputs k1 = derivative(req.model, x.data(), loop.u_ref(t, x, false).data());
         StateVector xs;
         for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + 0.5 * h * k1.xdot[s];
-        const ClosedLoopOutputs k2 = derivative(req.model, xs.data(), u_m.data());
+        const ClosedLoopOutputs k2 = derivative(req.model, xs.data(), loop.u_ref(t + 0.5 * h, xs, false).data());
         for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + 0.5 * h * k2.xdot[s];
-        const ClosedLoopOutputs k3 = derivative(req.model, xs.data(), u_m.data());
+        const ClosedLoopOutputs k3 = derivative(req.model, xs.data(), loop.u_ref(t + 0.5 * h, xs, false).data());
         for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + h * k3.xdot[s];
-        const ClosedLoopOutputs k4 = derivative(req.model, xs.data(), u_b.data());
+        const ClosedLoopOutputs k4 = derivative(req.model, xs.data(), loop.u_ref(t_end, xs, /*left_limit=*/true).data());
         for (int s = 0; s < kNumStates; ++s)
           xn[s] = x[s] + (h / 6.0) * (k1.xdot[s] + 2.0 * k2.xdot[s] + 2.0 * k3.xdot[s] + k4.xdot[s]);
       } else {
-        const RefVector u_a = req.refs.at(t);
-        const ClosedLoopOutputs k1 = derivative(req.model, x.data(), u_a.data());
+        const ClosedLoopOutputs k1 = derivative(req.model, x.data(), loop.u_ref(t, x, false).data());
         for (int s = 0; s < kNumStates; ++s) xn[s] = x[s] + h * k1.xdot[s];
       }
       const std::int32_t verdict = classify_state(xn.data(), req.limits);
@@ -114,7 +132,11 @@ ReplayResult replay_references(const ReplayRequest& req) {
       }
       x = xn;
     }
-    result.samples.push_back(evaluate_closed_loop(req.model, t1, x, req.refs.at(t1)));
+    record(t1);
+    if (loop.finished(t1, x)) {
+      result.autopilot_finished = true;
+      break;
+    }
   }
   return result;
 }

@@ -1,11 +1,14 @@
 #pragma once
 // One aircraft flown against a time series of outer-loop references: the engine behind
 // `f16race simulate`, used to compare this model with AeroBench's own trajectories and to run
-// scripted manoeuvres. Fixed-step RK4/Euler; references are evaluated at every stage.
+// scripted manoeuvres. Fixed-step RK4/Euler; references are evaluated at every stage, from
+// recorded samples or from an autopilot (OuterLoop) whose mode changes at output samples.
+#include <string>
 #include <vector>
 
 #include "dynamics/envelope.hpp"
 #include "dynamics/f16_batch.hpp"
+#include "dynamics/outer_loop.hpp"
 #include "dynamics/state.hpp"
 
 namespace f16race::dynamics {
@@ -37,6 +40,9 @@ struct ReplayRequest {
   double dt_s = 0.01;                 // largest step; shortened to land on every output time
   StateVector x0{};
   ReferenceSeries refs;
+  // When set, the references come from this autopilot instead of `refs` (not owned; its mode
+  // advances during the replay, at the start time and at every output time).
+  OuterLoop* autopilot = nullptr;
   std::vector<double> output_times_s;  // strictly increasing; the first is the start time
   EnvelopeLimits limits{};
 };
@@ -49,12 +55,14 @@ struct ReplaySample {
   RefVector u_ref;
   double nz_g, ps_radps, ny_r, ny_g;
   double throttle, elevator_deg, aileron_deg, rudder_deg;
+  std::string mode;  // the autopilot's mode after its update at this sample; empty without one
 };
 
 struct ReplayResult {
   std::vector<ReplaySample> samples;  // one per output time reached
   std::int32_t status = kStatusOk;    // non-ok: the run stopped early; samples end before it
   double failed_at_s = 0.0;
+  bool autopilot_finished = false;    // the autopilot's stop rule ended the run at the last sample
 };
 
 ReplayResult replay_references(const ReplayRequest& request);

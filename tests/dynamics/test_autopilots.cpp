@@ -1,0 +1,213 @@
+// AeroBench's outer loops flown natively (evaluated at every RK stage, modes switched at output
+// samples): the GCAS run of tests/data reproduced to open-loop accuracy with the same switch
+// times, and the rules of both autopilots checked on states built to sit on either side of them.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "aerobench_files/aerobench_csv.hpp"
+#include "dynamics/gcas_autopilot.hpp"
+#include "dynamics/reference_replay.hpp"
+#include "dynamics/waypoint_autopilot.hpp"
+#include "reference_data.hpp"
+
+namespace f16race::dynamics {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+class GcasRun : public ::testing::TestWithParam<AeroModel> {};
+
+TEST_P(GcasRun, ReproducesAeroBenchWithinOpenLoopTolerancesAndSwitchesOnTheSameSample) {
+  const AeroModel model = GetParam();
+  const io::CsvTable ref = test::load_reference(std::string("f_gcas_") + aero_model_name(model) + ".csv");
+  aerobench_files::ReplaySettings settings;
+  settings.model = model;
+  settings.dt_s = 0.01;
+  ReplayRequest req = aerobench_files::request_from_reference(ref, settings);
+  GcasMode start;
+  ASSERT_TRUE(parse_gcas_mode(aerobench_files::initial_mode(ref), &start));
+  GcasAutopilot gcas(start);
+  req.autopilot = &gcas;
+  const ReplayResult res = replay_references(req);
+  ASSERT_EQ(res.status, kStatusOk);
+  ASSERT_EQ(res.samples.size(), ref.rows());
+  double vt = 0, angle = 0, pos = 0;
+  for (int s = 0; s < kNumStates; ++s) {
+    const std::vector<double> theirs = ref.numeric(kStateNames[s]);
+    for (std::size_t k = 0; k < theirs.size(); ++k) {
+      const double e = std::fabs(res.samples[k].x[s] - theirs[k]);
+      if (s == kVt) vt = std::fmax(vt, e);
+      if (s >= kAlpha && s <= kPsi) angle = std::fmax(angle, e);
+      if (s >= kPn && s <= kAlt) pos = std::fmax(pos, e);
+    }
+  }
+  std::printf("[ native GCAS %s ] max error: vt %.2e ft/s, angles %.2e rad, position %.2e ft\n", aero_model_name(model),
+              vt, angle, pos);
+  // The open-loop tolerances (test_trajectories.cpp), not the 10x of the replay from samples.
+  EXPECT_LT(vt, 0.05);
+  EXPECT_LT(angle, 1e-4);
+  EXPECT_LT(pos, 1.0);
+  // Every row's mode, so both switches (roll -> pull, pull -> standby) happen on AeroBench's sample.
+  const std::size_t mode_col = ref.column_index("mode");
+  int switches = 0;
+  for (std::size_t k = 0; k < ref.rows(); ++k) {
+    EXPECT_EQ(res.samples[k].mode, ref.cell(k, mode_col)) << "row " << k << " t " << res.samples[k].t_s;
+    if (k > 0 && ref.cell(k, mode_col) != ref.cell(k - 1, mode_col)) ++switches;
+  }
+  EXPECT_EQ(switches, 2);
+  // And the references the law gave match the file's (ps of the roll law, Nz of the pull).
+  const std::vector<double> ps_ref = ref.numeric("ps_ref_radps"), nz_ref = ref.numeric("Nz_ref_g");
+  for (std::size_t k = 0; k < ref.rows(); ++k) {
+    EXPECT_NEAR(res.samples[k].u_ref[kPsRef], ps_ref[k], 1e-3) << "row " << k;
+    EXPECT_EQ(res.samples[k].u_ref[kNzRef], nz_ref[k]) << "row " << k;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AeroBench, GcasRun, ::testing::Values(AeroModel::kMorelli, AeroModel::kStevens),
+                         [](const auto& p) { return std::string(aero_model_name(p.param)); });
+
+StateVector level_state() {
+  StateVector x{};
+  x[kVt] = 540.0;
+  x[kAlpha] = 0.037;
+  x[kTheta] = 0.037;
+  x[kAlt] = 3800.0;
+  x[kPow] = 9.0;
+  return x;
+}
+
+TEST(GcasRules, EachTransitionNeedsAllOfItsConditions) {
+  StateVector x = level_state();
+  GcasState s;
+  // Standby -> roll below the 1000 ft deck when θ − α is not above 0 (at exactly 0 it triggers).
+  x[kAlt] = 900.0;
+  EXPECT_TRUE(gcas_advance(&s, 0.0, x.data()));
+  EXPECT_EQ(s.mode, GcasMode::kRoll);
+  s.mode = GcasMode::kStandby;
+  x[kTheta] = 0.05;  // nose up
+  EXPECT_FALSE(gcas_advance(&s, 0.0, x.data()));
+  x[kTheta] = -0.2;
+  x[kAlt] = 1000.0;  // on the deck: not below it
+  EXPECT_FALSE(gcas_advance(&s, 0.0, x.data()));
+  x[kAlt] = 999.0;
+  EXPECT_TRUE(gcas_advance(&s, 0.1, x.data()));
+  EXPECT_EQ(s.mode, GcasMode::kRoll);
+  // Roll -> pull needs |φ| < 5° (after wrapping) and |p| < 10°/s.
+  x[kPhi] = 0.1;  // 5.7°
+  EXPECT_FALSE(gcas_advance(&s, 0.2, x.data()));
+  x[kPhi] = 2.0 * kPi + 0.05;  // a whole turn plus 2.9°: level
+  x[kP] = 0.2;                 // 11.5°/s
+  EXPECT_FALSE(gcas_advance(&s, 0.3, x.data()));
+  x[kP] = 0.1;
+  EXPECT_TRUE(gcas_advance(&s, 0.4, x.data()));
+  EXPECT_EQ(s.mode, GcasMode::kPull);
+  EXPECT_EQ(s.pull_start_s, 0.4);
+  // Pull -> standby: nose above the horizon and at least 2 s of pulling.
+  x[kTheta] = 0.3;
+  EXPECT_FALSE(gcas_advance(&s, 2.39, x.data()));
+  x[kTheta] = -0.1;
+  EXPECT_FALSE(gcas_advance(&s, 2.5, x.data()));
+  x[kTheta] = 0.3;
+  EXPECT_TRUE(gcas_advance(&s, 2.41, x.data()));
+  EXPECT_EQ(s.mode, GcasMode::kStandby);
+  // Waiting -> roll at 2 s, with AeroBench's 1e-6 s of slack.
+  s.mode = GcasMode::kWaiting;
+  EXPECT_FALSE(gcas_advance(&s, 1.99, x.data()));
+  EXPECT_TRUE(gcas_advance(&s, 2.0 - 5e-7, x.data()));
+  EXPECT_EQ(s.mode, GcasMode::kRoll);
+}
+
+TEST(GcasRules, RollLawLevelsTheWingsTheShortWayAndPullIsFiveG) {
+  StateVector x = level_state();
+  x[kPhi] = -kPi / 8;
+  x[kP] = 0.1;
+  const RefVector roll = gcas_u_ref(GcasMode::kRoll, x.data());
+  EXPECT_DOUBLE_EQ(roll[kPsRef], -4.0 * (-kPi / 8) - 2.0 * 0.1);
+  x[kPhi] = 2.0 * kPi - 0.2;  // nearly a whole turn: roll back by 0.2, not forward by 2π − 0.2
+  x[kP] = 0.0;
+  EXPECT_NEAR(gcas_u_ref(GcasMode::kRoll, x.data())[kPsRef], 0.8, 1e-12);
+  const RefVector pull = gcas_u_ref(GcasMode::kPull, x.data());
+  EXPECT_EQ(pull[kNzRef], 5.0);
+  EXPECT_EQ(pull[kPsRef], 0.0);
+  for (GcasMode m : {GcasMode::kStandby, GcasMode::kWaiting})
+    for (double u : gcas_u_ref(m, x.data())) EXPECT_EQ(u, 0.0);
+}
+
+TEST(WaypointRules, TurnsTowardTheWaypointWithinTheLimits) {
+  StateVector x = level_state();  // heading north at the origin
+  const std::vector<Waypoint> east{{0.0, 5000.0, 3800.0}};
+  RefVector u = waypoint_u_ref(east, 0, x.data());
+  // 90° to the right: the bank command saturates at +65°, ps = 0.75 · 65° from wings level.
+  EXPECT_NEAR(u[kPsRef], 0.75 * 65.0 * kPi / 180.0, 1e-12);
+  const std::vector<Waypoint> west{{0.0, -5000.0, 3800.0}};
+  EXPECT_NEAR(waypoint_u_ref(west, 0, x.data())[kPsRef], -0.75 * 65.0 * kPi / 180.0, 1e-12);
+  // Throttle: 0.25 per ft/s below 550, clipped to [0, 1]; Ny+r 0.
+  EXPECT_EQ(u[kThrottleDelta], 1.0);  // 10 ft/s slow
+  x[kVt] = 549.0;
+  EXPECT_NEAR(waypoint_u_ref(east, 0, x.data())[kThrottleDelta], 0.25, 1e-12);
+  x[kVt] = 600.0;
+  EXPECT_EQ(waypoint_u_ref(east, 0, x.data())[kThrottleDelta], 0.0);
+  EXPECT_EQ(u[kNyRRef], 0.0);
+  // Altitude: Nz clipped to [-1, 4]; 10 000 ft low asks for the maximum.
+  x = level_state();
+  const std::vector<Waypoint> high{{5000.0, 0.0, 13800.0}}, low{{5000.0, 0.0, -6200.0}};
+  EXPECT_EQ(waypoint_u_ref(high, 0, x.data())[kNzRef], 4.0);
+  EXPECT_EQ(waypoint_u_ref(low, 0, x.data())[kNzRef], -1.0);
+  // Descending in a bank of 15° or more: no push (Nz >= 0).
+  x[kPhi] = 0.5;
+  EXPECT_GE(waypoint_u_ref(low, 0, x.data())[kNzRef], 0.0);
+  // Done (index past the end): wings level at the last altitude.
+  x[kPhi] = 0.2;
+  x[kP] = 0.0;
+  EXPECT_NEAR(waypoint_u_ref(high, 1, x.data())[kPsRef], -0.75 * 0.2, 1e-12);
+}
+
+TEST(WaypointRules, FliesAeroBenchsExampleThroughEveryWaypointAndStopsFiveSecondsAfter) {
+  // examples/waypoint/run_waypoint.py: 540 ft/s, α 2.1215°, ψ π/8 at 3800 ft, power 9, 70 s.
+  StateVector x0{};
+  x0[kVt] = 540.0;
+  x0[kAlpha] = 2.1215 * kPi / 180.0;
+  x0[kPsi] = kPi / 8;
+  x0[kAlt] = 3800.0;
+  x0[kPow] = 9.0;
+  // (east, north, alt) as AeroBench lists them.
+  const std::vector<Waypoint> wps{{3000.0, 1000.0, 4000.0}, {8000.0, 3000.0, 3900.0}, {18000.0, -1000.0, 3750.0},
+                                  {28000.0, 500.0, 4000.0}};
+  for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
+    ReplayRequest req;
+    req.model = model;
+    req.x0 = x0;
+    for (double t = 0.0; t <= 70.0; t += 1.0 / 30.0) req.output_times_s.push_back(t);
+    WaypointAutopilot ap(wps);
+    req.autopilot = &ap;
+    const ReplayResult res = replay_references(req);
+    ASSERT_EQ(res.status, kStatusOk) << aero_model_name(model);
+    ASSERT_TRUE(res.autopilot_finished) << aero_model_name(model) << ": did not pass all four waypoints in 70 s";
+    // Each advance happened at a sample within 250 ft of the waypoint it left, in order.
+    int next = 0;
+    double done_s = -1.0;
+    for (std::size_t k = 1; k < res.samples.size(); ++k) {
+      if (res.samples[k].mode == res.samples[k - 1].mode) continue;
+      const Waypoint& w = wps[static_cast<std::size_t>(next)];
+      const StateVector& x = res.samples[k].x;
+      const double d = std::sqrt(std::pow(w.n_ft - x[kPn], 2) + std::pow(w.e_ft - x[kPe], 2) +
+                                 std::pow(w.alt_ft - x[kAlt], 2));
+      EXPECT_LT(d, 250.0) << aero_model_name(model) << " waypoint " << next + 1;
+      ++next;
+      if (next == 4) done_s = res.samples[k].t_s;
+    }
+    EXPECT_EQ(next, 4) << aero_model_name(model);
+    EXPECT_EQ(res.samples.back().mode, "Done");
+    // The stop rule: the first sample more than 5 s after the last waypoint.
+    EXPECT_GT(res.samples.back().t_s, done_s + 5.0);
+    EXPECT_LE(res.samples.back().t_s, done_s + 5.0 + 1.0 / 30.0 + 1e-9);
+    std::printf("[ native waypoint %s ] all four waypoints by t = %.2f s, stopped at %.2f s\n", aero_model_name(model),
+                done_s, res.samples.back().t_s);
+  }
+}
+
+}  // namespace
+}  // namespace f16race::dynamics
