@@ -72,6 +72,9 @@ def main(path):
               f"{above[c]} of {len(runs)} runs above 0.5, {lb_above[c]} with the lower bound above 0.5, "
               f"{ub_below[c]} with the upper bound below 0.5")
     diffs = [t[0] - (t[1] + t[2]) / 2 for t in cells]
+    if len(cells) < 2:  # one run: no spread between runs to split
+        print(f"- run minus the mean of its controls (round-robin winrate): {diffs[0]:+.3f}")
+        return
     print(f"- run minus the mean of its controls (round-robin winrate): {statistics.mean(diffs):+.3f} "
           f"+- {statistics.stdev(diffs):.3f} over {len(runs)} runs")
     run_wr = [t[0] for t in cells]
