@@ -41,7 +41,8 @@ void run_race(const RaceOptions& o) {
   read_race_config(rr, &cfg);
   cfg.n_env = o.races;
   if (o.seed >= 0) cfg.seed = static_cast<std::uint64_t>(o.seed);
-  if (o.policy != "scripted") throw io::InputError("--policy '" + o.policy + "': only 'scripted' is built in so far");
+  if (o.policy != "scripted" && o.policy != "autopilot")
+    throw io::InputError("--policy '" + o.policy + "': use scripted or autopilot (AeroBench's waypoint autopilot)");
 
   RaceEnv env(cfg);
   const int n = env.n_aircraft(), n_agent = env.n_agent();
@@ -52,11 +53,14 @@ void run_race(const RaceOptions& o) {
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * kHlDims, cfg.hl_center_bin());
   ScriptedPilotConfig pilot;
   pilot.speed_ftps = cfg.start_speed_ftps;
+  AutopilotPilotConfig autopilot;
+  autopilot.airspeed_ftps = cfg.start_speed_ftps;
   RaceRecorder rec(env);
   StepStats totals;
   while (rec.remaining() > 0) {
-    env.set_hl_actions(bins.data());  // center-line goals; the scripted pilot ignores them (none recorded)
-    scripted_actions(env, pilot, actions.data());
+    env.set_hl_actions(bins.data());  // center-line goals; the built-in pilots ignore them (none recorded)
+    if (o.policy == "autopilot") autopilot_actions(env, autopilot, actions.data());
+    else scripted_actions(env, pilot, actions.data());
     rec.before_step(env);
     const StepStats st = env.step(actions.data());
     rec.after_step(env);
@@ -95,7 +99,7 @@ void run_race(const RaceOptions& o) {
     const RaceTrace& t = rec.trace(o.plot_race);
     const std::string prefix = "race" + std::to_string(o.plot_race);
     write_trace_csv(t, o.out, prefix);
-    write_trace_acmi(t, o.out + "/" + prefix + ".acmi", prefix + " (scripted pilots)");
+    write_trace_acmi(t, o.out + "/" + prefix + ".acmi", prefix + " (" + o.policy + " pilots)");
     std::string msg;
     if (plot_trace(t, o.out, prefix, "Race " + std::to_string(o.plot_race) + ": " + end_reason_name(t.end), &msg))
       std::printf("figure: %s\n", msg.c_str());
@@ -111,7 +115,7 @@ void add_race_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("race", "Run races with a built-in pilot; write trajectories and a Fig. 4-style plot");
   cmd->add_option("--config", o->config, "YAML config (its race: section is used)");
   cmd->add_option("--set", o->overrides, "Override a config key, e.g. --set race.team_size=2 (repeatable)");
-  cmd->add_option("--policy", o->policy, "Pilot: scripted (fly the tube, keep your lane)");
+  cmd->add_option("--policy", o->policy, "Pilot: scripted (fly the tube, keep your lane) or autopilot (AeroBench's waypoint autopilot on the same aim point)");
   cmd->add_option("--races", o->races, "Number of races (run in parallel)")->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", o->seed, "Seed (default: the config's race.seed)")->check(kNonNegativeSeed);
   cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)");

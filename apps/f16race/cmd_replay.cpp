@@ -41,7 +41,7 @@ void add_replay_command(CLI::App& app) {
                   "Run folder (blue team); RUN@center or RUN@random flies its low level under a fixed high level")
       ->required();
   cmd->add_option("--opponent", o->replay.opponent,
-                  "Red team: a run folder (@center / @random allowed), self (default), untrained or scripted");
+                  "Red team: a run folder (@center / @random allowed), self (default), untrained, scripted or autopilot (AeroBench's waypoint autopilot)");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--out", o->out, "Output folder");

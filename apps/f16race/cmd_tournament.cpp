@@ -74,6 +74,9 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--with-untrained", o->untrained_in_statistics,
                 "Count the untrained entry in the per-variant statistics (by default it is only listed)")
       ->excludes(no_untrained);
+  cmd->add_flag("--with-autopilot", o->include_autopilot,
+                "Add the entry 'autopilot': AeroBench's waypoint autopilot flying each aircraft's start lane along "
+                "the track, a non-learned reference; listed, never in the variant statistics");
   cmd->add_flag("--controls", o->controls,
                 "Add RUN@center and RUN@random for every run: its low level under a fixed high level (middle bin, "
                 "or uniform random bins); listed, never in the variant statistics");

@@ -37,31 +37,34 @@ double ps_for_bank(double phi_cmd_rad, const double* x) {
 
 }  // namespace
 
-RefVector waypoint_u_ref(const std::vector<Waypoint>& wps, int index, const double* x) {
-  const int n = static_cast<int>(wps.size());
-  double nz_g, ps_radps;
-  if (index < n) {
-    const Waypoint& w = wps[static_cast<std::size_t>(index)];
-    // Bearing to the waypoint from north, clockwise (π/2 − atan2(ΔN, ΔE), wrapped).
-    const double psi_cmd = wrap_to_pi(kPi / 2.0 - std::atan2(w.n_ft - x[kPn], w.e_ft - x[kPe]));
-    const double psi_err = wrap_to_pi(psi_cmd - wrap_to_pi(x[kPsi]));
-    const double phi_cmd = std::clamp(C::kKPropPsi * psi_err - C::kKDerPsi * x[kR], -C::kMaxBankRad, C::kMaxBankRad);
-    ps_radps = ps_for_bank(phi_cmd, x);
-    // The load of a level turn, 1/cos φ − 1 (0 at φ = 0, as AeroBench's guard gives).
-    const double nz_roll = x[kPhi] != 0.0 ? 1.0 / std::cos(x[kPhi]) - 1.0 : 0.0;
-    const double nz = nz_altitude(w.alt_ft, x) + nz_roll;
-    // Descending in a bank of 15° or more: no pushing over (Nz floored at 0).
-    nz_g = (w.alt_ft - x[kAlt] > 0.0 || std::fabs(x[kPhi]) < C::kDescendBankRad) ? nz : std::max(0.0, nz);
-  } else {
-    ps_radps = ps_for_bank(0.0, x);
-    nz_g = nz_altitude(wps.back().alt_ft, x);
-  }
+namespace {
+RefVector finish_refs(double nz_g, double ps_radps, const double* x, double airspeed_ftps) {
   RefVector u{};
   u[kNzRef] = std::clamp(nz_g, C::kMinNzCmdG, C::kMaxNzCmdG);
   u[kPsRef] = ps_radps;
   u[kNyRRef] = 0.0;
-  u[kThrottleDelta] = std::clamp(C::kKVt * (C::kAirspeedFtps - x[kVt]), 0.0, 1.0);
+  u[kThrottleDelta] = std::clamp(C::kKVt * (airspeed_ftps - x[kVt]), 0.0, 1.0);
   return u;
+}
+}  // namespace
+
+RefVector waypoint_u_ref_toward(const Waypoint& w, const double* x, double airspeed_ftps) {
+  // Bearing to the waypoint from north, clockwise (π/2 − atan2(ΔN, ΔE), wrapped).
+  const double psi_cmd = wrap_to_pi(kPi / 2.0 - std::atan2(w.n_ft - x[kPn], w.e_ft - x[kPe]));
+  const double psi_err = wrap_to_pi(psi_cmd - wrap_to_pi(x[kPsi]));
+  const double phi_cmd = std::clamp(C::kKPropPsi * psi_err - C::kKDerPsi * x[kR], -C::kMaxBankRad, C::kMaxBankRad);
+  // The load of a level turn, 1/cos φ − 1 (0 at φ = 0, as AeroBench's guard gives).
+  const double nz_roll = x[kPhi] != 0.0 ? 1.0 / std::cos(x[kPhi]) - 1.0 : 0.0;
+  const double nz = nz_altitude(w.alt_ft, x) + nz_roll;
+  // Descending in a bank of 15° or more: no pushing over (Nz floored at 0).
+  const double nz_g = (w.alt_ft - x[kAlt] > 0.0 || std::fabs(x[kPhi]) < C::kDescendBankRad) ? nz : std::max(0.0, nz);
+  return finish_refs(nz_g, ps_for_bank(phi_cmd, x), x, airspeed_ftps);
+}
+
+RefVector waypoint_u_ref(const std::vector<Waypoint>& wps, int index, const double* x) {
+  if (index < static_cast<int>(wps.size())) return waypoint_u_ref_toward(wps[static_cast<std::size_t>(index)], x);
+  // Done: wings level at the last waypoint's altitude (no turn term, no floor).
+  return finish_refs(nz_altitude(wps.back().alt_ft, x), ps_for_bank(0.0, x), x, C::kAirspeedFtps);
 }
 
 bool waypoint_advance(const std::vector<Waypoint>& wps, WaypointState* s, double t_s, const double* x) {

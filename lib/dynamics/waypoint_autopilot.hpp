@@ -40,6 +40,9 @@ struct WaypointState {
   double done_s = 0.0;     // when the last waypoint was reached
 };
 
+// The references at state x flying toward waypoint w, holding airspeed_ftps (AeroBench: 550).
+RefVector waypoint_u_ref_toward(const Waypoint& w, const double* x,
+                                double airspeed_ftps = WaypointConstants::kAirspeedFtps);
 // The references at state x while flying toward waypoints[index] (index < size), or, done,
 // wings level at the last waypoint's altitude.
 RefVector waypoint_u_ref(const std::vector<Waypoint>& waypoints, int index, const double* x);

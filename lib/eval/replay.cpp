@@ -26,7 +26,8 @@ namespace fs = std::filesystem;
 namespace {
 
 // One team's pilots: a learned policy (with its own HL, or a fixed HL rule as the tournament's
-// RUN@center / RUN@random controls), or the built-in scripted pilot (policy empty).
+// RUN@center / RUN@random controls), or a built-in pilot without networks (policy empty): the
+// scripted pilot or AeroBench's waypoint autopilot.
 struct Side {
   std::string name;
   std::optional<train::RunPolicy> policy;
@@ -39,9 +40,9 @@ std::string with_rule(const std::string& name, HlOverride rule) {
 
 Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint64_t seed) {
   const auto [path, rule] = parse_entry_spec(spec);
-  if (path == "scripted") {
-    if (rule != HlOverride::none) throw io::InputError(spec + ": the scripted pilot has no high level to fix");
-    return Side{"scripted", std::nullopt};
+  if (path == "scripted" || path == "autopilot") {
+    if (rule != HlOverride::none) throw io::InputError(spec + ": the " + path + " pilot has no high level to fix");
+    return Side{path, std::nullopt};
   }
   if (path == "untrained") return Side{with_rule("untrained", rule), train::untrained_policy(blue->config, seed), rule};
   train::RunPolicy p = train::load_run_policy(path);
@@ -76,6 +77,8 @@ RaceReplay run_replay(const ReplayOptions& o) {
   std::vector<float> actions(static_cast<std::size_t>(n_agent) * race::kActionDim, 0.0f);
   race::ScriptedPilotConfig pilot;
   pilot.speed_ftps = rc.start_speed_ftps;
+  race::AutopilotPilotConfig autopilot;
+  autopilot.airspeed_ftps = rc.start_speed_ftps;
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
@@ -111,7 +114,11 @@ RaceReplay run_replay(const ReplayOptions& o) {
       env.set_hl_actions(bins.data());
       rec.record_goals(env, due.data(), learned.data());
     }
-    if (!blue.policy || !red.policy) race::scripted_actions(env, pilot, actions.data());
+    // A built-in pilot writes every aircraft's actions; the networks then overwrite their own rows.
+    if (!red.policy) {
+      if (red.name == "autopilot") race::autopilot_actions(env, autopilot, actions.data());
+      else race::scripted_actions(env, pilot, actions.data());
+    }
     const models::LlObs obs = train::ll_obs_view(env);
     for (int team = 0; team < 2; ++team) {
       const Side& s = team == 0 ? blue : red;

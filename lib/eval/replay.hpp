@@ -15,7 +15,7 @@ struct ReplayOptions {
   // low level under the tournament's fixed HL rules (see eval/tournament.hpp)
   std::string run;
   // red: a run folder (with an optional @center / @random), "self" (default: the same spec as
-  // `run`), "untrained" or "scripted"
+  // `run`), "untrained", "scripted" or "autopilot"
   std::string opponent;
   std::uint64_t seed = 1;  // track and starting positions
   double epsilon = 0.0;    // HL exploration of both teams

@@ -17,6 +17,7 @@
 #include "race/block_events.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
+#include "race/scripted_pilot.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
 #include "train/run_policy.hpp"
@@ -75,7 +76,7 @@ RandomStream control_stream(std::uint64_t seed, int env) {
 }
 
 bool in_variant_statistics(const Entry& entry, const TournamentOptions& options) {
-  if (is_control(entry)) return false;
+  if (is_control(entry) || is_autopilot(entry)) return false;
   if (is_untrained(entry)) return options.untrained_in_statistics;
   return true;
 }
@@ -110,6 +111,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     res.entries.push_back(
         Entry{"untrained", "", "untrained", o.seed, HlOverride::none, static_cast<int>(pol.size()) - 1});
   }
+  if (o.include_autopilot) res.entries.push_back(Entry{"autopilot", "", "autopilot", o.seed, HlOverride::none, -1});
   // Controls: each run's own low level (same policy object) under a fixed high level.
   if (o.controls)
     for (std::size_t k = 0; k < o.runs.size(); ++k)
@@ -166,6 +168,9 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   rows.assign(owner);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3, 0.0f);
+  std::vector<float> autopilot_actions(o.include_autopilot ? actions.size() : 0, 0.0f);
+  race::AutopilotPilotConfig autopilot;
+  autopilot.airspeed_ftps = rc.start_speed_ftps;
   // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
   // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
   // env and team order, so independent of the thread count).
@@ -174,7 +179,9 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     std::vector<int> hl_owner(owner);
     for (std::size_t i = 0; i < hl_owner.size(); ++i) {
       const int e = static_cast<int>(i) / n_agent;
-      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || is_control(res.entries[hl_owner[i]]))) hl_owner[i] = -1;
+      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || is_control(res.entries[hl_owner[i]]) ||
+                               is_autopilot(res.entries[hl_owner[i]])))
+        hl_owner[i] = -1;
     }
     hl_rows.assign(hl_owner);
     for (int id = 0; id < n_entries; ++id)
@@ -187,8 +194,9 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       if (env_game[e] < 0 || !env.hl_due()[e]) continue;
       for (int team = 0; team < 2; ++team) {
         const Entry& en = res.entries[owner[e * n_agent + team * ts]];
-        if (is_control(en))
-          fixed_hl_bins(en.hl, rc.hl_bins, ts, control_rng[e],
+        // The autopilot has no high level: its goals stay on the center-line (reward only).
+        if (is_control(en) || is_autopilot(en))
+          fixed_hl_bins(is_autopilot(en) ? HlOverride::center : en.hl, rc.hl_bins, ts, control_rng[e],
                         bins.data() + static_cast<std::size_t>(e * n_agent + team * ts) * race::kHlDims);
       }
     }
@@ -203,12 +211,21 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       env.set_hl_actions(bins.data());
     }
     const LlObs obs = train::ll_obs_view(env);
-    for (int id = 0; id < n_entries; ++id)
-      if (rows.rows(id).numel() > 0)  // greedy: the Gaussian's mean, not a sample
-        train::scatter_rows(
+    for (int id = 0; id < n_entries; ++id) {
+      if (rows.rows(id).numel() == 0) continue;
+      if (is_autopilot(res.entries[id])) {  // every aircraft's, then its own rows copied
+        race::autopilot_actions(env, autopilot, autopilot_actions.data());
+        const std::int64_t* r = rows.rows(id).data_ptr<std::int64_t>();
+        for (std::int64_t k = 0; k < rows.rows(id).numel(); ++k)
+          std::copy_n(&autopilot_actions[static_cast<std::size_t>(r[k]) * race::kActionDim], race::kActionDim,
+                      &actions[static_cast<std::size_t>(r[k]) * race::kActionDim]);
+        continue;
+      }
+      train::scatter_rows(
             rows.rows(id),
             pol[res.entries[id].policy].ll->act(models::index_rows(obs, rows.rows(id)), gen, false).mean,
-            actions.data());
+            actions.data());  // greedy: the Gaussian's mean, not a sample
+    }
     std::vector<double> t_before(n);
     for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);
     env.step(actions.data());

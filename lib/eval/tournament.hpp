@@ -41,6 +41,7 @@ struct TournamentOptions {
   bool include_untrained = true;  // adds the entry "untrained": the networks before any update
   bool untrained_in_statistics = false;  // counts "untrained" in the per-variant statistics
   bool controls = false;          // adds RUN@center and RUN@random for every run
+  bool include_autopilot = false;  // adds "autopilot": AeroBench's waypoint autopilot, no learning
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams
   double epsilon = 0.0;           // HL exploration during evaluation
@@ -52,18 +53,20 @@ struct TournamentOptions {
 struct Entry {
   std::string name;     // folder name, "untrained", or "<run name>@center" / "@random"
   std::string path;
-  std::string variant;  // es, es_d1, es_d2, es_d3 (the untrained entry: "untrained"); a
-                        // control entry keeps its run's variant
+  std::string variant;  // es, es_d1, es_d2, es_d3 (the untrained entry: "untrained", the
+                        // autopilot "autopilot"); a control entry keeps its run's variant
   std::uint64_t seed = 0;
   HlOverride hl = HlOverride::none;  // control entries: the fixed HL rule
-  int policy = 0;                    // index of the loaded policy it flies (controls share their run's)
+  int policy = 0;                    // index of the loaded policy it flies (controls share their run's;
+                                     // -1: the autopilot, no network)
 };
 
 inline bool is_control(const Entry& e) { return e.hl != HlOverride::none; }
 inline bool is_untrained(const Entry& e) { return e.variant == "untrained" && !is_control(e); }
+inline bool is_autopilot(const Entry& e) { return e.policy < 0; }
 // Whether the entry's games count in the per-variant statistics (and the variant-vs-variant
 // panel): trained runs always, "untrained" only with options.untrained_in_statistics, control
-// entries never.
+// entries and the autopilot never.
 bool in_variant_statistics(const Entry& entry, const TournamentOptions& options);
 
 struct RaceRecord {
@@ -80,7 +83,7 @@ struct RaceRecord {
 };
 
 struct TournamentResult {
-  std::vector<Entry> entries;  // runs in --runs order, then "untrained", then the controls
+  std::vector<Entry> entries;  // runs in --runs order, then "untrained", "autopilot", the controls
   std::vector<RaceRecord> races;
   // wins[i][j]: races entry i won against j (draws count half); games[i][j]: races played.
   std::vector<std::vector<double>> wins, games;

@@ -7,6 +7,7 @@
 #include <map>
 #include <sstream>
 
+#include "race/scripted_pilot.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/plot.hpp"
@@ -65,8 +66,9 @@ void write_matrix_csv(const std::string& path, const std::vector<std::vector<dou
   io::write_csv(path, {"column", "row", "winrate"}, cols, {"text"}, text);
 }
 
-std::string hl_description(HlOverride rule) {
-  switch (rule) {
+std::string hl_description(const Entry& e) {
+  if (is_autopilot(e)) return "none: AeroBench's waypoint autopilot";
+  switch (e.hl) {
     case HlOverride::center:
       return "fixed: middle bin";
     case HlOverride::random:
@@ -305,12 +307,17 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
           "pairings.csv and pairings.png):";
     for (std::size_t k = 0; k < s.excluded.size(); ++k) md << (k ? ", " : " ") << s.excluded[k];
     md << ".";
-    bool has_untrained = false, has_control = false;
+    bool has_untrained = false, has_control = false, has_autopilot = false;
     for (int i = 0; i < n; ++i) {
       has_untrained = has_untrained || (!s.counted[i] && is_untrained(r.entries[i]));
       has_control = has_control || is_control(r.entries[i]);
+      has_autopilot = has_autopilot || is_autopilot(r.entries[i]);
     }
     if (has_untrained) md << " `untrained` is the networks before any update (`--with-untrained` counts it).";
+    if (has_autopilot)
+      md << " `autopilot` is classic control, no learning: AeroBench's waypoint autopilot (its gains) chasing a "
+            "point "
+         << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at the race's start speed.";
     if (has_control)
       md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "
             "(the middle bin on every axis, or uniform random bins at every HL decision).";
@@ -335,7 +342,7 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
                   r.entries[i].name.c_str(), r.entries[i].variant.c_str(),
                   static_cast<unsigned long long>(r.entries[i].seed), s.entry_races[i], s.entry_rate[i].point,
                   s.entry_rate[i].lo, s.entry_rate[i].hi, per_race(s.entry_blocks[i], s.entry_races[i]),
-                  hl_description(r.entries[i].hl).c_str(),
+                  hl_description(r.entries[i]).c_str(),
                   s.counted[i] ? "yes" : "no");
     md << buf;
   }

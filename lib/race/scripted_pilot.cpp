@@ -3,12 +3,31 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamics/inner_loop.hpp"
 #include "dynamics/physical_constants.hpp"
 #include "dynamics/state.hpp"
+#include "dynamics/waypoint_autopilot.hpp"
 
 namespace f16race::race {
 
 using namespace f16race::dynamics;
+
+namespace {
+// The point lookahead_ft ahead along the center-line, moved to lane_fraction of the aircraft's
+// start offset in the tube's cross-section there.
+Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_fraction) {
+  const TrackFrame fr = env.track(i / env.n_agent()).frame_at(env.progress_ft(i) + lookahead_ft);
+  return fr.center + (lane_fraction * env.start_lateral_ft(i)) * fr.right +
+         (lane_fraction * env.start_vertical_ft(i)) * fr.up;
+}
+
+// LL action entries in [-1, 1] from references (the inverse of RaceEnv's action mapping).
+void write_action(const RaceConfig& c, double throttle, double nz_ref_g, double ps_ref_radps, float* a) {
+  a[0] = static_cast<float>(2.0 * std::clamp(throttle, 0.0, 1.0) - 1.0);
+  a[1] = static_cast<float>(std::clamp(2.0 * (nz_ref_g - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0, -1.0, 1.0));
+  a[2] = static_cast<float>(std::clamp(ps_ref_radps / std::max(c.ps_ref_max_radps, 1e-9), -1.0, 1.0));
+}
+}  // namespace
 
 void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* actions) {
   using dynamics::kG;
@@ -18,9 +37,7 @@ void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* a
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < env.n_aircraft(); ++i) {
     float* a = actions + static_cast<std::size_t>(i) * kActionDim;
-    const TrackFrame fr = env.track(i / env.n_agent()).frame_at(env.progress_ft(i) + k.lookahead_ft);
-    const Vec3 aim = fr.center + (k.lane_fraction * env.start_lateral_ft(i)) * fr.right +
-                     (k.lane_fraction * env.start_vertical_ft(i)) * fr.up;
+    const Vec3 aim = lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
     const Vec3 d = aim - Vec3{sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]};
     const double vt = sim.state(kVt)[i], phi = sim.state(kPhi)[i], theta = sim.state(kTheta)[i];
     const double psi = sim.state(kPsi)[i], alpha = sim.state(kAlpha)[i];
@@ -34,9 +51,23 @@ void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* a
     // Hold the turn (1/cos(bank) g) plus a pull proportional to the flight-path error.
     const double nz_ref = std::cos(gamma) / std::max(std::cos(phi), 0.3) - 1.0 + k.k_climb * (gamma_cmd - gamma) * vt / kG;
     const double throttle = std::clamp(0.35 + k.k_speed * (k.speed_ftps - vt), 0.0, 1.0);
-    a[0] = static_cast<float>(2.0 * throttle - 1.0);
-    a[1] = static_cast<float>(std::clamp(2.0 * (nz_ref - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0, -1.0, 1.0));
-    a[2] = static_cast<float>(ps_ref / std::max(c.ps_ref_max_radps, 1e-9));
+    write_action(c, throttle, nz_ref, ps_ref, a);
+  }
+}
+
+void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& k, float* actions) {
+  const RaceConfig& c = env.config();
+  const F16Batch& sim = env.sim();
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < env.n_aircraft(); ++i) {
+    const Vec3 aim = lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
+    double x[kNumStates];
+    for (int s = 0; s < kNumStates; ++s) x[s] = sim.state(s)[i];
+    // One waypoint, always ahead: AeroBench's law as it flies toward its current waypoint.
+    const RefVector u = waypoint_u_ref_toward(dynamics::Waypoint{aim.n, aim.e, aim.u}, x, k.airspeed_ftps);
+    // AeroBench's throttle is a delta on its trim throttle; the race's action is the throttle.
+    write_action(c, lqr::kThrottleEquil + u[kThrottleDelta], u[kNzRef], u[kPsRef],
+                 actions + static_cast<std::size_t>(i) * kActionDim);
   }
 }
 

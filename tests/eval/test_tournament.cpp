@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 
@@ -264,6 +265,35 @@ TEST(TournamentControls, ListedButKeptOutOfVariantStatistics) {
     EXPECT_EQ(again.races[k].winner, r.races[k].winner) << k;
     EXPECT_EQ(again.races[k].duration_s, r.races[k].duration_s) << k;
   }
+}
+
+// The classic-control baseline entry: AeroBench's waypoint autopilot, no networks. Listed after
+// "untrained", out of the variant statistics, and a real pilot: it outflies the untrained networks.
+TEST(TournamentAutopilot, ListedOutOfStatisticsAndOutfliesTheUntrainedNetworks) {
+  TournamentOptions o;
+  o.runs = {trained_run("ap_a", 1, 2, "es_d3")};
+  o.include_autopilot = true;
+  o.races_per_pair = 16;
+  o.batch_envs = 16;
+  o.bootstrap_replicates = 200;
+  o.out_dir = (fs::temp_directory_path() / "f16race_tour_ap_out").string();
+  fs::remove_all(o.out_dir);
+  const TournamentResult r = run_tournament(o);
+  ASSERT_EQ(r.entries.size(), 3u);
+  EXPECT_EQ(r.entries[2].name, "autopilot");
+  EXPECT_TRUE(is_autopilot(r.entries[2]));
+  EXPECT_FALSE(is_autopilot(r.entries[1]));
+  EXPECT_FALSE(in_variant_statistics(r.entries[2], o));
+  EXPECT_TRUE(in_variant_statistics(r.entries[0], o));
+  EXPECT_EQ(r.games[2][1], 16.0);
+  EXPECT_EQ(r.games[2][0], 16.0);
+  std::printf("autopilot vs untrained: %.1f of 16 races won\n", r.wins[2][1]);
+  EXPECT_GE(r.wins[2][1], 12.0);
+  write_tournament_report(r, o);
+  std::ifstream md(o.out_dir + "/summary.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), {});
+  EXPECT_NE(text.find("| autopilot | autopilot |"), std::string::npos);
+  EXPECT_NE(text.find("none: AeroBench's waypoint autopilot"), std::string::npos);
 }
 
 TEST(Tournament, RefusesMissingAndMismatchedRuns) {

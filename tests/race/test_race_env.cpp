@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <set>
 #include <sstream>
@@ -288,31 +289,55 @@ TEST(RaceEnv, HostileActionsNeverReachTheOutputs) {
   EXPECT_GT(out, 0);
 }
 
-TEST(RaceEnv, ScriptedPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
+struct PilotOutcome {
+  int finished = 0, by_finish_line = 0, alive_at_end = 0;
+};
+
+// Eight 4 vs 4 races, every aircraft flown by `fly` (a built-in pilot), each raced to its end.
+template <class Fly>
+PilotOutcome race_built_in_pilot(Fly fly) {
   RaceConfig c = small_config(8, 4);
   RaceEnv env(c);
   std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, 3);
   std::vector<int> done(c.n_env, 0);
-  int finished = 0, by_finish_line = 0, alive_at_end = 0;
-  for (int s = 0; s < 5000 && finished < c.n_env; ++s) {
+  PilotOutcome r;
+  for (int s = 0; s < 5000 && r.finished < c.n_env; ++s) {
     env.set_hl_actions(bins.data());
-    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    fly(env, a.data());
     const StepStats st = env.step(a.data());
     for (int e = 0; e < c.n_env; ++e) {
       if (!env.env_done()[e] || done[e]) continue;
       done[e] = 1;
-      ++finished;
+      ++r.finished;
       for (int k = 0; k < env.n_agent(); ++k) {
         const int i = e * env.n_agent() + k;
-        alive_at_end += env.acted()[i] && env.step_cause()[i] == kCauseNone;
+        r.alive_at_end += env.acted()[i] && env.step_cause()[i] == kCauseNone;
       }
     }
-    by_finish_line += st.races_by_finish_line;
+    r.by_finish_line += st.races_by_finish_line;
   }
-  EXPECT_EQ(finished, c.n_env);
-  EXPECT_GE(by_finish_line, c.n_env - 1);            // races end at the finish line
-  EXPECT_GE(alive_at_end, 7 * c.n_env * 8 / 8);      // at least 7 of 8 aircraft per race on average
+  return r;
+}
+
+TEST(RaceEnv, ScriptedPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
+  const PilotOutcome r = race_built_in_pilot([](const RaceEnv& env, float* a) { scripted_actions(env, ScriptedPilotConfig{}, a); });
+  EXPECT_EQ(r.finished, 8);
+  EXPECT_GE(r.by_finish_line, 8 - 1);       // races end at the finish line
+  EXPECT_GE(r.alive_at_end, 7 * 8 * 8 / 8);  // at least 7 of 8 aircraft per race on average
+}
+
+// AeroBench's waypoint autopilot as a race pilot (classic control, issue 17's baseline): it
+// must fly the tracks to the finish line, not merely run.
+TEST(RaceEnv, AutopilotPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
+  AutopilotPilotConfig k;
+  k.airspeed_ftps = small_config(8, 4).start_speed_ftps;
+  const PilotOutcome r = race_built_in_pilot([&](const RaceEnv& env, float* a) { autopilot_actions(env, k, a); });
+  std::printf("autopilot pilot: %d races ended, %d at the finish line, %d of 64 aircraft alive at the end\n",
+              r.finished, r.by_finish_line, r.alive_at_end);
+  EXPECT_EQ(r.finished, 8);
+  EXPECT_GE(r.by_finish_line, 8 - 1);
+  EXPECT_GE(r.alive_at_end, 6 * 8);  // at least 6 of 8 aircraft per race on average
 }
 
 }  // namespace
