@@ -209,5 +209,39 @@ TEST(WaypointRules, FliesAeroBenchsExampleThroughEveryWaypointAndStopsFiveSecond
   }
 }
 
+// Heading convergence and altitude hold: from level flight heading north, a waypoint 30 000 ft
+// due east at the same altitude. The bank-to-turn law brings the heading onto the bearing and
+// the altitude law holds the height through the turn (no waypoint is reached in this time).
+TEST(WaypointRules, ConvergesOnTheBearingAndHoldsAltitudeThroughTheTurn) {
+  for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
+    ReplayRequest req;
+    req.model = model;
+    req.x0 = level_state();
+    req.x0[kAlpha] = 2.1215 * kPi / 180.0;  // AeroBench's example start
+    req.x0[kTheta] = 0.0;
+    req.x0[kAlt] = 3800.0;
+    for (double t = 0.0; t <= 40.0; t += 1.0 / 30.0) req.output_times_s.push_back(t);
+    WaypointAutopilot ap({Waypoint{0.0, 30000.0, 3800.0}});
+    req.autopilot = &ap;
+    const ReplayResult res = replay_references(req);
+    ASSERT_EQ(res.status, kStatusOk);
+    double worst_alt = 0.0, heading_err_late = 0.0, t_converged = -1.0;
+    for (const ReplaySample& s : res.samples) {
+      worst_alt = std::fmax(worst_alt, std::fabs(s.x[kAlt] - 3800.0));
+      const double bearing = std::atan2(0.0 - s.x[kPe] + 30000.0, 0.0 - s.x[kPn]);
+      const double err = std::fabs(std::remainder(bearing - s.x[kPsi], 2.0 * kPi));
+      if (err < 2.0 * kPi / 180.0 && t_converged < 0.0) t_converged = s.t_s;
+      if (s.t_s >= 30.0) heading_err_late = std::fmax(heading_err_late, err);
+    }
+    std::printf("[ waypoint %s ] heading within 2 deg of the bearing at t = %.1f s, worst after 30 s %.2f deg; "
+                "worst altitude error %.1f ft\n",
+                aero_model_name(model), t_converged, heading_err_late * 180.0 / kPi, worst_alt);
+    EXPECT_GT(t_converged, 0.0);
+    EXPECT_LT(t_converged, 30.0);
+    EXPECT_LT(heading_err_late, 2.0 * kPi / 180.0);
+    EXPECT_LT(worst_alt, 200.0);
+  }
+}
+
 }  // namespace
 }  // namespace f16race::dynamics
