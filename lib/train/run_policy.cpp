@@ -72,10 +72,11 @@ void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
     return;
   auto shape = [](const RunPolicy& p) {
     return std::to_string(p.config.race.team_size) + " vs " + std::to_string(p.config.race.team_size) +
-           " races with task size " + std::to_string(p.dims.d_task);
+           " races with task size " + std::to_string(p.dims.d_task) + " and ado size " + std::to_string(p.dims.d_ado);
   };
   throw io::InputError(other.run_dir + ": trained on " + shape(other) + ", but " + reference.run_dir + " on " +
-                           shape(reference) + "; race runs trained for the same race.team_size and race.preview_points");
+                           shape(reference) + "; race runs trained for the same race.team_size, race.preview_points and "
+                           "race.observe_team_lanes");
 }
 
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed) {
