@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "io/input_error.hpp"
 #include "io/provenance.hpp"
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
@@ -36,7 +37,14 @@ struct SimBenchOptions {
   double dt_s = 0.01;
   bool json = false;
   std::vector<int> threads;
+  std::string law = "held";  // held | gcas | waypoint: what sets the references at each RK stage
 };
+
+StageLaw parse_stage_law(const std::string& text) {
+  for (StageLaw l : {StageLaw::kHeld, StageLaw::kGcas, StageLaw::kWaypoint})
+    if (text == stage_law_name(l)) return l;
+  throw io::InputError("--law '" + text + "': use held, gcas or waypoint");
+}
 
 // Median RK4 aircraft-substeps per second for one model and thread count. The aircraft start
 // trimmed at speeds spread over 450-750 ft/s and hold their trim, so none leaves the envelope.
@@ -46,6 +54,7 @@ double bench_sim_case(AeroModel model, int n_aircraft, int n_threads, const SimB
   cfg.n_env = n_aircraft;
   cfg.n_agent = 1;
   cfg.model = model;
+  cfg.stage_law = parse_stage_law(o.law);
   F16Batch batch(cfg);
   constexpr int kTrims = 16;
   std::vector<TrimResult> trims;
@@ -58,7 +67,17 @@ double bench_sim_case(AeroModel model, int n_aircraft, int n_threads, const SimB
   }
   std::vector<double> rates;
   for (int rep = 0; rep < o.repeats + 1; ++rep) {
-    for (int i = 0; i < n_aircraft; ++i) batch.reset_aircraft(i, trims[i % kTrims].x0, trims[i % kTrims].u_ref);
+    for (int i = 0; i < n_aircraft; ++i) {
+      const TrimResult& tr = trims[i % kTrims];
+      batch.reset_aircraft(i, tr.x0, tr.u_ref);
+      // GCAS stays in standby above its deck; the waypoint law flies at a point 20 000 ft
+      // north-east at the trim altitude (a turn and a speed change: every branch of the law runs).
+      if (cfg.stage_law == StageLaw::kWaypoint) {
+        batch.law(kLawTargetN)[i] = tr.x0[kPn] + 20000.0;
+        batch.law(kLawTargetE)[i] = tr.x0[kPe] + 20000.0;
+        batch.law(kLawTargetAlt)[i] = tr.x0[kAlt];
+      }
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const int failed = batch.step(o.dt_s, o.substeps);
     const auto t1 = std::chrono::steady_clock::now();
@@ -76,7 +95,8 @@ void run_bench_sim(const SimBenchOptions& o) {
     if (omp_get_num_procs() > 1) threads.push_back(omp_get_num_procs());
   }
   if (!o.json) {
-    std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s\n", o.dt_s);
+    std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s, references: %s\n",
+                o.dt_s, o.law == "held" ? "held over each step" : (o.law + " law at every RK stage").c_str());
     std::printf("machine: %s, %d cores; %d aircraft, %d substeps per run, median of %d runs\n", io::cpu_model().c_str(),
                 omp_get_num_procs(), o.aircraft, o.substeps, o.repeats);
     std::printf("%-8s %8s %10s %22s\n", "model", "threads", "aircraft", "aircraft-substeps/s");
@@ -85,8 +105,9 @@ void run_bench_sim(const SimBenchOptions& o) {
     for (int t : threads) {
       const double rate = bench_sim_case(model, o.aircraft, t, o);
       if (o.json) {
-        std::printf("{\"bench\": \"sim\", \"model\": \"%s\", \"threads\": %d, \"aircraft\": %d, \"substeps_per_s\": %.6g}\n",
-                    aero_model_name(model), t, o.aircraft, rate);
+        std::printf("{\"bench\": \"sim\", \"model\": \"%s\", \"law\": \"%s\", \"threads\": %d, \"aircraft\": %d, "
+                    "\"substeps_per_s\": %.6g}\n",
+                    aero_model_name(model), o.law.c_str(), t, o.aircraft, rate);
       } else {
         std::printf("%-8s %8d %10d %22.4g\n", aero_model_name(model), t, o.aircraft, rate);
       }
@@ -223,6 +244,10 @@ void add_bench_command(CLI::App& app) {
   cmd->add_option("--repeats", sim->repeats, "Timed runs (median reported)")->check(CLI::Range(1, 1000));
   cmd->add_option("--threads", sim->threads, "Thread counts to measure (default: 1 and all cores)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--law", sim->law,
+                  "What sets the references: held (default, the race env's case), or AeroBench's gcas or waypoint "
+                  "autopilot evaluated at every RK stage")
+      ->check(CLI::IsMember({"held", "gcas", "waypoint"}));
   cmd->add_flag("--json", sim->json, "One JSON object per measured case, one per line");
   cmd->callback([sim]() { run_bench_sim(*sim); });
 

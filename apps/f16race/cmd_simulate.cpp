@@ -1,6 +1,7 @@
 // `f16race simulate`: fly one F-16 against recorded or scripted outer-loop references, or
 // evaluate the model's derivatives at given points, and compare with AeroBench's own numbers.
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -9,6 +10,7 @@
 
 #include "aerobench_files/aerobench_csv.hpp"
 #include "commands.hpp"
+#include "dynamics/autopilot_batch.hpp"
 #include "dynamics/gcas_autopilot.hpp"
 #include "dynamics/reference_replay.hpp"
 #include "dynamics/waypoint_autopilot.hpp"
@@ -80,6 +82,68 @@ aerobench_files::ReplaySettings replay_settings(const SimulateOptions& o) {
   return s;
 }
 
+// `--autopilot ... --init FILE` with more than one row: every row its own aircraft, all flown
+// together by F16Batch with the law at every RK stage; one summary row per aircraft.
+void run_autopilot_batch(const SimulateOptions& o, const io::CsvTable& init,
+                         const aerobench_files::ReplaySettings& settings) {
+  if (o.compare) throw io::InputError("--compare needs --reference (a batch from --init has nothing to compare with)");
+  AutopilotBatchRequest req;
+  req.model = settings.model;
+  req.integrator = settings.integrator;
+  req.dt_s = settings.dt_s;
+  req.x0 = aerobench_files::initial_states(init);
+  req.output_times_s = aerobench_files::sample_times(o.duration_s, o.sample_given ? o.sample_s : 1.0 / 30.0);
+  const std::vector<std::string> modes = aerobench_files::row_modes(init);
+  if (o.autopilot == "gcas") {
+    if (!o.waypoints.empty()) throw io::InputError("--waypoints is for --autopilot waypoint, not gcas");
+    req.law = StageLaw::kGcas;
+    for (std::size_t k = 0; k < modes.size(); ++k) {
+      GcasMode m = GcasMode::kStandby;
+      if (!modes[k].empty() && !parse_gcas_mode(modes[k], &m))
+        throw io::InputError(init.source() + ": row " + std::to_string(k + 1) + "'s mode '" + modes[k] +
+                             "' is not a GCAS mode: use standby, roll, pull or waiting");
+      req.gcas_modes.push_back(m);
+    }
+  } else if (o.autopilot == "waypoint") {
+    if (o.waypoints.empty()) throw io::InputError("--autopilot waypoint needs --waypoints FILE (columns e_ft, n_ft, alt_ft)");
+    req.law = StageLaw::kWaypoint;
+    req.waypoints = {aerobench_files::read_waypoints(io::CsvTable::read(o.waypoints))};
+  } else {
+    throw io::InputError("--autopilot '" + o.autopilot + "': use gcas or waypoint");
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const AutopilotBatchResult res = fly_autopilot_batch(req);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  std::vector<std::string> header{"aircraft", "failed_at_s", "finished_at_s", "samples", "min_alt_ft", "min_alt_t_s"};
+  for (const char* n : kStateNames) header.push_back(n);
+  std::vector<std::vector<double>> rows;
+  std::vector<std::string> status_col, mode_col;
+  int failed = 0, finished = 0, below_ground = 0;
+  double lowest = 0.0;
+  for (std::size_t i = 0; i < res.aircraft.size(); ++i) {
+    const AutopilotAircraftResult& a = res.aircraft[i];
+    std::vector<double> row{static_cast<double>(i), a.status == kStatusOk ? -1.0 : a.failed_at_s,
+                            a.finished ? a.finished_at_s : -1.0, static_cast<double>(a.samples), a.min_alt_ft,
+                            a.min_alt_t_s};
+    row.insert(row.end(), a.x_last.begin(), a.x_last.end());
+    rows.push_back(std::move(row));
+    status_col.push_back(status_name(a.status));
+    mode_col.push_back(a.mode);
+    failed += a.status != kStatusOk;
+    finished += a.finished;
+    below_ground += a.min_alt_ft < 0.0;
+    lowest = i == 0 ? a.min_alt_ft : std::min(lowest, a.min_alt_ft);
+  }
+  aerobench_files::write_rows(o.out, header, rows, {"status", "mode"}, {status_col, mode_col});
+  std::printf("flew %zu aircraft for %.4g s (%s, %s, dt %.4g s, autopilot %s at every RK stage) in %.2f s: %d left "
+              "the envelope, %d finished, %d below 0 ft at a sample (lowest %.1f ft) -> %s (one row per aircraft; "
+              "failed_at_s and finished_at_s -1 when not)\n",
+              res.aircraft.size(), req.output_times_s.back(), aero_model_name(req.model),
+              integrator_name(req.integrator), req.dt_s, o.autopilot.c_str(), wall_s, failed, finished, below_ground,
+              lowest, o.out.c_str());
+}
+
 void run_trajectory(const SimulateOptions& o) {
   const aerobench_files::ReplaySettings settings = replay_settings(o);
   ReplayRequest req;
@@ -93,6 +157,7 @@ void run_trajectory(const SimulateOptions& o) {
   } else if (!o.autopilot.empty()) {
     if (o.init.empty()) throw io::InputError("--autopilot without --reference needs --init FILE (the start state)");
     const io::CsvTable init = io::CsvTable::read(o.init);
+    if (init.rows() > 1) return run_autopilot_batch(o, init, settings);
     // AeroBench samples its autopilot runs at 30 Hz.
     req = aerobench_files::request_from_initial_state(init, o.duration_s, o.sample_given ? o.sample_s : 1.0 / 30.0,
                                                       settings);
@@ -167,8 +232,9 @@ void add_simulate_command(CLI::App& app) {
                   "--reference: its start state, start mode and sample times; without: --init and --duration");
   cmd->add_option("--waypoints", opts->waypoints, "--autopilot waypoint: CSV with e_ft, n_ft, alt_ft, one waypoint a row");
   cmd->add_option("--init", opts->init,
-                  "--autopilot without --reference: CSV whose first row holds the start state (reference-format "
-                  "state columns; integrators optional) and optionally the start `mode`");
+                  "--autopilot without --reference: CSV of start states (reference-format state columns; "
+                  "integrators optional; optional start `mode`). One row: its trajectory. Several: every row an "
+                  "aircraft, flown as one batch; --out gets one summary row per aircraft");
   cmd->add_option("--trim-vt", opts->trim_vt_ftps, "Scripted run: trim airspeed [ft/s]")->check(CLI::PositiveNumber);
   cmd->add_option("--trim-alt", opts->trim_alt_ft, "Scripted run: trim altitude [ft]");
   cmd->add_option("--duration", opts->duration_s, "Scripted or autopilot run: length [s]")->check(CLI::PositiveNumber);

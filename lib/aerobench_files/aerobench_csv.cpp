@@ -126,18 +126,40 @@ std::string initial_mode(const io::CsvTable& t) {
 ReplayRequest request_from_initial_state(const io::CsvTable& init, double duration_s, double sample_s,
                                          const ReplaySettings& settings) {
   ReplayRequest req = settings_request(settings);
+  req.x0 = initial_states(init).front();
+  req.output_times_s = sample_times(duration_s, sample_s);
+  return req;
+}
+
+std::vector<StateVector> initial_states(const io::CsvTable& init) {
+  if (init.rows() == 0) throw io::InputError(init.source() + ": no data rows; the first row is the start state");
+  std::vector<StateVector> x(init.rows(), StateVector{});
+  for (int s = 0; s < kNumStates; ++s) {
+    const bool integrator = s >= kNumPlantStates;
+    if (integrator && !init.has_column(kStateNames[s])) continue;  // the integrators start at 0
+    const std::vector<double> column = require_column(init, kStateNames[s]);
+    for (std::size_t k = 0; k < x.size(); ++k) x[k][s] = column[k];
+  }
+  return x;
+}
+
+std::vector<std::string> row_modes(const io::CsvTable& t) {
+  std::vector<std::string> modes(t.rows());
+  if (!t.has_column("mode")) return modes;
+  const std::size_t c = t.column_index("mode");
+  for (std::size_t k = 0; k < modes.size(); ++k) modes[k] = t.cell(k, c);
+  return modes;
+}
+
+std::vector<double> sample_times(double duration_s, double sample_s) {
   if (!(duration_s > 0.0) || !(sample_s > 0.0)) throw io::InputError("--duration and --sample must be > 0");
   if (duration_s / sample_s > ScriptedRun::kMaxSamples)
     throw io::InputError("--duration " + std::to_string(duration_s) + " s at --sample " + std::to_string(sample_s) +
                          " s would write more than 10 000 000 samples; shorten --duration or raise --sample");
-  if (init.rows() == 0) throw io::InputError(init.source() + ": no data rows; the first row is the start state");
-  for (int s = 0; s < kNumStates; ++s) {
-    const bool integrator = s >= kNumPlantStates;
-    req.x0[s] = integrator && !init.has_column(kStateNames[s]) ? 0.0 : require_column(init, kStateNames[s]).front();
-  }
+  std::vector<double> times;
   // Accumulated like run_f16_sim's sample times, so mode switches see the same clock values.
-  for (double t = 0.0; t <= duration_s; t += sample_s) req.output_times_s.push_back(t);
-  return req;
+  for (double t = 0.0; t <= duration_s; t += sample_s) times.push_back(t);
+  return times;
 }
 
 std::vector<std::string> trajectory_header() {

@@ -53,6 +53,13 @@ std::string initial_mode(const io::CsvTable& table);
 // sample_s from 0 while <= duration_s, the times accumulated (t += sample_s) as AeroBench's are.
 dynamics::ReplayRequest request_from_initial_state(const io::CsvTable& init, double duration_s, double sample_s,
                                                    const ReplaySettings& settings);
+// Every row of `init` as a start state, read as request_from_initial_state reads the first.
+std::vector<dynamics::StateVector> initial_states(const io::CsvTable& init);
+// Every row's `mode` cell ("" for all when the column is missing).
+std::vector<std::string> row_modes(const io::CsvTable& table);
+// Output times every sample_s from 0 while <= duration_s, accumulated as AeroBench's are;
+// InputError for non-positive values or more than ScriptedRun::kMaxSamples samples.
+std::vector<double> sample_times(double duration_s, double sample_s);
 
 // Trajectory columns: t_s, the 16 states, Nz_g, ps_radps, Ny_r_mixed, Ny_g, the 4 references,
 // the 4 surfaces and the 16 state derivatives: the reference format minus `mode`.

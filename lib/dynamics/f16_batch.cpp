@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynamics/autopilot_laws.hpp"
 #include "dynamics/inner_loop.hpp"
 
 namespace f16race::dynamics {
@@ -27,6 +28,15 @@ bool parse_integrator(const char* text, Integrator* out) {
 }
 
 const char* integrator_name(Integrator integrator) { return integrator == Integrator::kRk4 ? "rk4" : "euler"; }
+
+const char* stage_law_name(StageLaw law) {
+  switch (law) {
+    case StageLaw::kHeld: return "held";
+    case StageLaw::kGcas: return "gcas";
+    case StageLaw::kWaypoint: return "waypoint";
+  }
+  return "unknown";
+}
 
 const char* status_name(std::int32_t status) {
   switch (status) {
@@ -62,6 +72,7 @@ struct BatchView {
   double* data;          // rows [16 states | 4 refs | kNumOutputs outputs] x [stride]
   int stride;            // padded aircraft count (int: keeps index arithmetic affine for GCC)
   std::int32_t* status;  // [stride]
+  const double* law;     // [kNumLawParams] x [stride]; nullptr for StageLaw::kHeld
 };
 
 F16_INLINE bool is_finite(double v) { return std::fabs(v) <= DBL_MAX; }
@@ -75,33 +86,64 @@ F16_INLINE void load_lane(const double* __restrict data, int stride, int i, doub
   for (int r = 0; r < kNumRefs; ++r) u[r] = data[(kNumStates + r) * stride + i];
 }
 
+// The references of a stage law at stage state x (p: the lane's law parameters).
+template <StageLaw LAW>
+F16_INLINE void law_refs(const double* __restrict p, const double* __restrict x, double* __restrict u) {
+  if constexpr (LAW == StageLaw::kGcas) {
+    autopilot_law::gcas(static_cast<GcasMode>(static_cast<int>(p[kLawMode])), x, u);
+  } else {
+    if (p[kLawMode] == 0.0) autopilot_law::waypoint_toward(p[kLawTargetN], p[kLawTargetE], p[kLawTargetAlt], p[kLawAirspeed], x, u);
+    else autopilot_law::waypoint_done(p[kLawTargetAlt], p[kLawAirspeed], x, u);
+  }
+}
+
+// The closed-loop derivative at a stage: held references, or the law's at this stage's state
+// (AeroBench's right-hand side). kHeld compiles to the plain call.
+template <AeroModel MODEL, StageLaw LAW>
+F16_INLINE ClosedLoopOutputs stage_derivative(const double* __restrict x, const double* __restrict u,
+                                              const double* __restrict p) {
+  if constexpr (LAW == StageLaw::kHeld) {
+    (void)p;
+    return closed_loop_derivative<MODEL>(x, u);
+  } else {
+    (void)u;
+    double us[kNumRefs];
+    law_refs<LAW>(p, x, us);
+    return closed_loop_derivative<MODEL>(x, us);
+  }
+}
+
 // One aircraft, one fixed step, inlined into the SIMD lane loop of step_block. Frozen lanes
 // are computed too (SIMD has no per-lane branches) but their results are discarded.
-template <AeroModel MODEL, Integrator INTEGRATOR>
-F16_INLINE void step_lane(double* __restrict data, int stride, std::int32_t* __restrict status_arr, int i,
-                          double dt, const EnvelopeLimits& lim) {
+template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
+F16_INLINE void step_lane(double* __restrict data, int stride, std::int32_t* __restrict status_arr,
+                          const double* __restrict law, int i, double dt, const EnvelopeLimits& lim) {
   const std::int32_t status = status_arr[i];
-  double x[kNumStates], u[kNumRefs];
+  double x[kNumStates], u[kNumRefs], p[kNumLawParams];
   load_lane(data, stride, i, x, u);
+  if constexpr (LAW != StageLaw::kHeld) {
+#pragma GCC unroll 8
+    for (int k = 0; k < kNumLawParams; ++k) p[k] = law[k * stride + i];
+  }
 
   double xn[kNumStates];
   if constexpr (INTEGRATOR == Integrator::kRk4) {
-    const ClosedLoopOutputs k1 = closed_loop_derivative<MODEL>(x, u);
+    const ClosedLoopOutputs k1 = stage_derivative<MODEL, LAW>(x, u, p);
     double xs[kNumStates];
 #pragma GCC unroll 16
     for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + 0.5 * dt * k1.xdot[s];
-    const ClosedLoopOutputs k2 = closed_loop_derivative<MODEL>(xs, u);
+    const ClosedLoopOutputs k2 = stage_derivative<MODEL, LAW>(xs, u, p);
 #pragma GCC unroll 16
     for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + 0.5 * dt * k2.xdot[s];
-    const ClosedLoopOutputs k3 = closed_loop_derivative<MODEL>(xs, u);
+    const ClosedLoopOutputs k3 = stage_derivative<MODEL, LAW>(xs, u, p);
 #pragma GCC unroll 16
     for (int s = 0; s < kNumStates; ++s) xs[s] = x[s] + dt * k3.xdot[s];
-    const ClosedLoopOutputs k4 = closed_loop_derivative<MODEL>(xs, u);
+    const ClosedLoopOutputs k4 = stage_derivative<MODEL, LAW>(xs, u, p);
 #pragma GCC unroll 16
     for (int s = 0; s < kNumStates; ++s)
       xn[s] = x[s] + (dt / 6.0) * (k1.xdot[s] + 2.0 * k2.xdot[s] + 2.0 * k3.xdot[s] + k4.xdot[s]);
   } else {
-    const ClosedLoopOutputs k1 = closed_loop_derivative<MODEL>(x, u);
+    const ClosedLoopOutputs k1 = stage_derivative<MODEL, LAW>(x, u, p);
 #pragma GCC unroll 16
     for (int s = 0; s < kNumStates; ++s) xn[s] = x[s] + dt * k1.xdot[s];
   }
@@ -116,30 +158,39 @@ F16_INLINE void step_lane(double* __restrict data, int stride, std::int32_t* __r
 
 // One block of kBlock lanes, one step. Kept out of line with restrict pointers and scalars
 // by value: that is the shape GCC's vectoriser reliably turns into full-width SIMD.
-template <AeroModel MODEL, Integrator INTEGRATOR>
+template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
 __attribute__((noinline)) void step_block(double* __restrict data, int stride, std::int32_t* __restrict status,
-                                          int i0, double dt, EnvelopeLimits lim) {
+                                          const double* __restrict law, int i0, double dt, EnvelopeLimits lim) {
 #pragma omp simd
-  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) step_lane<MODEL, INTEGRATOR>(data, stride, status, i, dt, lim);
+  for (int i = i0; i < i0 + F16Batch::kBlock; ++i)
+    step_lane<MODEL, INTEGRATOR, LAW>(data, stride, status, law, i, dt, lim);
 }
 
-template <AeroModel MODEL, Integrator INTEGRATOR>
+template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
 void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimits& lim) {
   const int n_blocks = v.stride / F16Batch::kBlock;
 #pragma omp parallel for schedule(static)
   for (int b = 0; b < n_blocks; ++b) {
     // Substeps inside the block loop: the block's state stays in L1 for the whole call.
     for (int k = 0; k < substeps; ++k)
-      step_block<MODEL, INTEGRATOR>(v.data, v.stride, v.status, b * F16Batch::kBlock, dt, lim);
+      step_block<MODEL, INTEGRATOR, LAW>(v.data, v.stride, v.status, v.law, b * F16Batch::kBlock, dt, lim);
   }
 }
 
 // Outputs of one aircraft; like step_lane, the locals live in an inlined function rather than
 // in the SIMD loop body, where GCC would turn them into per-lane memory arrays.
-template <AeroModel MODEL>
-F16_INLINE void outputs_lane(double* __restrict data, int stride, int i) {
+template <AeroModel MODEL, StageLaw LAW>
+F16_INLINE void outputs_lane(double* __restrict data, int stride, const double* __restrict law, int i) {
   double x[kNumStates], u[kNumRefs];
   load_lane(data, stride, i, x, u);
+  if constexpr (LAW != StageLaw::kHeld) {
+    double p[kNumLawParams];
+#pragma GCC unroll 8
+    for (int k = 0; k < kNumLawParams; ++k) p[k] = law[k * stride + i];
+    law_refs<LAW>(p, x, u);
+#pragma GCC unroll 4
+    for (int r = 0; r < kNumRefs; ++r) data[(kNumStates + r) * stride + i] = u[r];
+  }
   const ClosedLoopOutputs o = closed_loop_derivative<MODEL>(x, u);
   double* out = data + (kNumStates + kNumRefs) * stride + i;
   out[kOutNz * stride] = o.nz_g;
@@ -154,17 +205,36 @@ F16_INLINE void outputs_lane(double* __restrict data, int stride, int i) {
   out[kOutVu * stride] = o.xdot[kAlt];
 }
 
-template <AeroModel MODEL>
-__attribute__((noinline)) void outputs_block(double* __restrict data, int stride, int i0) {
+template <AeroModel MODEL, StageLaw LAW>
+__attribute__((noinline)) void outputs_block(double* __restrict data, int stride, const double* __restrict law, int i0) {
 #pragma omp simd
-  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) outputs_lane<MODEL>(data, stride, i);
+  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) outputs_lane<MODEL, LAW>(data, stride, law, i);
 }
 
-template <AeroModel MODEL>
+template <AeroModel MODEL, StageLaw LAW>
 void outputs_kernel(const BatchView& v) {
   const int n_blocks = v.stride / F16Batch::kBlock;
 #pragma omp parallel for schedule(static)
-  for (int b = 0; b < n_blocks; ++b) outputs_block<MODEL>(v.data, v.stride, b * F16Batch::kBlock);
+  for (int b = 0; b < n_blocks; ++b) outputs_block<MODEL, LAW>(v.data, v.stride, v.law, b * F16Batch::kBlock);
+}
+
+// The kernels of one model and integrator for the batch's stage law.
+template <AeroModel MODEL, Integrator INTEGRATOR>
+void step_for_law(StageLaw law, const BatchView& v, double dt, int substeps, const EnvelopeLimits& lim) {
+  switch (law) {
+    case StageLaw::kHeld: step_kernel<MODEL, INTEGRATOR, StageLaw::kHeld>(v, dt, substeps, lim); break;
+    case StageLaw::kGcas: step_kernel<MODEL, INTEGRATOR, StageLaw::kGcas>(v, dt, substeps, lim); break;
+    case StageLaw::kWaypoint: step_kernel<MODEL, INTEGRATOR, StageLaw::kWaypoint>(v, dt, substeps, lim); break;
+  }
+}
+
+template <AeroModel MODEL>
+void outputs_for_law(StageLaw law, const BatchView& v) {
+  switch (law) {
+    case StageLaw::kHeld: outputs_kernel<MODEL, StageLaw::kHeld>(v); break;
+    case StageLaw::kGcas: outputs_kernel<MODEL, StageLaw::kGcas>(v); break;
+    case StageLaw::kWaypoint: outputs_kernel<MODEL, StageLaw::kWaypoint>(v); break;
+  }
 }
 
 }  // namespace
@@ -189,6 +259,26 @@ F16Batch::F16Batch(const F16BatchConfig& config) : config_(config) {
     for (int s = 0; s < kNumStates; ++s) state(s)[i] = xeq[s];
     status_[i] = i < size_ ? kStatusOk : kStatusPadding;
   }
+  if (config.stage_law != StageLaw::kHeld) {
+    // Every lane starts in the law's first mode (GCAS standby; waypoint toward (0, 0, 0)) at
+    // AeroBench's set point, so padding lanes compute finite numbers.
+    law_.reset(aligned_array<double>(kNumLawParams * static_cast<std::size_t>(padded_)));
+    std::memset(law_.get(), 0, kNumLawParams * static_cast<std::size_t>(padded_) * sizeof(double));
+    for (int i = 0; i < padded_; ++i) {
+      law(kLawTargetAlt)[i] = lqr::kXequil[kAlt];
+      law(kLawAirspeed)[i] = WaypointConstants::kAirspeedFtps;
+    }
+  }
+}
+
+double* F16Batch::law(int p) {
+  if (!law_) throw std::logic_error("F16Batch::law: this batch holds its references (stage_law held)");
+  return law_.get() + static_cast<std::size_t>(p) * padded_;
+}
+
+const double* F16Batch::law(int p) const {
+  if (!law_) throw std::logic_error("F16Batch::law: this batch holds its references (stage_law held)");
+  return law_.get() + static_cast<std::size_t>(p) * padded_;
 }
 
 void F16Batch::reset_aircraft(int i, const StateVector& x, const RefVector& u_ref) {
@@ -207,22 +297,23 @@ StateVector F16Batch::aircraft_state(int i) const {
 }
 
 namespace {
-BatchView make_view(F16Batch& b, double* data, int padded) {
-  return BatchView{data, padded, b.status()};
+BatchView make_view(F16Batch& b, double* data, int padded, const double* law) {
+  return BatchView{data, padded, b.status(), law};
 }
 }  // namespace
 
 int F16Batch::step(double dt_s, int substeps) {
-  const BatchView v = make_view(*this, data_.get(), padded_);
+  const BatchView v = make_view(*this, data_.get(), padded_, law_.get());
   int ok_before = 0;
   for (int i = 0; i < size_; ++i) ok_before += status_[i] == kStatusOk;
   const EnvelopeLimits& lim = config_.limits;
+  const StageLaw law = config_.stage_law;
   if (config_.model == AeroModel::kMorelli) {
-    if (config_.integrator == Integrator::kRk4) step_kernel<AeroModel::kMorelli, Integrator::kRk4>(v, dt_s, substeps, lim);
-    else step_kernel<AeroModel::kMorelli, Integrator::kEuler>(v, dt_s, substeps, lim);
+    if (config_.integrator == Integrator::kRk4) step_for_law<AeroModel::kMorelli, Integrator::kRk4>(law, v, dt_s, substeps, lim);
+    else step_for_law<AeroModel::kMorelli, Integrator::kEuler>(law, v, dt_s, substeps, lim);
   } else {
-    if (config_.integrator == Integrator::kRk4) step_kernel<AeroModel::kStevens, Integrator::kRk4>(v, dt_s, substeps, lim);
-    else step_kernel<AeroModel::kStevens, Integrator::kEuler>(v, dt_s, substeps, lim);
+    if (config_.integrator == Integrator::kRk4) step_for_law<AeroModel::kStevens, Integrator::kRk4>(law, v, dt_s, substeps, lim);
+    else step_for_law<AeroModel::kStevens, Integrator::kEuler>(law, v, dt_s, substeps, lim);
   }
   int ok_after = 0;
   for (int i = 0; i < size_; ++i) ok_after += status_[i] == kStatusOk;
@@ -230,9 +321,9 @@ int F16Batch::step(double dt_s, int substeps) {
 }
 
 void F16Batch::evaluate_outputs() {
-  const BatchView v = make_view(*this, data_.get(), padded_);
-  if (config_.model == AeroModel::kMorelli) outputs_kernel<AeroModel::kMorelli>(v);
-  else outputs_kernel<AeroModel::kStevens>(v);
+  const BatchView v = make_view(*this, data_.get(), padded_, law_.get());
+  if (config_.model == AeroModel::kMorelli) outputs_for_law<AeroModel::kMorelli>(config_.stage_law, v);
+  else outputs_for_law<AeroModel::kStevens>(config_.stage_law, v);
 }
 
 }  // namespace f16race::dynamics
@@ -245,6 +336,8 @@ void F16Batch::save_state(std::ostream& out) const {
   const std::size_t rows = kNumStates + kNumRefs + kNumOutputs;
   out.write(reinterpret_cast<const char*>(data_.get()), static_cast<std::streamsize>(rows * padded_ * sizeof(double)));
   out.write(reinterpret_cast<const char*>(status_.get()), static_cast<std::streamsize>(padded_ * sizeof(std::int32_t)));
+  // Law rows only with a law, so a held batch's snapshot (the race env's) keeps its format.
+  if (law_) out.write(reinterpret_cast<const char*>(law_.get()), static_cast<std::streamsize>(kNumLawParams * padded_ * sizeof(double)));
 }
 
 void F16Batch::load_state(std::istream& in) {
@@ -256,6 +349,7 @@ void F16Batch::load_state(std::istream& in) {
   const std::size_t rows = kNumStates + kNumRefs + kNumOutputs;
   in.read(reinterpret_cast<char*>(data_.get()), static_cast<std::streamsize>(rows * padded_ * sizeof(double)));
   in.read(reinterpret_cast<char*>(status_.get()), static_cast<std::streamsize>(padded_ * sizeof(std::int32_t)));
+  if (law_) in.read(reinterpret_cast<char*>(law_.get()), static_cast<std::streamsize>(kNumLawParams * padded_ * sizeof(double)));
   if (!in) throw std::runtime_error("simulator snapshot is truncated");
 }
 

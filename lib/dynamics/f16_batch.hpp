@@ -33,12 +33,34 @@ enum OutputIndex : int {
   kNumOutputs = 10
 };
 
+// What sets the inner loop's references during a step. AeroBench evaluates its autopilots inside
+// the ODE's right-hand side, so a law is evaluated at every RK stage on the stage's state; its
+// discrete mode (law row kLawMode) changes only between steps, where the owner puts it
+// (autopilot_batch.hpp does it at output samples, as AeroBench's run_f16_sim).
+enum class StageLaw {
+  kHeld,      // the ref() rows, constant over a step (the race env's actions)
+  kGcas,      // AeroBench's GCAS: kLawMode holds a GcasMode
+  kWaypoint,  // AeroBench's waypoint autopilot toward kLawTarget*, at kLawAirspeed; kLawMode 1: done
+};
+const char* stage_law_name(StageLaw law);  // "held", "gcas", "waypoint"
+
+// Per-aircraft law parameters (rows of law()); unused rows of a law are ignored.
+enum LawParamIndex : int {
+  kLawMode = 0,        // GCAS: GcasMode as a number; waypoint: 0 toward the target, 1 done (wings level)
+  kLawTargetN = 1,     // waypoint north [ft]
+  kLawTargetE = 2,     // waypoint east [ft]
+  kLawTargetAlt = 3,   // waypoint altitude [ft] (done: the altitude held)
+  kLawAirspeed = 4,    // airspeed set point [ft/s]
+  kNumLawParams = 5
+};
+
 struct F16BatchConfig {
   int n_env = 1;
   int n_agent = 1;
   AeroModel model = AeroModel::kMorelli;
   Integrator integrator = Integrator::kRk4;
   EnvelopeLimits limits{};
+  StageLaw stage_law = StageLaw::kHeld;
 };
 
 class F16Batch {
@@ -61,13 +83,17 @@ class F16Batch {
   // State row s (StateIndex): [n_env * n_agent], contiguous, 64-byte aligned.
   double* state(int s) { return data_.get() + static_cast<std::size_t>(s) * padded_; }
   const double* state(int s) const { return data_.get() + static_cast<std::size_t>(s) * padded_; }
-  // Outer-loop reference r (RefIndex): [n_env * n_agent], held constant over a step.
+  // Outer-loop reference r (RefIndex): [n_env * n_agent]. kHeld: the input, constant over a
+  // step. A law: its references at the states of the last evaluate_outputs() (an output).
   double* ref(int r) { return data_.get() + static_cast<std::size_t>(kNumStates + r) * padded_; }
   const double* ref(int r) const { return data_.get() + static_cast<std::size_t>(kNumStates + r) * padded_; }
   // Output o (OutputIndex): [n_env * n_agent], valid after evaluate_outputs().
   const double* output(int o) const {
     return data_.get() + static_cast<std::size_t>(kNumStates + kNumRefs + o) * padded_;
   }
+  // Law parameter p (LawParamIndex): [n_env * n_agent]; only with a stage law (throws otherwise).
+  double* law(int p);
+  const double* law(int p) const;
   // Per-aircraft AircraftStatus: [n_env * n_agent].
   std::int32_t* status() { return status_.get(); }
   const std::int32_t* status() const { return status_.get(); }
@@ -80,10 +106,11 @@ class F16Batch {
   // were frozen by this call; their status says why and their state is the last valid one.
   int step(double dt_s, int substeps = 1);
 
-  // Fills output() rows from the current states and references.
+  // Fills output() rows from the current states and references (with a stage law, the ref()
+  // rows first, from the law at the current states and modes).
   void evaluate_outputs();
 
-  // Exact snapshot of every state, reference, output and status (for checkpoints that resume
+  // Exact snapshot of every state, reference, output, law parameter and status (for checkpoints that resume
   // bit-identically). load_state throws std::runtime_error on a size mismatch or short read.
   void save_state(std::ostream& out) const;
   void load_state(std::istream& in);
@@ -97,6 +124,7 @@ class F16Batch {
   };
   std::unique_ptr<double[], FreeDeleter> data_;          // [16 + 4 + kNumOutputs][padded]
   std::unique_ptr<std::int32_t[], FreeDeleter> status_;  // [padded]
+  std::unique_ptr<double[], FreeDeleter> law_;           // [kNumLawParams][padded], with a stage law only
 };
 
 }  // namespace f16race::dynamics

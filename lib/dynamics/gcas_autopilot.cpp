@@ -2,15 +2,13 @@
 
 #include <cmath>
 
+#include "dynamics/autopilot_laws.hpp"
+
 namespace f16race::dynamics {
 namespace {
 
-constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
 using C = GcasConstants;
-
-// An angle minus its nearest multiple of 2π. Python's round() takes halves to even, as
-// nearbyint does in the default rounding mode (std::round would take them away from zero).
-double wrap_nearest(double a) { return a - kTwoPi * std::nearbyint(a / kTwoPi); }
+using autopilot_law::wrap_nearest;
 
 bool wings_level(const double* x) { return std::fabs(wrap_nearest(x[kPhi])) < C::kEpsPhiRad; }
 bool roll_rate_low(const double* x) { return std::fabs(x[kP]) < C::kEpsPRadps; }
@@ -39,9 +37,8 @@ bool parse_gcas_mode(const std::string& text, GcasMode* out) {
 }
 
 RefVector gcas_u_ref(GcasMode mode, const double* x) {
-  RefVector u{};
-  if (mode == GcasMode::kRoll) u[kPsRef] = -wrap_nearest(x[kPhi]) * C::kKProp - x[kP] * C::kKDer;
-  if (mode == GcasMode::kPull) u[kNzRef] = C::kNzDesG;
+  RefVector u;
+  autopilot_law::gcas(mode, x, u.data());
   return u;
 }
 

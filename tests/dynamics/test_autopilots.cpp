@@ -4,10 +4,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
+#include <omp.h>
+
 #include "aerobench_files/aerobench_csv.hpp"
+#include "dynamics/autopilot_batch.hpp"
 #include "dynamics/gcas_autopilot.hpp"
 #include "dynamics/reference_replay.hpp"
 #include "dynamics/waypoint_autopilot.hpp"
@@ -241,6 +245,175 @@ TEST(WaypointRules, ConvergesOnTheBearingAndHoldsAltitudeThroughTheTurn) {
     EXPECT_LT(heading_err_late, 2.0 * kPi / 180.0);
     EXPECT_LT(worst_alt, 200.0);
   }
+}
+
+// The batched autopilots (F16Batch evaluating the law at every RK stage of every lane) against
+// the single-aircraft replay, aircraft by aircraft: every sample's state and mode, the sample
+// count, the envelope failures and their times, the stop rule. A test of the batch's plumbing
+// (law rows, mode updates, per-aircraft stops); the replay itself is held to AeroBench above.
+struct BatchedTrajectories {
+  AutopilotBatchResult result;
+  std::vector<std::vector<StateVector>> states;  // [aircraft][sample]
+  std::vector<std::vector<RefVector>> refs;      // [aircraft][sample]
+};
+
+BatchedTrajectories fly_batched(const AutopilotBatchRequest& req) {
+  BatchedTrajectories out;
+  out.states.resize(req.x0.size());
+  out.refs.resize(req.x0.size());
+  out.result = fly_autopilot_batch(req, [&](double, const F16Batch& b, const std::vector<char>& sampled) {
+    for (std::size_t i = 0; i < req.x0.size(); ++i) {
+      if (!sampled[i]) continue;
+      out.states[i].push_back(b.aircraft_state(static_cast<int>(i)));
+      RefVector u;
+      for (int r = 0; r < kNumRefs; ++r) u[r] = b.ref(r)[i];
+      out.refs[i].push_back(u);
+    }
+  });
+  return out;
+}
+
+// Largest |batch − replay| over every state of every sample, relative to max(1, |value|).
+double compare_with_replay(const BatchedTrajectories& bt, std::size_t i, const ReplayResult& one) {
+  const AutopilotAircraftResult& a = bt.result.aircraft[i];
+  EXPECT_EQ(a.samples, static_cast<int>(one.samples.size())) << "aircraft " << i;
+  EXPECT_EQ(bt.states[i].size(), one.samples.size()) << "aircraft " << i;
+  EXPECT_EQ(a.status, one.status) << "aircraft " << i;
+  if (one.status != kStatusOk) {
+    EXPECT_DOUBLE_EQ(a.failed_at_s, one.failed_at_s) << "aircraft " << i;
+  }
+  EXPECT_EQ(a.finished, one.autopilot_finished) << "aircraft " << i;
+  if (!one.samples.empty()) {
+    EXPECT_EQ(a.mode, one.samples.back().mode) << "aircraft " << i;
+  }
+  double worst = 0.0;
+  const std::size_t n = std::min(bt.states[i].size(), one.samples.size());
+  for (std::size_t k = 0; k < n; ++k) {
+    for (int s = 0; s < kNumStates; ++s)
+      worst = std::fmax(worst, std::fabs(bt.states[i][k][s] - one.samples[k].x[s]) /
+                                   std::fmax(1.0, std::fabs(one.samples[k].x[s])));
+    for (int r = 0; r < kNumRefs; ++r)
+      worst = std::fmax(worst, std::fabs(bt.refs[i][k][r] - one.samples[k].u_ref[r]) /
+                                   std::fmax(1.0, std::fabs(one.samples[k].u_ref[r])));
+  }
+  return worst;
+}
+
+void expect_same_bytes_at_1_and_2_threads(const AutopilotBatchRequest& req) {
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const BatchedTrajectories one = fly_batched(req);
+  omp_set_num_threads(2);
+  const BatchedTrajectories two = fly_batched(req);
+  omp_set_num_threads(before);
+  for (std::size_t i = 0; i < req.x0.size(); ++i) {
+    ASSERT_EQ(one.states[i].size(), two.states[i].size());
+    for (std::size_t k = 0; k < one.states[i].size(); ++k)
+      ASSERT_EQ(0, std::memcmp(one.states[i][k].data(), two.states[i][k].data(), sizeof(StateVector)))
+          << "aircraft " << i << " sample " << k;
+  }
+}
+
+TEST(AutopilotBatch, GcasFromManyStartsEqualsOneReplayPerAircraftAtAnyThreadCount) {
+  for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
+    const io::CsvTable ref = test::load_reference(std::string("f_gcas_") + aero_model_name(model) + ".csv");
+    aerobench_files::ReplaySettings settings;
+    settings.model = model;
+    const ReplayRequest base = aerobench_files::request_from_reference(ref, settings);
+    AutopilotBatchRequest req;
+    req.model = model;
+    req.law = StageLaw::kGcas;
+    req.output_times_s = base.output_times_s;
+    // Higher floor than the default so the lowest dives leave the envelope mid-run.
+    req.limits.alt_min_ft = 600.0;
+    // AeroBench's f_gcas start (1000 ft, nose 27° down, 22.5° left bank) and 20 variations of
+    // altitude, bank and pitch; some start in standby above the deck and never trigger.
+    for (int k = 0; k < 21; ++k) {
+      StateVector x = base.x0;
+      x[kAlt] += 150.0 * (k % 7) - 300.0;
+      x[kPhi] += 0.35 * ((k / 7) - 1);
+      x[kTheta] *= 0.6 + 0.2 * (k % 3);
+      req.x0.push_back(x);
+      req.gcas_modes.push_back(k % 5 == 4 ? GcasMode::kWaiting : GcasMode::kStandby);
+    }
+    const BatchedTrajectories bt = fly_batched(req);
+    int failed = 0, pulled = 0;
+    double worst = 0.0;
+    for (std::size_t i = 0; i < req.x0.size(); ++i) {
+      ReplayRequest one = base;
+      one.x0 = req.x0[i];
+      one.limits = req.limits;
+      GcasAutopilot ap(req.gcas_modes[i]);
+      one.autopilot = &ap;
+      worst = std::fmax(worst, compare_with_replay(bt, i, replay_references(one)));
+      failed += bt.result.aircraft[i].status != kStatusOk;
+      pulled += bt.result.aircraft[i].mode != "standby" || bt.result.aircraft[i].min_alt_ft < 1000.0;
+    }
+    std::printf("[ batched GCAS %s ] 21 aircraft: %d left the envelope, worst relative difference %.2e\n",
+                aero_model_name(model), failed, worst);
+    EXPECT_LT(worst, 1e-9);
+    EXPECT_GT(failed, 0);          // the failure path is exercised
+    EXPECT_LT(failed, 21);
+    EXPECT_GT(pulled, 0);
+    expect_same_bytes_at_1_and_2_threads(req);
+  }
+}
+
+TEST(AutopilotBatch, WaypointRunsStopPerAircraftAsTheReplayDoes) {
+  // AeroBench's waypoint example from four headings; one list shared by every aircraft.
+  const std::vector<Waypoint> wps{{3000.0, 1000.0, 4000.0}, {8000.0, 3000.0, 3900.0}, {18000.0, -1000.0, 3750.0},
+                                  {28000.0, 500.0, 4000.0}};
+  AutopilotBatchRequest req;
+  req.law = StageLaw::kWaypoint;
+  req.waypoints = {wps};
+  for (double t = 0.0; t <= 75.0; t += 1.0 / 30.0) req.output_times_s.push_back(t);
+  for (int k = 0; k < 4; ++k) {
+    StateVector x0{};
+    x0[kVt] = 540.0;
+    x0[kAlpha] = 2.1215 * kPi / 180.0;
+    x0[kPsi] = kPi / 8 + k * kPi / 6;
+    x0[kAlt] = 3800.0 + 100.0 * k;
+    x0[kPow] = 9.0;
+    req.x0.push_back(x0);
+  }
+  const BatchedTrajectories bt = fly_batched(req);
+  double worst = 0.0;
+  int finished = 0;
+  for (std::size_t i = 0; i < req.x0.size(); ++i) {
+    ReplayRequest one;
+    one.x0 = req.x0[i];
+    one.output_times_s = req.output_times_s;
+    WaypointAutopilot ap(wps);
+    one.autopilot = &ap;
+    worst = std::fmax(worst, compare_with_replay(bt, i, replay_references(one)));
+    finished += bt.result.aircraft[i].finished;
+  }
+  std::printf("[ batched waypoint ] 4 aircraft, %d finished, worst relative difference %.2e\n", finished, worst);
+  EXPECT_LT(worst, 1e-9);
+  EXPECT_GE(finished, 1);  // the per-aircraft stop is exercised
+  expect_same_bytes_at_1_and_2_threads(req);
+}
+
+TEST(AutopilotBatch, RefusesInconsistentRequests) {
+  AutopilotBatchRequest req;
+  req.law = StageLaw::kWaypoint;
+  req.output_times_s = {0.0, 1.0};
+  req.x0.assign(2, level_state());
+  EXPECT_THROW(fly_autopilot_batch(req), std::invalid_argument);  // no waypoint list
+  req.waypoints = {{Waypoint{}}, {Waypoint{}}, {Waypoint{}}};
+  EXPECT_THROW(fly_autopilot_batch(req), std::invalid_argument);  // 3 lists for 2 aircraft
+  req.waypoints = {{}};
+  EXPECT_THROW(fly_autopilot_batch(req), std::invalid_argument);  // an empty list
+  req.law = StageLaw::kHeld;
+  EXPECT_THROW(fly_autopilot_batch(req), std::invalid_argument);
+  req.law = StageLaw::kGcas;
+  req.gcas_modes = {GcasMode::kRoll};
+  EXPECT_THROW(fly_autopilot_batch(req), std::invalid_argument);  // 1 mode for 2 aircraft
+  req.gcas_modes.clear();
+  req.output_times_s = {0.0, 0.0};
+  EXPECT_THROW(fly_autopilot_batch(req), std::invalid_argument);
+  F16Batch held(F16BatchConfig{});
+  EXPECT_THROW(held.law(kLawMode), std::logic_error);
 }
 
 }  // namespace
