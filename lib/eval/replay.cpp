@@ -95,6 +95,8 @@ RaceReplay run_replay(const ReplayOptions& o) {
   }
   ll_rows.assign(ll_owner);
   hl_rows.assign(hl_owner);
+  std::vector<std::int64_t> red_rows(static_cast<std::size_t>(ts));
+  for (int k = 0; k < ts; ++k) red_rows[static_cast<std::size_t>(k)] = ts + k;
   race::BlockCounter block_counter(env);
   while (rec.remaining() > 0) {
     const std::vector<std::uint8_t> due(env.hl_due(), env.hl_due() + 1);
@@ -114,10 +116,10 @@ RaceReplay run_replay(const ReplayOptions& o) {
       env.set_hl_actions(bins.data());
       rec.record_goals(env, due.data(), learned.data());
     }
-    // A built-in pilot writes every aircraft's actions; the networks then overwrite their own rows.
+    // A built-in pilot flies the red team's rows only (the blue side is always a run).
     if (!red.policy) {
-      if (red.name == "autopilot") race::autopilot_actions(env, autopilot, actions.data());
-      else race::scripted_actions(env, pilot, actions.data());
+      if (red.name == "autopilot") race::autopilot_actions(env, autopilot, actions.data(), red_rows.data(), ts);
+      else race::scripted_actions(env, pilot, actions.data(), red_rows.data(), ts);
     }
     const models::LlObs obs = train::ll_obs_view(env);
     for (int team = 0; team < 2; ++team) {

@@ -168,7 +168,6 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   rows.assign(owner);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3, 0.0f);
-  std::vector<float> autopilot_actions(o.include_autopilot ? actions.size() : 0, 0.0f);
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = rc.start_speed_ftps;
   // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
@@ -213,12 +212,9 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     const LlObs obs = train::ll_obs_view(env);
     for (int id = 0; id < n_entries; ++id) {
       if (rows.rows(id).numel() == 0) continue;
-      if (is_autopilot(res.entries[id])) {  // every aircraft's, then its own rows copied
-        race::autopilot_actions(env, autopilot, autopilot_actions.data());
-        const std::int64_t* r = rows.rows(id).data_ptr<std::int64_t>();
-        for (std::int64_t k = 0; k < rows.rows(id).numel(); ++k)
-          std::copy_n(&autopilot_actions[static_cast<std::size_t>(r[k]) * race::kActionDim], race::kActionDim,
-                      &actions[static_cast<std::size_t>(r[k]) * race::kActionDim]);
+      if (is_autopilot(res.entries[id])) {
+        race::autopilot_actions(env, autopilot, actions.data(), rows.rows(id).data_ptr<std::int64_t>(),
+                                rows.rows(id).numel());
         continue;
       }
       train::scatter_rows(

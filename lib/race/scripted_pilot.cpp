@@ -29,13 +29,16 @@ void write_action(const RaceConfig& c, double throttle, double nz_ref_g, double 
 }
 }  // namespace
 
-void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* actions) {
+void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* actions, const std::int64_t* rows,
+                      std::int64_t n_rows) {
   using dynamics::kG;
   using dynamics::kPi;
   const RaceConfig& c = env.config();
   const F16Batch& sim = env.sim();
+  const std::int64_t n = rows ? n_rows : env.n_aircraft();
 #pragma omp parallel for schedule(static)
-  for (int i = 0; i < env.n_aircraft(); ++i) {
+  for (std::int64_t row = 0; row < n; ++row) {
+    const int i = static_cast<int>(rows ? rows[row] : row);
     float* a = actions + static_cast<std::size_t>(i) * kActionDim;
     const Vec3 aim = lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
     const Vec3 d = aim - Vec3{sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]};
@@ -55,11 +58,14 @@ void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& k, float* a
   }
 }
 
-void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& k, float* actions) {
+void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& k, float* actions, const std::int64_t* rows,
+                       std::int64_t n_rows) {
   const RaceConfig& c = env.config();
   const F16Batch& sim = env.sim();
+  const std::int64_t n = rows ? n_rows : env.n_aircraft();
 #pragma omp parallel for schedule(static)
-  for (int i = 0; i < env.n_aircraft(); ++i) {
+  for (std::int64_t row = 0; row < n; ++row) {
+    const int i = static_cast<int>(rows ? rows[row] : row);
     const Vec3 aim = lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
     double x[kNumStates];
     for (int s = 0; s < kNumStates; ++s) x[s] = sim.state(s)[i];

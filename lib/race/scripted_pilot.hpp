@@ -2,6 +2,8 @@
 // A hand-written pilot for the race: keep the lane you started in and fly toward the tube's
 // center-line a few seconds ahead. It proves tracks are flyable, gives `f16race race` something
 // to show without a trained policy, and is a baseline opponent.
+#include <cstdint>
+
 #include "race/race_env.hpp"
 
 namespace f16race::race {
@@ -17,8 +19,11 @@ struct ScriptedPilotConfig {
   double k_speed = 0.004;          // throttle per ft/s of speed error
 };
 
-// Writes LL actions [n_env, n_agent, 3] in [-1, 1] for every aircraft of `env`.
-void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& pilot, float* actions);
+// Writes LL actions [n_env, n_agent, 3] in [-1, 1] for the aircraft in `rows` (indices into
+// env * n_agent + agent, n_rows of them), or for every aircraft of `env` when rows is null; the
+// other aircraft's actions are left as they are.
+void scripted_actions(const RaceEnv& env, const ScriptedPilotConfig& pilot, float* actions,
+                      const std::int64_t* rows = nullptr, std::int64_t n_rows = 0);
 
 // The classic-control baseline: AeroBench's waypoint autopilot (dynamics/waypoint_autopilot.hpp,
 // its gains and limits unchanged) chasing a waypoint on the track, lookahead_ft ahead in the
@@ -35,6 +40,8 @@ struct AutopilotPilotConfig {
   double lane_fraction = 0.8;
   double airspeed_ftps = 700.0;
 };
-void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& pilot, float* actions);
+// As scripted_actions: the aircraft in `rows`, or all of them.
+void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& pilot, float* actions,
+                       const std::int64_t* rows = nullptr, std::int64_t n_rows = 0);
 
 }  // namespace f16race::race

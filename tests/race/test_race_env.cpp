@@ -5,6 +5,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -567,6 +568,44 @@ TEST(RaceEnv, GoalFrameBinsMoveTheGoalAlongRightAndUpOrNorthEastUp) {
     EXPECT_NEAR(off.n, c.goal_bin_scale * fr.radius_ft, 1e-6);
     EXPECT_NEAR(off.e, 0.0, 1e-6);
     EXPECT_NEAR(off.u, 0.0, 1e-6);
+  }
+}
+
+// A built-in pilot given rows flies exactly those aircraft, with the actions it gives them when
+// flying everyone, and leaves the other rows as they were (a tournament or replay hands it one
+// team's aircraft).
+TEST(RaceEnv, BuiltInPilotsFlyOnlyTheRowsTheyAreGiven) {
+  RaceConfig c = small_config(3, 4);
+  RaceEnv env(c);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, 3);
+  env.set_hl_actions(bins.data());
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
+  for (int s = 0; s < 20; ++s) {  // away from the start, so every aircraft's action differs
+    autopilot_actions(env, AutopilotPilotConfig{}, a.data());
+    env.step(a.data());
+  }
+  const std::vector<std::int64_t> rows{4, 5, 6, 7, 12, 13, 14, 15, 22};
+  const std::size_t n = a.size();
+  for (int pilot = 0; pilot < 2; ++pilot) {
+    std::vector<float> all(n), some(n, 42.0f);
+    if (pilot == 0) {
+      autopilot_actions(env, AutopilotPilotConfig{}, all.data());
+      autopilot_actions(env, AutopilotPilotConfig{}, some.data(), rows.data(), static_cast<std::int64_t>(rows.size()));
+    } else {
+      scripted_actions(env, ScriptedPilotConfig{}, all.data());
+      scripted_actions(env, ScriptedPilotConfig{}, some.data(), rows.data(), static_cast<std::int64_t>(rows.size()));
+    }
+    int given = 0;
+    for (int i = 0; i < env.n_aircraft(); ++i) {
+      const bool in = std::find(rows.begin(), rows.end(), i) != rows.end();
+      given += in;
+      for (int k = 0; k < kActionDim; ++k) {
+        const std::size_t j = static_cast<std::size_t>(i) * kActionDim + k;
+        if (in) EXPECT_EQ(some[j], all[j]) << "pilot " << pilot << " aircraft " << i;
+        else EXPECT_EQ(some[j], 42.0f) << "pilot " << pilot << " aircraft " << i;
+      }
+    }
+    EXPECT_EQ(given, static_cast<int>(rows.size()));
   }
 }
 
