@@ -6,6 +6,7 @@
 
 #include "commands.hpp"
 #include "export/torchscript_export.hpp"
+#include "io/input_error.hpp"
 #include "train/run_policy.hpp"
 
 namespace f16race::app {
@@ -18,6 +19,10 @@ struct ExportOptions {
 
 void run_export(const ExportOptions& o) {
   train::RunPolicy policy = train::load_run_policy(o.run);
+  if (policy.config.loop.ll_pilot == train::LowLevelPilot::kAutopilot)
+    throw io::InputError(o.run + "/config.yaml: train.ll_pilot is autopilot, so the run's low level is AeroBench's "
+                         "waypoint autopilot, not a network: there is nothing to export as TorchScript; race the run "
+                         "with f16race tournament or replay");
   const std::string out = o.out.empty() ? o.run + "/export" : o.out;
   const torchscript::ExportReport rep = torchscript::export_policy(policy, out);
   std::printf("exported %s (%s, %lld env steps) to %s/\n", policy.name.c_str(),

@@ -124,10 +124,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
     const models::LlObs obs = train::ll_obs_view(env);
     for (int team = 0; team < 2; ++team) {
       const Side& s = team == 0 ? blue : red;
-      if (s.policy)
-        train::scatter_rows(ll_rows.rows(team),
-                            s.policy->ll->act(models::index_rows(obs, ll_rows.rows(team)), gen, false).mean,
-                            actions.data());
+      if (s.policy) train::greedy_ll_actions(*s.policy, env, obs, ll_rows.rows(team), gen, actions.data());
     }
     rec.before_step(env);
     env.step(actions.data());

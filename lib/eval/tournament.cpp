@@ -217,10 +217,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
                                 rows.rows(id).numel());
         continue;
       }
-      train::scatter_rows(
-            rows.rows(id),
-            pol[res.entries[id].policy].ll->act(models::index_rows(obs, rows.rows(id)), gen, false).mean,
-            actions.data());  // greedy: the Gaussian's mean, not a sample
+      train::greedy_ll_actions(pol[res.entries[id].policy], env, obs, rows.rows(id), gen, actions.data());
     }
     std::vector<double> t_before(n);
     for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);

@@ -126,6 +126,10 @@ class RaceEnv {
   const double* race_time_s_data() const { return time_s_.data(); }
   double team_rank(int i) const { return team_rank_[i]; }
   const Vec3& goal_point(int i) const { return goal_point_[i]; }
+  // Where the goal is along the track, and its lane: offsets in the tube cross-section there [ft].
+  double goal_progress_ft(int i) const { return goal_progress_ft_[i]; }
+  double goal_lateral_ft(int i) const { return goal_lateral_ft_[i]; }
+  double goal_vertical_ft(int i) const { return goal_vertical_ft_[i]; }
   // The HL bins [3] aircraft i's goal was last placed with (the middle bins after a reset).
   const std::int64_t* goal_bins(int i) const { return &goal_bins_[static_cast<std::size_t>(i) * kHlDims]; }
   // Start offsets in the tube cross-section (used by the scripted pilot to keep its lane).

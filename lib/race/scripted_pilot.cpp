@@ -21,6 +21,18 @@ Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_
          (lane_fraction * env.start_vertical_ft(i)) * fr.up;
 }
 
+// The point lookahead_ft ahead along the center-line, in the lane of aircraft i's HL goal: its
+// offsets as fractions of the radius at the goal, applied to the radius at the aim point, so
+// the aim stays inside the tube where it narrows.
+Vec3 goal_lane_aim_point(const RaceEnv& env, int i, double lookahead_ft) {
+  const Track& track = env.track(i / env.n_agent());
+  double goal_radius_ft = 0.0;
+  track.sample(env.goal_progress_ft(i), &goal_radius_ft);
+  const TrackFrame fr = track.frame_at(env.progress_ft(i) + lookahead_ft);
+  const double k = fr.radius_ft / std::max(goal_radius_ft, 1.0);
+  return fr.center + (k * env.goal_lateral_ft(i)) * fr.right + (k * env.goal_vertical_ft(i)) * fr.up;
+}
+
 // LL action entries in [-1, 1] from references (the inverse of RaceEnv's action mapping).
 void write_action(const RaceConfig& c, double throttle, double nz_ref_g, double ps_ref_radps, float* a) {
   a[0] = static_cast<float>(2.0 * std::clamp(throttle, 0.0, 1.0) - 1.0);
@@ -66,7 +78,8 @@ void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& k, float*
 #pragma omp parallel for schedule(static)
   for (std::int64_t row = 0; row < n; ++row) {
     const int i = static_cast<int>(rows ? rows[row] : row);
-    const Vec3 aim = lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
+    const Vec3 aim = k.follow_goal ? goal_lane_aim_point(env, i, k.lookahead_ft)
+                                   : lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
     double x[kNumStates];
     for (int s = 0; s < kNumStates; ++s) x[s] = sim.state(s)[i];
     // One waypoint, always ahead: AeroBench's law as it flies toward its current waypoint.

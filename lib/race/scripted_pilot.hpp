@@ -39,6 +39,10 @@ struct AutopilotPilotConfig {
   double lookahead_ft = 6000.0;
   double lane_fraction = 0.8;
   double airspeed_ftps = 700.0;
+  // Whose lane: the start lane (the non-learned `autopilot` entry), or the lane of the aircraft's
+  // HL goal, at the same fraction of the tube radius at the aim point as at the goal (a low
+  // level that flies exactly what the high level asks: train.ll_pilot autopilot).
+  bool follow_goal = false;
 };
 // As scripted_actions: the aircraft in `rows`, or all of them.
 void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& pilot, float* actions,

@@ -7,7 +7,9 @@
 #include <stdexcept>
 
 #include "io/input_error.hpp"
+#include "race/scripted_pilot.hpp"
 #include "train/obs_views.hpp"
+#include "train/policy_rows.hpp"
 #include "train/trainer.hpp"
 
 namespace f16race::train {
@@ -77,6 +79,19 @@ void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
   throw io::InputError(other.run_dir + ": trained on " + shape(other) + ", but " + reference.run_dir + " on " +
                            shape(reference) + "; race runs trained for the same race.team_size, race.preview_points and "
                            "race.observe_team_lanes");
+}
+
+void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const models::LlObs& obs,
+                       const torch::Tensor& rows, at::Generator& gen, float* actions) {
+  if (rows.numel() == 0) return;
+  if (p.config.loop.ll_pilot == LowLevelPilot::kAutopilot) {
+    race::AutopilotPilotConfig pilot;
+    pilot.follow_goal = true;
+    pilot.airspeed_ftps = p.config.loop.autopilot_airspeed(env.config());
+    race::autopilot_actions(env, pilot, actions, rows.data_ptr<std::int64_t>(), rows.numel());
+    return;
+  }
+  scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, actions);  // the Gaussian's mean
 }
 
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed) {

@@ -9,6 +9,7 @@
 #include "agents/expected_sarsa.hpp"
 #include "agents/ppo.hpp"
 #include "models/obs.hpp"
+#include "race/race_env.hpp"
 #include "train/train_config.hpp"
 
 namespace f16race::train {
@@ -33,6 +34,13 @@ RunPolicy load_run_policy(const std::string& run_dir);
 // shapes (team size, observation sizes) and goal frame as `reference`, so their policies can
 // share races.
 void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other);
+
+// Writes policy p's greedy LL actions [n_env * n_agent, 3] for the aircraft in `rows` (ascending
+// indices into env * n_agent + agent; the others untouched): its network's mean on those rows of
+// `obs`, or, for a run trained with train.ll_pilot autopilot, AeroBench's waypoint autopilot
+// flying each aircraft's goal lane. The one low-level act of the tournament and replay.
+void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const models::LlObs& obs,
+                       const torch::Tensor& rows, at::Generator& gen, float* actions);
 
 // The networks of `config` before any update (initial weights from `seed`), as the
 // `untrained` tournament entry and for tests.

@@ -87,6 +87,10 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("checkpoint_every_updates", &c->checkpoint_every_updates, 1, 1000000);
   r.read("hl_epsilon_eval", &c->hl_epsilon_eval, 0.0, 1.0);
   r.read("log_every_updates", &c->log_every_updates, 1, 1000000);
+  std::string pilot = c->ll_pilot == LowLevelPilot::kAutopilot ? "autopilot" : "ppo";
+  r.read("ll_pilot", &pilot, {"ppo", "autopilot"});
+  c->ll_pilot = pilot == "autopilot" ? LowLevelPilot::kAutopilot : LowLevelPilot::kPpo;
+  r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
   r.finish();
 }
 
@@ -117,6 +121,9 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   bind_pool(pool, &c.pool);
   top.finish();
   if (c.loop.total_env_steps <= 0) throw io::ConfigError(source + ": train.total_env_steps must be > 0");
+  if (c.loop.ll_pilot == LowLevelPilot::kAutopilot && c.loop.hl_phase_updates == 0)
+    throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
+                          "train.hl_phase_updates must be > 0");
   resolve_hl_scales(&c);
   if (c.hl.v_min >= c.hl.v_max)
     throw io::ConfigError(source + ": hl.v_min must be < hl.v_max (or both 0: derived from the race)");

@@ -15,6 +15,11 @@ class Node;
 
 namespace f16race::train {
 
+// Who flies the low level: the PPO policy (the paper), or AeroBench's waypoint autopilot flying
+// the lane of each aircraft's HL goal at a held airspeed, so that only the high level learns and
+// what it learns is measured without the low level's own learning in the way.
+enum class LowLevelPilot { kPpo, kAutopilot };
+
 struct LoopConfig {
   std::int64_t total_env_steps = 200000;  // LL steps summed over envs (paper: 1 M per env x 1024 envs)
   int ll_phase_updates = 8;               // PPO updates per low-level phase (HL frozen)
@@ -22,6 +27,11 @@ struct LoopConfig {
   int checkpoint_every_updates = 20;      // also at the end and on Ctrl-C
   double hl_epsilon_eval = 0.0;           // eps of the opponent's HL when it is a pool snapshot
   int log_every_updates = 1;              // plain log line cadence when stdout is not a terminal
+  LowLevelPilot ll_pilot = LowLevelPilot::kPpo;  // autopilot: no LL phase, every update is an ES update
+  double autopilot_airspeed_ftps = 0.0;          // its set point; 0: race.start_speed_ftps, as the `autopilot` entry
+  double autopilot_airspeed(const race::RaceConfig& r) const {
+    return autopilot_airspeed_ftps > 0.0 ? autopilot_airspeed_ftps : r.start_speed_ftps;
+  }
 };
 
 struct PoolConfig {

@@ -20,6 +20,7 @@
 #include "io/learning_curves.hpp"
 #include "io/run_folder.hpp"
 #include "race/race_env.hpp"
+#include "race/scripted_pilot.hpp"
 #include "random/random_stream.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
@@ -352,6 +353,7 @@ void Trainer::State::build(bool fresh) {
   open.actions = torch::zeros({n_env, ts, 3}, torch::kInt64);
   open.reward = torch::zeros({n_env, ts});
   open.active = torch::zeros({n_env, ts}, torch::kBool);
+  if (fresh && cfg.loop.ll_pilot == LowLevelPilot::kAutopilot) phase = 1;
   if (fresh)
     for (int e = 0; e < n_env; ++e) draw_matchup(e);
 }
@@ -458,20 +460,29 @@ void Trainer::State::hl_decisions() {
 void Trainer::State::ll_step(bool learn) {
   torch::NoGradGuard no_grad;
   hl_decisions();
-  const LlObs obs = ll_view(false);
   const auto t_act = Clock::now();
-  // Each policy acts only on the aircraft it flies (the pool snapshot on the other team of pool
-  // envs, the learner on the rest); the learner's normaliser sees the rows it flies.
-  ll_rows.assign(owners());
-  const torch::Tensor& mine = ll_rows.rows(0);
-  const auto act = ppo->act(ll_rows.owns_all(0) ? obs : models::index_rows(obs, mine), gen, /*update_stats=*/learn);
   torch::Tensor actions = torch::empty({static_cast<std::int64_t>(n_env) * n_agent, race::kActionDim});
-  scatter_rows(mine, act.action, actions.data_ptr<float>());
-  if (ll_rows.rows(1).numel() > 0)
-    scatter_rows(ll_rows.rows(1), opp_ppo->act(models::index_rows(obs, ll_rows.rows(1)), gen, false).action,
-                 actions.data_ptr<float>());
-  work.ll_forward_rows += act.action.size(0) + ll_rows.rows(1).numel();
-  work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
+  agents::PpoAction act;
+  if (cfg.loop.ll_pilot == LowLevelPilot::kAutopilot) {
+    // Every aircraft, of both teams (a pool snapshot of this run flies the autopilot too).
+    race::AutopilotPilotConfig pilot;
+    pilot.follow_goal = true;
+    pilot.airspeed_ftps = cfg.loop.autopilot_airspeed(cfg.race);
+    race::autopilot_actions(*env, pilot, actions.data_ptr<float>());
+  } else {
+    const LlObs obs = ll_view(false);
+    // Each policy acts only on the aircraft it flies (the pool snapshot on the other team of pool
+    // envs, the learner on the rest); the learner's normaliser sees the rows it flies.
+    ll_rows.assign(owners());
+    const torch::Tensor& mine = ll_rows.rows(0);
+    act = ppo->act(ll_rows.owns_all(0) ? obs : models::index_rows(obs, mine), gen, /*update_stats=*/learn);
+    scatter_rows(mine, act.action, actions.data_ptr<float>());
+    if (ll_rows.rows(1).numel() > 0)
+      scatter_rows(ll_rows.rows(1), opp_ppo->act(models::index_rows(obs, ll_rows.rows(1)), gen, false).action,
+                   actions.data_ptr<float>());
+    work.ll_forward_rows += act.action.size(0) + ll_rows.rows(1).numel();
+    work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
+  }
   timing.inference += since(t_act);
   const auto learner = learner_index();  // before the step: sides change at resets
   // Samples of the learner team, taken before the env overwrites its buffers: their positions
@@ -874,7 +885,9 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
     // Phase switch: the other level learns next; a new pool opponent for the new phase.
     const int phase_len = ll_phase ? s.cfg.loop.ll_phase_updates : s.cfg.loop.hl_phase_updates;
     if (s.phase_updates >= phase_len && s.cfg.loop.hl_phase_updates > 0) {
-      s.phase = 1 - s.phase;
+      // With the autopilot flying the low level only the high level learns: its phase repeats,
+      // each time against a newly drawn pool opponent.
+      s.phase = s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot ? 1 : 1 - s.phase;
       s.phase_updates = 0;
       for (int e = 0; e < s.n_env; ++e) s.open.open[e] = 0;  // decisions of the old phase are not learned from
       s.load_opponent();

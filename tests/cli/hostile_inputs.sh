@@ -100,6 +100,10 @@ case_ "replay negative seed" -- "$bin" replay --run "$run" --seed -1 --out r3
 case_ "replay out under a device" -- "$bin" replay --run "$run" --out /dev/null/r4
 case_ "export not a run" -- "$bin" export --run not_a_run --out e1
 case_ "export out under a device" -- "$bin" export --run "$run" --out /dev/null/e2
+"$bin" train --config "$smoke" --run "$work/ap_run" --set train.ll_pilot=autopilot --max-updates 1 --quiet >/dev/null ||
+  { echo "FAIL: setup autopilot run"; exit 1; }
+case_ "export an autopilot low level" -- "$bin" export --run "$work/ap_run" --out e3
+case_ "ll_pilot unknown" -- $T --set train.ll_pilot=pid
 case_ "simulate reference device" -- "$bin" simulate --reference /dev/zero --out s1.csv
 case_ "simulate reference missing" -- "$bin" simulate --reference nope.csv --out s2.csv
 case_ "simulate header-only commands" -- "$bin" simulate --duration 1 --commands header_only.csv --out s3.csv

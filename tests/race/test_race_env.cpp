@@ -609,5 +609,58 @@ TEST(RaceEnv, BuiltInPilotsFlyOnlyTheRowsTheyAreGiven) {
   }
 }
 
+
+// The autopilot as a low level (train.ll_pilot autopilot) flies the lane of each aircraft's HL
+// goal. 12 s after the goals are set, aircraft offsets in the tube cross-section (/ radius)
+// regressed on their goals' offsets, within each race (pure pursuit of a point 6 000 ft ahead
+// cuts the track's curves, which shifts a whole race's aircraft alike). Pursuit of a point
+// L = 6 000 ft ahead at V = 700 ft/s closes a lane error with time constant L / V = 8.6 s, so the
+// slope expected at 12 s is 1 - exp(-12 / 8.6) = 0.75 (measured 0.74): the goal-following
+// autopilot must reach 0.6; the start-lane autopilot, given the same goals, stays near 0.
+TEST(RaceEnv, GoalFollowingAutopilotFliesTheLaneTheHighLevelChose) {
+  RaceConfig c = small_config(4, 2);
+  double slope[2] = {0.0, 0.0};
+  for (int follow = 0; follow < 2; ++follow) {
+    RaceEnv env(c);
+    AutopilotPilotConfig k;
+    k.airspeed_ftps = c.start_speed_ftps;
+    k.follow_goal = follow == 1;
+    // Lanes across the tube: right bins 0, 2, 4, 6 by agent, up bins 5, 1, 3, 5; along: middle.
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+    const std::int64_t up[4] = {5, 1, 3, 5};
+    for (int i = 0; i < env.n_aircraft(); ++i) {
+      bins[static_cast<std::size_t>(i) * kHlDims + 1] = 2 * (i % 4);
+      bins[static_cast<std::size_t>(i) * kHlDims + 2] = up[i % 4];
+    }
+    std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
+    for (int s = 0; s < 150; ++s) {
+      env.set_hl_actions(bins.data());
+      autopilot_actions(env, k, a.data());
+      env.step(a.data());
+    }
+    double sxy = 0.0, sxx = 0.0;
+    for (int e = 0; e < env.n_env(); ++e) {
+      const Track& track = env.track(e);
+      for (int axis = 0; axis < 2; ++axis) {
+        std::vector<double> x, y;
+        for (int i = e * env.n_agent(); i < (e + 1) * env.n_agent(); ++i) {
+          if (!env.alive(i)) continue;
+          const double r_here = track.radius_at(env.progress_ft(i)), r_goal = track.radius_at(env.goal_progress_ft(i));
+          x.push_back((axis == 0 ? env.goal_lateral_ft(i) : env.goal_vertical_ft(i)) / r_goal);
+          y.push_back((axis == 0 ? env.lateral_ft(i) : env.vertical_ft(i)) / r_here);
+        }
+        ASSERT_GE(x.size(), 3u) << "race " << e;
+        double mx = 0.0, my = 0.0;
+        for (std::size_t j = 0; j < x.size(); ++j) mx += x[j] / x.size(), my += y[j] / y.size();
+        for (std::size_t j = 0; j < x.size(); ++j) sxy += (x[j] - mx) * (y[j] - my), sxx += (x[j] - mx) * (x[j] - mx);
+      }
+    }
+    slope[follow] = sxy / sxx;
+  }
+  std::printf("lane following slope after 12 s: start-lane autopilot %.2f, goal-following %.2f\n", slope[0], slope[1]);
+  EXPECT_GT(slope[1], 0.6);
+  EXPECT_LT(std::abs(slope[0]), 0.4);
+}
+
 }  // namespace
 }  // namespace f16race::race

@@ -1,11 +1,15 @@
 // Which policy flies which aircraft: rows per policy in aircraft order, each aircraft's position
-// in its owner's rows, and the scatter of per-policy outputs back into the env's flat arrays.
+// in its owner's rows, the scatter of per-policy outputs back into the env's flat arrays, and
+// the low-level act of evaluation (network mean, or the goal-following autopilot).
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <vector>
 
+#include "race/scripted_pilot.hpp"
+#include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
+#include "train/run_policy.hpp"
 
 namespace f16race::train {
 namespace {
@@ -43,6 +47,43 @@ TEST(PolicyRows, ScatterWritesEachPolicysRowsAndNothingElse) {
   std::vector<std::int64_t> bins(4 * 3, 3);
   scatter_rows(r.rows(1), torch::tensor({{0, 1, 2}, {6, 5, 4}}, torch::kInt64), bins.data());
   EXPECT_EQ(bins, (std::vector<std::int64_t>{0, 1, 2, 3, 3, 3, 6, 5, 4, 3, 3, 3}));
+}
+
+// A run's greedy low level in tournaments and replays: the network's mean on its rows, or, for
+// a run trained with train.ll_pilot autopilot, the autopilot flying each aircraft's goal lane;
+// rows not given keep what they held.
+TEST(GreedyLowLevel, NetworkMeanOrGoalFollowingAutopilotOnTheGivenRowsOnly) {
+  TrainConfig c;
+  c.race.n_env = 2;
+  c.race.team_size = 2;
+  c.race.seed = 5;
+  resolve_hl_scales(&c);
+  race::RaceEnv env(c.race);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * race::kHlDims, 1);
+  env.set_hl_actions(bins.data());
+  const torch::Tensor rows = torch::tensor(std::vector<std::int64_t>{1, 2, 6});
+  at::Generator gen = models::make_generator(3);
+  const models::LlObs obs = ll_obs_view(env);
+  const std::size_t n = static_cast<std::size_t>(env.n_aircraft()) * race::kActionDim;
+  for (int autopilot = 0; autopilot < 2; ++autopilot) {
+    TrainConfig ci = c;
+    ci.loop.ll_pilot = autopilot ? LowLevelPilot::kAutopilot : LowLevelPilot::kPpo;
+    const RunPolicy p = untrained_policy(ci, 7);
+    std::vector<float> got(n, 42.0f), want(n, 42.0f);
+    greedy_ll_actions(p, env, obs, rows, gen, got.data());
+    if (autopilot) {
+      race::AutopilotPilotConfig k;
+      k.follow_goal = true;
+      k.airspeed_ftps = c.race.start_speed_ftps;
+      race::autopilot_actions(env, k, want.data(), rows.data_ptr<std::int64_t>(), rows.numel());
+    } else {
+      scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, want.data());
+    }
+    EXPECT_EQ(got, want) << (autopilot ? "autopilot" : "network");
+    int untouched = 0;
+    for (float v : got) untouched += v == 42.0f;
+    EXPECT_EQ(untouched, static_cast<int>(n) - 3 * race::kActionDim);
+  }
 }
 
 }  // namespace

@@ -79,6 +79,33 @@ TEST(Trainer, SameSeedSameWeightsDifferentSeedDifferentWeights) {
   EXPECT_NE(a.ll_parameters(), c.ll_parameters());
 }
 
+// train.ll_pilot autopilot: AeroBench's waypoint autopilot flies the goal lanes, so every update
+// is an ES update, the low level's network never moves, the high level's does, and a stopped
+// and resumed run ends where an uninterrupted one does.
+TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
+  const std::string extra = "train.ll_pilot=autopilot";
+  Trainer a(smoke(extra), fresh_dir("ap_whole"));
+  const std::vector<float> ll0 = a.ll_parameters(), hl0 = a.hl_parameters();
+  const TrainSummary full = a.run();
+  ASSERT_GT(full.updates, 4);
+  for (const MetricsRow& r : full.rows) EXPECT_EQ(r.phase, "hl") << "update " << r.update;
+  EXPECT_GT(full.hl_grad_steps, 0);
+  EXPECT_EQ(a.ll_parameters(), ll0);
+  EXPECT_NE(a.hl_parameters(), hl0);
+  const std::string split = fresh_dir("ap_split");
+  {
+    Trainer b(smoke(extra), split);
+    b.run(nullptr, 3);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+  EXPECT_NE(error_of("train: {ll_pilot: fly}").find("train.ll_pilot: 'fly' is not one of: ppo, autopilot"),
+            std::string::npos);
+  EXPECT_NE(error_of("train: {ll_pilot: autopilot, hl_phase_updates: 0}").find("train.hl_phase_updates must be > 0"),
+            std::string::npos);
+}
+
 TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   const std::string whole = fresh_dir("whole"), split = fresh_dir("split");
   Trainer a(smoke(), whole);
