@@ -18,6 +18,10 @@ StudyConfig read_study_config(const std::string& path) {
   StudyConfig c;
   io::ConfigReader r(io::load_yaml_file(path), path);
   r.read("base_config", &c.base_config, {});
+  r.read("set", &c.set, {});
+  for (const std::string& kv : c.set)
+    if (kv.find('=') == std::string::npos || kv.front() == '=')
+      r.fail("set", "'" + kv + "' is not KEY=VALUE (e.g. train.ll_pilot=autopilot)");
   r.read("variants", &c.variants, {"es", "es_d1", "es_d2", "es_d3"});
   r.read("seeds", &c.seeds, 0, 1000000000);
   for (std::size_t i = 0; i < c.seeds.size(); ++i)
@@ -35,8 +39,9 @@ StudyConfig read_study_config(const std::string& path) {
   r.read("controls", &c.controls);
   r.read("tournament_seed", &c.tournament_seed);
   r.finish();
-  // The base config must itself be a valid training config: found now, not in the first child.
-  train::read_train_config(io::load_yaml_file(c.base_config), c.base_config);
+  // The base config with the study's overrides must be a valid training config: found now, not
+  // in the first child.
+  train::read_train_config(io::load_yaml_with_overrides(c.base_config, c.set), c.base_config);
   return c;
 }
 
@@ -62,8 +67,10 @@ std::vector<StudyCell> plan_study(const StudyConfig& config, const std::string& 
         c.run_dir = (fs::path(interval_dir(out_dir, dt)) / (v + "_s" + std::to_string(seed))).string();
         char dt_text[32];
         std::snprintf(dt_text, sizeof dt_text, "%.17g", dt);
-        c.overrides = {"hl.agent=" + v, "seed=" + std::to_string(seed), std::string("race.dt_hl_s=") + dt_text,
-                       "train.total_env_steps=" + std::to_string(config.total_env_steps)};
+        c.overrides = config.set;
+        for (const std::string& o : {"hl.agent=" + v, "seed=" + std::to_string(seed), std::string("race.dt_hl_s=") + dt_text,
+                                     "train.total_env_steps=" + std::to_string(config.total_env_steps)})
+          c.overrides.push_back(o);
         cells.push_back(c);
       }
   return cells;

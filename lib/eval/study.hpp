@@ -14,6 +14,7 @@ namespace f16race::eval {
 
 struct StudyConfig {
   std::string base_config = "configs/default.yaml";  // every run's config before the cell's keys
+  std::vector<std::string> set;  // KEY=VALUE overrides of base_config for every run, as train's --set
   std::vector<std::string> variants{"es", "es_d1", "es_d2", "es_d3"};
   std::vector<int> seeds{1, 2, 3};
   std::vector<double> dt_hl_s{8.0, 20.0};

@@ -70,8 +70,9 @@ void write_study_report(const StudyConfig& cfg, const std::vector<StudyCell>& ce
                 "%.0f s of tournaments in this pass.\n\n",
                 train_s / 3600.0, n_finished, cells.size(), cfg.jobs, tournament_s);
   md << buf;
-  md << "Each run: `f16race --threads 1 train --config " << cfg.base_config
-     << " --set hl.agent=V --seed S --set race.dt_hl_s=D --set train.total_env_steps=" << cfg.total_env_steps
+  md << "Each run: `f16race --threads 1 train --config " << cfg.base_config;
+  for (const std::string& kv : cfg.set) md << " --set " << kv;
+  md << " --set hl.agent=V --seed S --set race.dt_hl_s=D --set train.total_env_steps=" << cfg.total_env_steps
      << "`; each interval's tournament: `f16race tournament --runs <its runs>" << (cfg.controls ? " --controls" : "")
      << " --races " << cfg.races_per_pair << " --seed " << cfg.tournament_seed << "`.\n\n";
   std::string notes;

@@ -57,6 +57,10 @@ TEST(Study, ConfigIsValidatedWithTheKeyNamed) {
   EXPECT_NE(error_of("dt_hl_s: [8, 8.0]\n").find("dt8 is listed twice"), std::string::npos);
   EXPECT_NE(error_of("jobz: 2\n").find("jobz"), std::string::npos);
   EXPECT_NE(error_of("total_env_steps: 10\n").find("total_env_steps"), std::string::npos);
+  EXPECT_NE(error_of("set: [train.ll_pilot]\n").find("'train.ll_pilot' is not KEY=VALUE"), std::string::npos);
+  EXPECT_NE(error_of("set: [train.ll_pilot=pid]\n").find("train.ll_pilot"), std::string::npos);  // checked on the base
+  write(d / "set.yaml", base + "set: [train.ll_pilot=autopilot]\n");
+  EXPECT_EQ(read_study_config((d / "set.yaml").string()).set, (std::vector<std::string>{"train.ll_pilot=autopilot"}));
   write(d / "badbase.yaml", "race: {n_envs: 2}\n");
   write(d / "bad.yaml", "base_config: " + (d / "badbase.yaml").string() + "\n");
   EXPECT_THROW(read_study_config((d / "bad.yaml").string()), io::ConfigError);  // the base is checked too
@@ -86,6 +90,11 @@ TEST(Study, PlanOrdersCellsByIntervalSeedVariant) {
                                                "OUT/dt20/es_d3_s5"}));
   EXPECT_EQ(t.out_dir, "OUT/dt20/tournament");
   EXPECT_EQ(interval_name(12.5), "dt12.5");
+  // The study's own overrides come first, so a cell's keys win over them.
+  c.set = {"train.ll_pilot=autopilot"};
+  EXPECT_EQ(plan_study(c, "OUT")[7].overrides,
+            (std::vector<std::string>{"train.ll_pilot=autopilot", "hl.agent=es_d3", "seed=5", "race.dt_hl_s=20",
+                                      "train.total_env_steps=7000"}));
 }
 
 TEST(Study, MetricsTailSkipsALineStillBeingWritten) {
