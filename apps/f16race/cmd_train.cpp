@@ -111,11 +111,11 @@ void run_train(const TrainOptions& o) {
     const double eta = frac > 0 ? r.wall_s * (1.0 - frac) / frac : NAN;
     char line[400];
     std::snprintf(line, sizeof line,
-                  "%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | win %.2f | finish %.2f | "
-                  "LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, off-center %.2f",
+                  "%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | %3.0f ft/s | win %.2f | "
+                  "finish %.2f | LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, off-center %.2f",
                   100.0 * frac, fmt_time(r.wall_s).c_str(), fmt_time(eta).c_str(), static_cast<long long>(r.update),
-                  r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.winrate, r.finish_rate, r.ll_return,
-                  r.hl_return, r.q_spread, r.off_center_share);
+                  r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.airspeed_ftps, r.winrate, r.finish_rate,
+                  r.ll_return, r.hl_return, r.q_spread, r.off_center_share);
     if (tty) {
       print_progress_bar(frac, 28, line);
     } else if (r.update % cfg.loop.log_every_updates == 0) {
@@ -135,12 +135,13 @@ void run_train(const TrainOptions& o) {
   const Trend fin = trend(sum.rows, &train::MetricsRow::finish_rate);
   const Trend hl = trend(sum.rows, &train::MetricsRow::hl_return);
   const Trend ll = trend(sum.rows, &train::MetricsRow::ll_return);
+  const Trend vt = trend(sum.rows, &train::MetricsRow::airspeed_ftps);
   std::printf("done: %lld updates, %lld env steps, %lld HL gradient steps\n", static_cast<long long>(sum.updates),
               static_cast<long long>(sum.env_steps), static_cast<long long>(sum.hl_grad_steps));
   if (!sum.curves_problem.empty()) std::printf("no curves.png: %s\n", sum.curves_problem.c_str());
   std::printf("first -> last tenth: goal distance %.0f -> %.0f ft, finish rate %.2f -> %.2f, "
-              "LL return %.2f -> %.2f, HL return %.2f -> %.2f\n",
-              goal.first, goal.last, fin.first, fin.last, ll.first, ll.last, hl.first, hl.last);
+              "LL return %.2f -> %.2f, HL return %.2f -> %.2f, airspeed %.0f -> %.0f ft/s\n",
+              goal.first, goal.last, fin.first, fin.last, ll.first, ll.last, hl.first, hl.last, vt.first, vt.last);
 }
 
 }  // namespace

@@ -178,7 +178,7 @@ struct Trainer::State {
 
   // Metrics accumulators since the last row.
   std::vector<double> ll_ret, hl_ret;  // [n_env * ts] running returns of learner aircraft
-  double sum_ll_ret = 0, sum_hl_ret = 0, n_ret = 0, n_hl_ret = 0, sum_goal = 0, n_goal = 0;
+  double sum_ll_ret = 0, sum_hl_ret = 0, n_ret = 0, n_hl_ret = 0, sum_goal = 0, n_goal = 0, sum_vt = 0, n_vt = 0;
   double races = 0, wins = 0, finishes = 0, term[race::kNumCauses] = {};
   std::int64_t steps_at_row = 0;
   double wall_at_row = 0.0, wall_offset = 0.0;
@@ -499,6 +499,12 @@ void Trainer::State::ll_step(bool learn) {
     sample_logp = act.log_prob.index_select(0, pos);
     sample_value = act.value.index_select(0, pos);
   }
+  {  // airspeed of the learner's aircraft still racing, before the step (a finished race resets)
+    const std::int64_t* li = learner.data_ptr<std::int64_t>();
+    const double* vt = env->sim().state(dynamics::kVt);
+    for (std::int64_t k = 0; k < learner.numel(); ++k)
+      if (env->alive(static_cast<int>(li[k]))) sum_vt += vt[li[k]], n_vt += 1;
+  }
   const auto t_env = Clock::now();
   env->step(actions.data_ptr<float>());
   timing.env += since(t_env);
@@ -638,6 +644,7 @@ MetricsRow Trainer::State::make_row(const char* phase_name) {
   r.ll_return = n_ret > 0 ? sum_ll_ret / n_ret : std::nan("");
   r.hl_return = n_hl_ret > 0 ? sum_hl_ret / n_hl_ret : std::nan("");
   r.goal_dist_ft = n_goal > 0 ? sum_goal / n_goal : std::nan("");
+  r.airspeed_ftps = n_vt > 0 ? sum_vt / n_vt : std::nan("");
   r.races = races;
   r.winrate = races > 0 ? wins / races : std::nan("");
   r.finish_rate = races > 0 ? finishes / races : std::nan("");
@@ -659,7 +666,7 @@ MetricsRow Trainer::State::make_row(const char* phase_name) {
     r.greedy_entropy = last_es.greedy_entropy;
     r.off_center_share = last_es.off_center_share;
   }
-  sum_ll_ret = sum_hl_ret = n_ret = n_hl_ret = sum_goal = n_goal = races = wins = finishes = 0;
+  sum_ll_ret = sum_hl_ret = n_ret = n_hl_ret = sum_goal = n_goal = sum_vt = n_vt = races = wins = finishes = 0;
   std::fill(std::begin(term), std::end(term), 0.0);
   steps_at_row = env_steps;
   wall_at_row = r.wall_s;
@@ -673,7 +680,7 @@ const std::vector<std::string>& metrics_header() {
       "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
       "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
       "q_mean", "epsilon", "hl_grad_steps", "es_loss_heldout", "es_end_atom_share", "es_huber_share", "q_spread", "greedy_entropy",
-      "off_center_share"};
+      "off_center_share", "airspeed_ftps"};
   return h;
 }
 std::vector<double> metrics_values(const MetricsRow& r) {
@@ -681,7 +688,7 @@ std::vector<double> metrics_values(const MetricsRow& r) {
           r.samples_per_s, r.ll_return, r.hl_return, r.goal_dist_ft, r.winrate, r.finish_rate, r.races, r.term[1],
           r.term[2], r.term[3], r.term[4], r.term[5], r.term[6], r.policy_loss, r.value_loss, r.entropy, r.approx_kl,
           r.lr, r.es_loss, r.q_mean, r.epsilon, static_cast<double>(r.hl_grad_steps), r.es_loss_heldout, r.es_end_atom_share,
-          r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share};
+          r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share, r.airspeed_ftps};
 }
 }  // namespace
 
@@ -838,16 +845,31 @@ void Trainer::State::load_checkpoint() {
                              checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");
   }
-  // Drop metrics rows written after this checkpoint (the resumed run writes them again).
+  // Drop metrics rows written after this checkpoint (the resumed run writes them again). A run
+  // written by a build with fewer columns (a prefix of today's header) gets today's header and
+  // empty cells for the new columns in its old rows, so every row has the header's width.
   const std::string mpath = run_dir + "/metrics.csv";
   if (fs::exists(mpath)) {
     std::istringstream in(read_text(mpath));
-    std::string line, out;
+    std::string line, out, pad;
     bool header = true;
     const std::int64_t upd = ppo_updates + es_updates;
     while (std::getline(in, line)) {
       if (line.empty()) continue;
-      if (header || std::stoll(line.substr(0, line.find(','))) <= upd) out += line + "\n";
+      if (header) {
+        const auto& h = metrics_header();
+        std::string now;
+        for (std::size_t k = 0; k < h.size(); ++k) now += (k ? "," : "") + h[k];
+        if (line != now && now.compare(0, line.size() + 1, line + ",") == 0) {
+          pad.assign(static_cast<std::size_t>(std::count(now.begin(), now.end(), ',') -
+                                              std::count(line.begin(), line.end(), ',')),
+                     ',');
+          line = now;
+        }
+        out += line + "\n";
+      } else if (std::stoll(line.substr(0, line.find(','))) <= upd) {
+        out += line + pad + "\n";
+      }
       header = false;
     }
     io::write_file_atomic(mpath, out);

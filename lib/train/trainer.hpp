@@ -64,6 +64,7 @@ struct MetricsRow {
   double ll_return = 0.0;         // mean LL return of learner aircraft over races that ended
   double hl_return = 0.0;         // mean summed HL reward per learner aircraft and race
   double goal_dist_ft = 0.0;      // mean distance left to the HL goal when its interval ended
+  double airspeed_ftps = 0.0;     // mean airspeed of learner aircraft in the race, per LL step (speed decides races)
   double winrate = 0.0;           // learner team wins / races ended (draws count half)
   double finish_rate = 0.0;       // races ended at the finish line / races ended
   double races = 0.0;             // races ended since the previous row

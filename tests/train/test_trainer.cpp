@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -126,6 +127,45 @@ TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   int lines = 0;
   for (std::string l; std::getline(m, l);) ++lines;
   EXPECT_EQ(lines, 1 + full.updates);
+}
+
+// metrics.csv's airspeed column holds the learner's mean airspeed (an F-16 racing: hundreds of
+// ft/s); a run written by a build without that column, resumed, gets today's header with the
+// column empty in its old rows, so every row keeps the header's width.
+TEST(Trainer, MetricsAirspeedAndAnOlderHeaderUpgradedOnResume) {
+  const std::string dir = fresh_dir("metrics_upgrade");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  const std::string path = dir + "/metrics.csv";
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(path);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+  }
+  ASSERT_EQ(lines.size(), 4u);
+  const std::string header = lines[0];
+  ASSERT_EQ(header.substr(header.rfind(',') + 1), "airspeed_ftps");
+  for (std::size_t k = 1; k < lines.size(); ++k) {
+    const double v = std::stod(lines[k].substr(lines[k].rfind(',') + 1));
+    EXPECT_GT(v, 300.0);
+    EXPECT_LT(v, 1500.0);
+  }
+  {  // as the previous build wrote it: no airspeed column
+    std::ofstream out(path, std::ios::trunc);
+    for (const std::string& l : lines) out << l.substr(0, l.rfind(',')) << "\n";
+  }
+  Trainer::resume(dir)->run(nullptr, 2);
+  std::ifstream in(path);
+  std::vector<std::string> now;
+  for (std::string l; std::getline(in, l);) now.push_back(l);
+  ASSERT_EQ(now.size(), 6u);
+  EXPECT_EQ(now[0], header);
+  const auto commas = [](const std::string& l) { return std::count(l.begin(), l.end(), ','); };
+  for (const std::string& l : now) EXPECT_EQ(commas(l), commas(header)) << l;
+  EXPECT_EQ(now[1].back(), ',');  // an old row: the new column empty
+  EXPECT_NE(now[5].back(), ',');
 }
 
 TEST(Trainer, RefusesToOverwriteARunAndRefusesACorruptCheckpoint) {
