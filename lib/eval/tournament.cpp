@@ -135,7 +135,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     for (int j = i + 1; j < n_entries; ++j, ++pair)
       for (int r = 0; r < o.races_per_pair; ++r) games.push_back(r % 2 == 0 ? Game{pair, i, j} : Game{pair, j, i});
 
-  torch::NoGradGuard no_grad;
+  c10::InferenceMode inference;  // as the trainer's rollout: no autograd bookkeeping on any tensor of a race
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   const int ts = rc.team_size, n_agent = rc.n_agent();
   // One batch of envs for the whole tournament: an env whose race ends takes the next game at

@@ -458,7 +458,9 @@ void Trainer::State::hl_decisions() {
 }
 
 void Trainer::State::ll_step(bool learn) {
-  torch::NoGradGuard no_grad;
+  // Inference mode, not only no-grad: no version counters or autograd metadata on the many small
+  // tensors of a step. What outlives the step is copied into tensors made outside it (the buffers).
+  c10::InferenceMode inference;
   hl_decisions();
   const auto t_act = Clock::now();
   torch::Tensor actions = torch::empty({static_cast<std::int64_t>(n_env) * n_agent, race::kActionDim});
