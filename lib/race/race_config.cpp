@@ -59,6 +59,9 @@ void bind_race_config(R& r, RaceConfig* c) {
   std::string frame = c->goal_frame == GoalFrame::kTrack ? "track" : "world";
   r.read("goal_frame", &frame, {"world", "track"});
   c->goal_frame = frame == "track" ? GoalFrame::kTrack : GoalFrame::kWorld;
+  std::string origin = c->goal_origin == GoalOrigin::kLane ? "lane" : "center";
+  r.read("goal_origin", &origin, {"center", "lane"});
+  c->goal_origin = origin == "lane" ? GoalOrigin::kLane : GoalOrigin::kCenter;
   r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
@@ -99,6 +102,8 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
     fail("the track band [track.alt_min_ft - radius, track.alt_max_ft + radius] must lie inside [alt_min_ft, alt_max_ft]");
   if (c.nz_ref_min_g >= c.nz_ref_max_g) fail("nz_ref_min_g must be < nz_ref_max_g");
   if (c.hl_bins % 2 == 0) fail("hl_bins must be odd so that the middle bin is the center-line");
+  if (c.goal_origin == GoalOrigin::kLane && c.goal_frame != GoalFrame::kTrack)
+    fail("goal_origin: lane needs goal_frame: track (a lane is an offset across the track)");
   if (c.goal_refresh_ft >= c.goal_ahead())
     fail("goal_refresh_ft must be < goal_ahead_ft (or the preview horizon when goal_ahead_ft is 0), else the goal "
          "would be placed again at every step");

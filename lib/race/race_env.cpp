@@ -274,8 +274,24 @@ void RaceEnv::compute_ranks(int env) {
                       &team_rank_[base]);
 }
 
-void RaceEnv::place_goal(int i, const std::int64_t* bins) {
+void RaceEnv::place_goal(int i, const std::int64_t* bins, bool refresh) {
   const int env = i / n_agent_;
+  // goal_origin lane: the cross-track bins are offsets from a lane, as fractions of the radius:
+  // the aircraft's own at a decision; at a refresh the lane the decision chose, so it does not
+  // move on by the same offset again.
+  double origin_right = 0.0, origin_up = 0.0;
+  bool cross_from_bins = true;
+  if (config_.goal_origin == GoalOrigin::kLane) {
+    if (refresh) {
+      const double r_old = tracks_[env].radius_at(goal_progress_ft_[i]);
+      origin_right = goal_lateral_ft_[i] / r_old;
+      origin_up = goal_vertical_ft_[i] / r_old;
+      cross_from_bins = false;
+    } else {
+      origin_right = lateral_ft_[i] / radius_ft_[i];
+      origin_up = vertical_ft_[i] / radius_ft_[i];
+    }
+  }
   goal_progress_ft_[i] = progress_ft_[i] + config_.goal_ahead();
   for (int k = 0; k < kHlDims; ++k)  // clamped as the offsets below are
     goal_bins_[static_cast<std::size_t>(i) * kHlDims + k] = std::clamp<std::int64_t>(bins[k], 0, config_.hl_bins - 1);
@@ -291,6 +307,9 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   // bin, so the cross-track part is clipped to the outer bin's radius: every goal the HL can
   // choose lies inside the tube.
   Vec3 off{offset(bins[0]), offset(bins[1]), offset(bins[2])};
+  if (!cross_from_bins) off.e = off.u = 0.0;
+  off.e += origin_right * fr.radius_ft;
+  off.u += origin_up * fr.radius_ft;
   if (config_.goal_frame == GoalFrame::kTrack) off = off.n * fr.tangent + off.e * fr.right + off.u * fr.up;
   const Vec3 along = dot(off, fr.tangent) * fr.tangent;
   const Vec3 cross = off - along;
@@ -461,7 +480,7 @@ void RaceEnv::step_env(int e) {
     for (int a = 0; a < n_agent_; ++a) {
       const int i = base + a;
       if (alive_[i] && progress_ft_[i] + c.goal_refresh_ft >= goal_progress_ft_[i])
-        place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims]);
+        place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims], /*refresh=*/true);
     }
   }
 

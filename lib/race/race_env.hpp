@@ -201,7 +201,8 @@ class RaceEnv {
   void write_goal_observation(int i);
   void write_lane_observations(int env);
   double goal_lane_error_ft(int i) const;
-  void place_goal(int i, const std::int64_t* bins3);
+  // refresh: the same decision placed again at the horizon (keeps a goal_origin lane's lane).
+  void place_goal(int i, const std::int64_t* bins3, bool refresh = false);
 
   RaceConfig config_;
   int n_agent_;

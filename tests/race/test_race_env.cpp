@@ -662,5 +662,70 @@ TEST(RaceEnv, GoalFollowingAutopilotFliesTheLaneTheHighLevelChose) {
   EXPECT_LT(std::abs(slope[0]), 0.4);
 }
 
+// race.goal_origin lane: the cross-track bins are offsets from the aircraft's own lane, so the
+// middle bin holds it (at a reset the start lane, at a decision the lane it is in), one bin moves
+// it by goal_bin_scale / 3 of the radius, the tube still clips, and a goal placed again at the
+// horizon (goal_refresh_ft) keeps the lane the decision chose instead of moving on by the offset.
+TEST(RaceEnv, LaneOriginGoalsAreOffsetsFromTheAircraftsOwnLane) {
+  RaceConfig c = small_config(2, 2);
+  c.goal_origin = GoalOrigin::kLane;
+  c.dt_hl_s = 20.0;  // long enough for a refresh (at ~9 000 ft, ~13 s) inside one decision
+  RaceEnv env(c);
+  auto frac = [&](int i, bool goal) {
+    const Track& t = env.track(i / env.n_agent());
+    const double r = t.radius_at(goal ? env.goal_progress_ft(i) : env.progress_ft(i));
+    return std::make_pair((goal ? env.goal_lateral_ft(i) : env.lateral_ft(i)) / r,
+                          (goal ? env.goal_vertical_ft(i) : env.vertical_ft(i)) / r);
+  };
+  for (int i = 0; i < env.n_aircraft(); ++i) {  // after the reset: the start lane
+    EXPECT_NEAR(frac(i, true).first, frac(i, false).first, 1e-6) << i;
+    EXPECT_NEAR(frac(i, true).second, frac(i, false).second, 1e-6) << i;
+  }
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
+  for (int s = 0; s < 30; ++s) {  // drift off the start lane a little
+    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    env.step(a.data());
+  }
+  // A decision: aircraft 0 holds (middle bins), aircraft 1 one bin right, aircraft 2 bin 9
+  // (clamped to the outer bin, then clipped to the tube), aircraft 3 one bin down.
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, 3);
+  bins[1 * kHlDims + 1] = 4;
+  bins[2 * kHlDims + 1] = 9;
+  bins[3 * kHlDims + 2] = 2;
+  // hl_due is up only at decision times: raise it by flying to the next one.
+  int guard = 0;
+  while (!env.hl_due()[0] && guard++ < 400) {
+    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    env.step(a.data());
+  }
+  ASSERT_TRUE(env.hl_due()[0]);
+  std::vector<std::pair<double, double>> own(4);
+  for (int i = 0; i < 4; ++i) own[i] = frac(i, false);
+  env.set_hl_actions(bins.data());
+  const double step = c.goal_bin_scale / 3.0;
+  EXPECT_NEAR(frac(0, true).first, own[0].first, 1e-6);
+  EXPECT_NEAR(frac(0, true).second, own[0].second, 1e-6);
+  EXPECT_NEAR(frac(1, true).first, own[1].first + step, 1e-6);
+  {  // bin 9 is clamped to the outer bin 6, +goal_bin_scale from its own lane, then into the tube
+    double x = own[2].first + c.goal_bin_scale, y = own[2].second;
+    const double h = std::hypot(x, y);
+    if (h > c.goal_bin_scale) x *= c.goal_bin_scale / h, y *= c.goal_bin_scale / h;
+    EXPECT_NEAR(frac(2, true).first, x, 1e-6);
+    EXPECT_NEAR(frac(2, true).second, y, 1e-6);
+  }
+  EXPECT_NEAR(frac(3, true).second, own[3].second - step, 1e-6);
+  // Refresh: fly until aircraft 1's goal is placed again, its lane unchanged.
+  const double lane1 = frac(1, true).first, goal1 = env.goal_progress_ft(1);
+  guard = 0;
+  while (env.goal_progress_ft(1) == goal1 && guard++ < 400) {
+    scripted_actions(env, ScriptedPilotConfig{}, a.data());
+    env.step(a.data());
+  }
+  ASSERT_FALSE(env.hl_due()[0]);  // the same decision, placed again: a refresh
+  ASSERT_TRUE(env.alive(1));
+  ASSERT_GT(env.goal_progress_ft(1), goal1);
+  EXPECT_NEAR(frac(1, true).first, lane1, 1e-6);
+}
+
 }  // namespace
 }  // namespace f16race::race

@@ -56,6 +56,10 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
   EXPECT_NE(error_of("race: {team_size: 9}").find("race.team_size"), std::string::npos);
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
+  EXPECT_NE(error_of("race: {goal_origin: lane, goal_frame: world}").find("goal_origin: lane needs goal_frame: track"),
+            std::string::npos);
+  EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
+            std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
             std::string::npos);
 }
