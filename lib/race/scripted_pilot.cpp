@@ -26,10 +26,8 @@ Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_
 // the aim stays inside the tube where it narrows.
 Vec3 goal_lane_aim_point(const RaceEnv& env, int i, double lookahead_ft) {
   const Track& track = env.track(i / env.n_agent());
-  double goal_radius_ft = 0.0;
-  track.sample(env.goal_progress_ft(i), &goal_radius_ft);
   const TrackFrame fr = track.frame_at(env.progress_ft(i) + lookahead_ft);
-  const double k = fr.radius_ft / std::max(goal_radius_ft, 1.0);
+  const double k = fr.radius_ft / std::max(track.radius_at(env.goal_progress_ft(i)), 1.0);
   return fr.center + (k * env.goal_lateral_ft(i)) * fr.right + (k * env.goal_vertical_ft(i)) * fr.up;
 }
 

@@ -7,7 +7,6 @@
 #include <stdexcept>
 
 #include "io/input_error.hpp"
-#include "race/scripted_pilot.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
 #include "train/trainer.hpp"
@@ -85,10 +84,7 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
                        const torch::Tensor& rows, at::Generator& gen, float* actions) {
   if (rows.numel() == 0) return;
   if (p.config.loop.ll_pilot == LowLevelPilot::kAutopilot) {
-    race::AutopilotPilotConfig pilot;
-    pilot.follow_goal = true;
-    pilot.airspeed_ftps = p.config.loop.autopilot_airspeed(env.config());
-    race::autopilot_actions(env, pilot, actions, rows.data_ptr<std::int64_t>(), rows.numel());
+    race::autopilot_actions(env, goal_lane_autopilot(p.config), actions, rows.data_ptr<std::int64_t>(), rows.numel());
     return;
   }
   scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, actions);  // the Gaussian's mean

@@ -105,6 +105,13 @@ void bind_pool(R& r, PoolConfig* c) {
 
 }  // namespace
 
+race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& c) {
+  race::AutopilotPilotConfig pilot;
+  pilot.follow_goal = true;
+  pilot.airspeed_ftps = c.loop.autopilot_airspeed_ftps > 0.0 ? c.loop.autopilot_airspeed_ftps : c.race.start_speed_ftps;
+  return pilot;
+}
+
 TrainConfig read_train_config(const YAML::Node& root, const std::string& source) {
   TrainConfig c;
   io::ConfigReader top(root, source);

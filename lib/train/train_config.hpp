@@ -8,6 +8,7 @@
 #include "agents/expected_sarsa.hpp"
 #include "agents/ppo.hpp"
 #include "race/race_config.hpp"
+#include "race/scripted_pilot.hpp"
 
 namespace YAML {
 class Node;
@@ -29,9 +30,6 @@ struct LoopConfig {
   int log_every_updates = 1;              // plain log line cadence when stdout is not a terminal
   LowLevelPilot ll_pilot = LowLevelPilot::kPpo;  // autopilot: no LL phase, every update is an ES update
   double autopilot_airspeed_ftps = 0.0;          // its set point; 0: race.start_speed_ftps, as the `autopilot` entry
-  double autopilot_airspeed(const race::RaceConfig& r) const {
-    return autopilot_airspeed_ftps > 0.0 ? autopilot_airspeed_ftps : r.start_speed_ftps;
-  }
 };
 
 struct PoolConfig {
@@ -62,6 +60,10 @@ struct TrainConfig {
   PoolConfig pool;
   std::uint64_t seed = 1;
 };
+
+// The low level of a train.ll_pilot autopilot run, in training, tournaments and replays alike:
+// AeroBench's waypoint autopilot flying each aircraft's goal lane at the configured airspeed.
+race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& config);
 
 // Reads `root` (already loaded, --set overrides applied). Unknown top-level sections or keys,
 // wrong types and out-of-range values throw io::ConfigError naming `source` and the key.

@@ -20,7 +20,6 @@
 #include "io/learning_curves.hpp"
 #include "io/run_folder.hpp"
 #include "race/race_env.hpp"
-#include "race/scripted_pilot.hpp"
 #include "random/random_stream.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
@@ -467,10 +466,7 @@ void Trainer::State::ll_step(bool learn) {
   agents::PpoAction act;
   if (cfg.loop.ll_pilot == LowLevelPilot::kAutopilot) {
     // Every aircraft, of both teams (a pool snapshot of this run flies the autopilot too).
-    race::AutopilotPilotConfig pilot;
-    pilot.follow_goal = true;
-    pilot.airspeed_ftps = cfg.loop.autopilot_airspeed(cfg.race);
-    race::autopilot_actions(*env, pilot, actions.data_ptr<float>());
+    race::autopilot_actions(*env, goal_lane_autopilot(cfg), actions.data_ptr<float>());
   } else {
     const LlObs obs = ll_view(false);
     // Each policy acts only on the aircraft it flies (the pool snapshot on the other team of pool
@@ -685,6 +681,13 @@ const std::vector<std::string>& metrics_header() {
       "off_center_share", "airspeed_ftps"};
   return h;
 }
+// The header as metrics.csv's first line holds it (no newline).
+std::string metrics_header_line() {
+  const auto& h = metrics_header();
+  std::string line;
+  for (std::size_t k = 0; k < h.size(); ++k) line += (k ? "," : "") + h[k];
+  return line;
+}
 std::vector<double> metrics_values(const MetricsRow& r) {
   return {static_cast<double>(r.update), r.phase == "hl" ? 1.0 : 0.0, static_cast<double>(r.env_steps), r.wall_s,
           r.samples_per_s, r.ll_return, r.hl_return, r.goal_dist_ft, r.winrate, r.finish_rate, r.races, r.term[1],
@@ -699,11 +702,7 @@ void Trainer::State::write_row(const MetricsRow& r) {
   // past the checkpoint it continues from.
   const std::string path = run_dir + "/metrics.csv";
   std::string line;
-  if (!fs::exists(path)) {
-    const auto& h = metrics_header();
-    for (std::size_t k = 0; k < h.size(); ++k) line += (k ? "," : "") + h[k];
-    line += "\n";
-  }
+  if (!fs::exists(path)) line = metrics_header_line() + "\n";
   const auto v = metrics_values(r);
   // An update without the event a column averages (no race ended, no ES update yet) leaves the
   // cell empty: gnuplot and the curves skip it, and nobody reads "nan" as a diverged run.
@@ -859,9 +858,7 @@ void Trainer::State::load_checkpoint() {
     while (std::getline(in, line)) {
       if (line.empty()) continue;
       if (header) {
-        const auto& h = metrics_header();
-        std::string now;
-        for (std::size_t k = 0; k < h.size(); ++k) now += (k ? "," : "") + h[k];
+        const std::string now = metrics_header_line();
         if (line != now && now.compare(0, line.size() + 1, line + ",") == 0) {
           pad.assign(static_cast<std::size_t>(std::count(now.begin(), now.end(), ',') -
                                               std::count(line.begin(), line.end(), ',')),
