@@ -91,6 +91,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("ll_pilot", &pilot, {"ppo", "autopilot"});
   c->ll_pilot = pilot == "autopilot" ? LowLevelPilot::kAutopilot : LowLevelPilot::kPpo;
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
+  r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
   r.finish();
 }
 
@@ -130,6 +131,9 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   if (c.loop.total_env_steps <= 0) throw io::ConfigError(source + ": train.total_env_steps must be > 0");
   if (c.loop.ll_pilot == LowLevelPilot::kAutopilot && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
+                          "train.hl_phase_updates must be > 0");
+  if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
+    throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");
   resolve_hl_scales(&c);
   if (c.hl.v_min >= c.hl.v_max)

@@ -30,6 +30,9 @@ struct LoopConfig {
   int log_every_updates = 1;              // plain log line cadence when stdout is not a terminal
   LowLevelPilot ll_pilot = LowLevelPilot::kPpo;  // autopilot: no LL phase, every update is an ES update
   double autopilot_airspeed_ftps = 0.0;          // its set point; 0: race.start_speed_ftps, as the `autopilot` entry
+  // Share of total_env_steps at the end of a run in which the LL is frozen and only the HL learns
+  // (every update an ES update): the bilevel problem's outer level against the final inner one.
+  double hl_tail_share = 0.0;
 };
 
 struct PoolConfig {

@@ -329,8 +329,9 @@ void Trainer::State::build(bool fresh) {
                           (cfg.loop.ll_phase_updates + cfg.loop.hl_phase_updates * cfg.hl.n_steps_per_update *
                                                            std::max(1.0, cfg.race.dt_hl_s / cfg.race.dt_ll_s) /
                                                            static_cast<double>(cfg.ll.n_steps));
-  cfg.ll.total_updates = std::max<std::int64_t>(
-      1, static_cast<std::int64_t>(ll_share * cfg.loop.total_env_steps / (cfg.ll.n_steps * n_env)) + 1);
+  const double ll_steps = (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
+  cfg.ll.total_updates =
+      std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env)) + 1);
   ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   es = std::make_unique<agents::EsAgent>(cfg.hl);
   opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
@@ -905,10 +906,15 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
     s.timing.io += State::since(t_io);
     // Phase switch: the other level learns next; a new pool opponent for the new phase.
     const int phase_len = ll_phase ? s.cfg.loop.ll_phase_updates : s.cfg.loop.hl_phase_updates;
-    if (s.phase_updates >= phase_len && s.cfg.loop.hl_phase_updates > 0) {
-      // With the autopilot flying the low level only the high level learns: its phase repeats,
-      // each time against a newly drawn pool opponent.
-      s.phase = s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot ? 1 : 1 - s.phase;
+    // In the HL-only tail (train.hl_tail_share) an LL phase ends at once and never comes back.
+    const bool hl_only = s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot ||
+                         (s.cfg.loop.hl_tail_share > 0.0 &&
+                          static_cast<double>(s.env_steps) >=
+                              (1.0 - s.cfg.loop.hl_tail_share) * static_cast<double>(s.cfg.loop.total_env_steps));
+    if ((s.phase_updates >= phase_len || (hl_only && s.phase == 0)) && s.cfg.loop.hl_phase_updates > 0) {
+      // With only the high level learning its phase repeats, each time against a newly drawn pool
+      // opponent.
+      s.phase = hl_only ? 1 : 1 - s.phase;
       s.phase_updates = 0;
       for (int e = 0; e < s.n_env; ++e) s.open.open[e] = 0;  // decisions of the old phase are not learned from
       s.load_opponent();

@@ -111,6 +111,41 @@ TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
             std::string::npos);
 }
 
+// train.hl_tail_share: once the run has used (1 - share) of its env steps the low level stops
+// learning (its weights are those at the switch, to the bit), every later update is an ES update,
+// and a run stopped in the tail resumes exactly.
+TEST(Trainer, HlTailFreezesTheLowLevelForTheLastShareOfTheSteps) {
+  const std::string extra = "train.hl_tail_share=0.5";
+  Trainer a(smoke(extra), fresh_dir("tail_whole"));
+  const TrainSummary full = a.run();
+  std::size_t k = 0;  // the update that crosses half the budget: the last one that may be an LL update
+  while (k < full.rows.size() && full.rows[k].env_steps < 300) ++k;
+  ASSERT_LT(k + 2, full.rows.size());
+  EXPECT_EQ(full.rows[0].phase, "ll");
+  for (std::size_t i = k + 1; i < full.rows.size(); ++i) EXPECT_EQ(full.rows[i].phase, "hl") << "update " << i;
+  const std::string split = fresh_dir("tail_split");
+  {
+    Trainer b(smoke(extra), split);
+    b.run(nullptr, static_cast<std::int64_t>(k) + 2);  // one update into the tail
+    EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
+    EXPECT_NE(b.hl_parameters(), a.hl_parameters());
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+  // Without the tail the same run keeps alternating to the end.
+  Trainer c(smoke(), fresh_dir("tail_none"));
+  const TrainSummary plain = c.run();
+  ASSERT_GT(plain.rows.size(), k + 2);
+  EXPECT_TRUE(std::any_of(plain.rows.begin() + static_cast<std::ptrdiff_t>(k) + 1, plain.rows.end(),
+                          [](const MetricsRow& r) { return r.phase == "ll"; }));
+  EXPECT_NE(error_of("train: {hl_tail_share: 1.0}").find("train.hl_tail_share: value 1 is out of range"),
+            std::string::npos);
+  EXPECT_NE(error_of("train: {hl_tail_share: 0.2, hl_phase_updates: 0}").find("train.hl_phase_updates must be > 0"),
+            std::string::npos);
+}
+
 TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   const std::string whole = fresh_dir("whole"), split = fresh_dir("split");
   Trainer a(smoke(), whole);
