@@ -30,6 +30,12 @@ class AttentionEncoderImpl : public torch::nn::Module {
   // weighted sum, output projection. For `bench nets` / `bench train` GFLOP/s.
   int64_t flops_per_sample() const;
 
+  // The projections, read by LlActorCriticImpl::eigen_weights.
+  const torch::nn::Linear& q_proj() const { return q_proj_; }
+  const torch::nn::Linear& k_proj() const { return k_proj_; }
+  const torch::nn::Linear& v_proj() const { return v_proj_; }
+  const torch::nn::Linear& out_proj() const { return out_proj_; }
+
  private:
   AttentionEncoderConfig cfg_;
   torch::nn::Linear q_proj_{nullptr}, k_proj_{nullptr}, v_proj_{nullptr}, out_proj_{nullptr};

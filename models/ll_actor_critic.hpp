@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "models/attention_encoder.hpp"
+#include "models/eigen/ll_eigen_forward.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -37,6 +38,9 @@ class LlActorCriticImpl : public torch::nn::Module {
   const LlActorCriticConfig& config() const { return cfg_; }
   // Forward FLOPs of one sample (encoder, actor and critic; see AttentionEncoderImpl::flops_per_sample).
   int64_t flops_per_sample() const;
+  // A float copy of the weights for LlEigenForward (no-grad inference without LibTorch ops).
+  LlEigenWeights eigen_weights() const;
+  const torch::Tensor& log_std() const { return log_std_; }  // [action_dim]
 
  private:
   LlActorCriticConfig cfg_;

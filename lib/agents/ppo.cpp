@@ -59,22 +59,42 @@ models::LlObs PpoAgent::normalize(const models::LlObs& raw, bool update_stats) {
   return normalizer_->normalize(raw, update_stats);
 }
 
+std::pair<torch::Tensor, torch::Tensor> PpoAgent::infer(const models::LlObs& obs) {
+  if (!cfg_.eigen_inference) {
+    const auto out = net_(obs);
+    return {out.mean, out.value};
+  }
+  if (eigen_stale_) {
+    eigen_.set_weights(net_->eigen_weights());
+    eigen_stale_ = false;
+  }
+  const int64_t b = models::check_obs(obs, cfg_.net.dims);
+  const auto ego = obs.ego.contiguous(), goal = obs.goal.contiguous(), ado = obs.ado.contiguous(),
+             alive = obs.ado_alive.contiguous(), task = obs.task.contiguous();
+  auto mean = torch::empty({b, cfg_.net.action_dim});
+  auto value = torch::empty({b});
+  eigen_.forward(b, ego.data_ptr<float>(), goal.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
+                 task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>());
+  return {mean, value};
+}
+
 PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool update_stats) {
   torch::NoGradGuard no_grad;
   PpoAction a;
   a.obs = normalize(raw, update_stats);
-  const auto out = net_(a.obs);
-  const auto noise = torch::randn(out.mean.sizes(), generator, torch::kFloat32);
-  a.action = out.mean + noise * out.log_std.exp();
-  a.log_prob = models::gaussian_log_prob(out.mean, out.log_std, a.action);
-  a.value = out.value;
-  a.mean = out.mean;
+  const auto [mean, value] = infer(a.obs);
+  const auto log_std = net_->log_std().expand_as(mean);
+  const auto noise = torch::randn(mean.sizes(), generator, torch::kFloat32);
+  a.action = mean + noise * log_std.exp();
+  a.log_prob = models::gaussian_log_prob(mean, log_std, a.action);
+  a.value = value;
+  a.mean = mean;
   return a;
 }
 
 torch::Tensor PpoAgent::value(const models::LlObs& raw) {
   torch::NoGradGuard no_grad;
-  return net_(normalize(raw, false)).value;
+  return infer(normalize(raw, false)).second;
 }
 
 double PpoAgent::learning_rate_for_update(int64_t update_index) const {
@@ -152,6 +172,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   stats.explained_variance =
       var_returns > 0.0 ? 1.0 - (returns - old_values).var(/*unbiased=*/false).item<double>() / var_returns : 0.0;
   ++update_count_;
+  eigen_stale_ = true;
   stats.update_index = update_count_;
   return stats;
 }
@@ -168,6 +189,7 @@ void PpoAgent::load(const std::string& path) {
   root.load_from(path);
   read_sub_archive(root, "net", *net_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
+  eigen_stale_ = true;
 }
 
 }  // namespace f16race::agents

@@ -49,6 +49,10 @@ struct PpoConfig {
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order
+  // No-grad forward passes of act() and value(): LibTorch's ops, or the same network on Eigen
+  // float kernels (models/eigen/ll_eigen_forward.hpp), equal to float rounding. Training always
+  // uses LibTorch.
+  bool eigen_inference = false;
 };
 
 struct PpoAction {
@@ -109,12 +113,16 @@ class PpoAgent {
   int64_t update_count() const { return update_count_; }
 
  private:
+  // mean [B, A] and value [B] of a normalised observation, by the configured inference path.
+  std::pair<torch::Tensor, torch::Tensor> infer(const models::LlObs& obs);
   PpoConfig cfg_;
   models::LlActorCritic net_{nullptr};
   models::ObsNormalizer normalizer_{nullptr};
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
+  models::LlEigenForward eigen_;
+  bool eigen_stale_ = true;  // the weights changed (update, load) since eigen_ copied them
 };
 
 }  // namespace f16race::agents

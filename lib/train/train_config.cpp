@@ -49,6 +49,9 @@ void bind_ll(R& r, agents::PpoConfig* c) {
   r.read("anneal_lr", &c->anneal_lr);
   r.read("normalize_advantages", &c->normalize_advantages);
   r.read("normalize_obs", &c->normalize_obs);
+  std::string inference = c->eigen_inference ? "eigen" : "torch";
+  r.read("inference", &inference, {"torch", "eigen"});
+  c->eigen_inference = inference == "eigen";
   r.finish();
 }
 

@@ -152,6 +152,61 @@ TEST(Ppo, ChunkedMinibatchesGiveTheSameUpdate) {
   EXPECT_LT(max_diff, 1e-5);  // summation order only (Adam moves a weight by ~lr = 3e-4 per step)
 }
 
+// ll.inference eigen: act() and value() on Eigen kernels give the LibTorch path's numbers (to float
+// rounding) before an update, after it (the copied weights follow the update) and after a load.
+TEST(Ppo, EigenInferenceFollowsUpdatesAndLoads) {
+  models::ObsDims dims{5, 4, 3, 3};
+  PpoConfig cfg;
+  cfg.net.dims = dims;
+  cfg.n_steps = 6;
+  cfg.total_updates = 2;
+  cfg.learning_rate = 0.05;  // weights that move visibly in one update
+  std::vector<std::unique_ptr<PpoAgent>> agents;
+  for (bool eigen : {false, true}) {
+    torch::manual_seed(4);
+    cfg.eigen_inference = eigen;
+    agents.push_back(std::make_unique<PpoAgent>(cfg));
+  }
+  auto gen = models::make_generator(8);
+  auto obs_of = [&](int64_t b) {
+    return models::LlObs{torch::randn({b, 5}, gen), torch::randn({b, 3}, gen), torch::randn({b, 3, 4}, gen),
+                         torch::rand({b, 3}, gen) < 0.7, torch::randn({b, 3}, gen)};
+  };
+  auto same_act = [&](const models::LlObs& obs, const char* when) {
+    auto g0 = models::make_generator(3), g1 = models::make_generator(3);
+    const PpoAction a = agents[0]->act(obs, g0, false), b = agents[1]->act(obs, g1, false);
+    EXPECT_LT((a.mean - b.mean).abs().max().item<double>(), 1e-5) << when;
+    EXPECT_LT((a.action - b.action).abs().max().item<double>(), 1e-5) << when;
+    EXPECT_LT((a.log_prob - b.log_prob).abs().max().item<double>(), 1e-4) << when;
+    EXPECT_LT((agents[0]->value(obs) - agents[1]->value(obs)).abs().max().item<double>(), 1e-5) << when;
+    return a.mean;
+  };
+  const models::LlObs probe = obs_of(16);
+  const auto before = same_act(probe, "before the update");
+  RolloutBuffer buffer(cfg.n_steps, 8, dims);
+  for (int64_t t = 0; t < cfg.n_steps; ++t) {
+    const auto obs = obs_of(8);
+    buffer.add(obs, torch::randn({8, 3}, gen), torch::randn({8}, gen), torch::randn({8}, gen), torch::randn({8}, gen),
+               torch::zeros({8}, torch::kBool), torch::zeros({8}, torch::kBool), torch::Tensor(),
+               torch::ones({8}, torch::kBool));
+  }
+  buffer.finish(torch::zeros({8}), cfg.gamma, cfg.gae_lambda);
+  for (auto& a : agents) a->update(buffer);  // same data, same minibatch order: same weights
+  const auto after = same_act(probe, "after the update");
+  EXPECT_GT((after - before).abs().max().item<double>(), 1e-3);  // the update did move the policy
+  const std::string path = testing::TempDir() + "ppo_eigen_inference.pt";
+  agents[0]->save(path);
+  torch::manual_seed(99);
+  cfg.eigen_inference = true;
+  PpoAgent loaded(cfg);
+  auto g = models::make_generator(3);
+  loaded.act(probe, g, false);  // copies its fresh weights once, before the load
+  loaded.load(path);
+  auto g0 = models::make_generator(3);
+  EXPECT_LT((loaded.act(probe, g0, false).mean - after).abs().max().item<double>(), 1e-5) << "after a load";
+  std::remove(path.c_str());
+}
+
 // Obs sizes of the toy tasks: 3D position as ego, goal 3, one (dead) other aircraft, 1 task feature.
 models::ObsDims toy_dims() { return models::ObsDims{3, 2, 1, 1}; }
 

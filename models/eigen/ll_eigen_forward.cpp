@@ -1,0 +1,180 @@
+#include "models/eigen/ll_eigen_forward.hpp"
+
+#include <Eigen/Core>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace f16race::models {
+namespace {
+
+using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct Dense {
+  RowMatrixF weight;        // [out, in]
+  Eigen::RowVectorXf bias;  // [out]
+};
+
+void check_layer(const DenseLayer& l, int64_t in, const std::string& name) {
+  if (l.in != in || l.out <= 0 || static_cast<int64_t>(l.weight.size()) != l.out * l.in ||
+      static_cast<int64_t>(l.bias.size()) != l.out)
+    throw std::invalid_argument("LlEigenForward: layer " + name + " is [" + std::to_string(l.out) + ", " +
+                                std::to_string(l.in) + "] with " + std::to_string(l.weight.size()) + " weights and " +
+                                std::to_string(l.bias.size()) + " biases, expected input width " + std::to_string(in));
+}
+
+int64_t check_mlp(const std::vector<DenseLayer>& layers, int64_t in, const std::string& name) {
+  if (layers.empty()) throw std::invalid_argument("LlEigenForward: " + name + " has no layer");
+  for (std::size_t i = 0; i < layers.size(); ++i) {
+    check_layer(layers[i], in, name + "." + std::to_string(i));
+    in = layers[i].out;
+  }
+  return in;
+}
+
+Dense dense_of(const DenseLayer& l) {
+  return Dense{Eigen::Map<const RowMatrixF>(l.weight.data(), l.out, l.in),
+               Eigen::Map<const Eigen::RowVectorXf>(l.bias.data(), l.out)};
+}
+
+std::vector<Dense> dense_of(const std::vector<DenseLayer>& layers) {
+  std::vector<Dense> d;
+  for (const auto& l : layers) d.push_back(dense_of(l));
+  return d;
+}
+
+}  // namespace
+
+struct LlEigenForward::Impl {
+  int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
+  Dense q, k, v, out;
+  std::vector<Dense> actor, critic;
+  RowMatrixF q_, k_, v_, attended_, encoded_, x_, h0_, h1_, y_;  // scratch, [B, *] or [B * n_other, *]
+  std::vector<float> score_;                                      // [n_other]
+
+  void mlp(const std::vector<Dense>& layers, RowMatrixF* result) {
+    const RowMatrixF* in = &x_;
+    RowMatrixF* bufs[2] = {&h0_, &h1_};
+    for (std::size_t i = 0; i < layers.size(); ++i) {
+      const bool last = i + 1 == layers.size();
+      RowMatrixF* dst = last ? result : bufs[i % 2];
+      dst->resize(in->rows(), layers[i].weight.rows());
+      dst->noalias() = *in * layers[i].weight.transpose();
+      dst->rowwise() += layers[i].bias;
+      if (!last) *dst = dst->array().tanh().matrix();
+      in = dst;
+    }
+  }
+};
+
+LlEigenForward::LlEigenForward() = default;
+LlEigenForward::~LlEigenForward() = default;
+
+bool LlEigenForward::ready() const { return impl_ != nullptr; }
+
+void LlEigenForward::set_weights(const LlEigenWeights& w) {
+  if (w.n_heads <= 0 || w.d_model % w.n_heads != 0 || w.n_other <= 0)
+    throw std::invalid_argument("LlEigenForward: d_model must be a multiple of n_heads > 0, n_other > 0");
+  check_layer(w.q, w.d_ego, "q");
+  check_layer(w.k, w.d_ado, "k");
+  check_layer(w.v, w.d_ado, "v");
+  check_layer(w.out, w.d_model, "out");
+  if (w.q.out != w.d_model || w.k.out != w.d_model || w.v.out != w.d_model || w.out.out != w.d_model)
+    throw std::invalid_argument("LlEigenForward: attention projections must be d_model wide");
+  const int64_t in = w.d_ego + w.d_goal + w.d_model + w.d_task;
+  check_mlp(w.actor, in, "actor");
+  if (check_mlp(w.critic, in, "critic") != 1) throw std::invalid_argument("LlEigenForward: critic must end in 1 unit");
+  auto impl = impl_ ? std::move(impl_) : std::make_unique<Impl>();  // keeps the scratch of an earlier copy
+  impl->d_ego = w.d_ego;
+  impl->d_goal = w.d_goal;
+  impl->d_ado = w.d_ado;
+  impl->n_other = w.n_other;
+  impl->d_task = w.d_task;
+  impl->d_model = w.d_model;
+  impl->n_heads = w.n_heads;
+  impl->q = dense_of(w.q);
+  impl->k = dense_of(w.k);
+  impl->v = dense_of(w.v);
+  impl->out = dense_of(w.out);
+  impl->actor = dense_of(w.actor);
+  impl->critic = dense_of(w.critic);
+  impl_ = std::move(impl);
+}
+
+void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal, const float* ado,
+                             const bool* ado_alive, const float* task, float* mean, float* value) {
+  if (!impl_) throw std::logic_error("LlEigenForward::forward before set_weights");
+  Impl& m = *impl_;
+  const int64_t b = batch, n = m.n_other, d = m.d_model, h = m.n_heads, dh = d / h;
+  using CMap = Eigen::Map<const RowMatrixF>;
+  m.q_.resize(b, d);
+  m.q_.noalias() = CMap(ego, b, m.d_ego) * m.q.weight.transpose();
+  m.q_.rowwise() += m.q.bias;
+  m.k_.resize(b * n, d);
+  m.k_.noalias() = CMap(ado, b * n, m.d_ado) * m.k.weight.transpose();
+  m.k_.rowwise() += m.k.bias;
+  m.v_.resize(b * n, d);
+  m.v_.noalias() = CMap(ado, b * n, m.d_ado) * m.v.weight.transpose();
+  m.v_.rowwise() += m.v.bias;
+
+  // One query per sample and head, softmax over the alive rows only (as the LibTorch encoder's
+  // masked softmax); a sample with nobody alive encodes to exact zeros.
+  m.attended_.setZero(b, d);
+  m.score_.resize(static_cast<std::size_t>(n));
+  float* score = m.score_.data();
+  const float inv_sqrt_dh = static_cast<float>(1.0 / std::sqrt(static_cast<double>(dh)));
+  for (int64_t i = 0; i < b; ++i) {
+    const bool* alive = ado_alive + i * n;
+    const float* qi = m.q_.data() + i * d;
+    float* acc = m.attended_.data() + i * d;
+    for (int64_t hh = 0; hh < h; ++hh) {
+      float top = -std::numeric_limits<float>::infinity();
+      for (int64_t j = 0; j < n; ++j) {
+        if (!alive[j]) continue;
+        const float* kj = m.k_.data() + (i * n + j) * d + hh * dh;
+        float s = 0.0f;
+        for (int64_t c = 0; c < dh; ++c) s += kj[c] * qi[hh * dh + c];
+        score[j] = s * inv_sqrt_dh;
+        top = std::max(top, score[j]);
+      }
+      if (top == -std::numeric_limits<float>::infinity()) continue;  // nobody alive
+      float total = 0.0f;
+      for (int64_t j = 0; j < n; ++j) {
+        if (!alive[j]) continue;
+        score[j] = std::exp(score[j] - top);
+        total += score[j];
+      }
+      const float inv_total = 1.0f / total;
+      for (int64_t j = 0; j < n; ++j) {
+        if (!alive[j]) continue;
+        const float wj = score[j] * inv_total;
+        const float* vj = m.v_.data() + (i * n + j) * d + hh * dh;
+        for (int64_t c = 0; c < dh; ++c) acc[hh * dh + c] += wj * vj[c];
+      }
+    }
+  }
+  m.encoded_.resize(b, d);
+  m.encoded_.noalias() = m.attended_ * m.out.weight.transpose();
+  m.encoded_.rowwise() += m.out.bias;
+  for (int64_t i = 0; i < b; ++i) {
+    bool any = false;
+    for (int64_t j = 0; j < n; ++j) any = any || ado_alive[i * n + j];
+    if (!any) m.encoded_.row(i).setZero();
+  }
+
+  // [ego, goal, encoded, task], the order of LlActorCritic's torch::cat.
+  const int64_t in = m.d_ego + m.d_goal + d + m.d_task;
+  m.x_.resize(b, in);
+  m.x_.leftCols(m.d_ego) = CMap(ego, b, m.d_ego);
+  m.x_.middleCols(m.d_ego, m.d_goal) = CMap(goal, b, m.d_goal);
+  m.x_.middleCols(m.d_ego + m.d_goal, d) = m.encoded_;
+  m.x_.rightCols(m.d_task) = CMap(task, b, m.d_task);
+
+  m.mlp(m.actor, &m.y_);
+  Eigen::Map<RowMatrixF>(mean, b, m.y_.cols()) = m.y_;
+  m.mlp(m.critic, &m.y_);
+  Eigen::Map<Eigen::VectorXf>(value, b) = m.y_.col(0);
+}
+
+}  // namespace f16race::models

@@ -1,0 +1,55 @@
+#pragma once
+// The low-level actor-critic's forward pass for no-grad inference, on Eigen float kernels instead
+// of LibTorch ops: the same network (attention encoder, tanh MLPs for actor and critic; see
+// models/ll_actor_critic.hpp) with its weights copied out of the LibTorch module. At rollout
+// batch sizes (hundreds of rows) LibTorch spends more time per call in dispatch and allocation
+// of ~30 small ops than in arithmetic; this does the same arithmetic in a handful of GEMMs and
+// plain loops over preallocated scratch. Held equal to LlActorCritic::forward by
+// tests/models/test_ll_eigen_forward.
+//
+// No Eigen type crosses this header: the kernels are compiled with the simulator's instruction-set
+// flags (AVX-512 where there is one), which change Eigen's alignment and allocation scheme, so an
+// Eigen object made in a LibTorch translation unit and freed here would corrupt the heap.
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace f16race::models {
+
+// One Linear layer: y = x W^T + b.
+struct DenseLayer {
+  int64_t out = 0, in = 0;
+  std::vector<float> weight;  // [out, in], row-major (LibTorch's layout)
+  std::vector<float> bias;    // [out]
+};
+
+struct LlEigenWeights {
+  int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
+  DenseLayer q, k, v, out;                 // attention encoder projections
+  std::vector<DenseLayer> actor, critic;   // tanh between layers, none after the last
+};
+
+class LlEigenForward {
+ public:
+  LlEigenForward();
+  ~LlEigenForward();
+  LlEigenForward(const LlEigenForward&) = delete;
+  LlEigenForward& operator=(const LlEigenForward&) = delete;
+
+  // Takes the weights; checks that the layer shapes chain (throws std::invalid_argument and keeps
+  // the previous weights).
+  void set_weights(const LlEigenWeights& weights);
+  bool ready() const;
+
+  // Normalised observations, row-major and contiguous: ego [B, d_ego], goal [B, d_goal],
+  // ado [B, n_other, d_ado], ado_alive [B, n_other], task [B, d_task]. Writes mean [B, A] and
+  // value [B]. Scratch grows to the largest B seen and is reused.
+  void forward(int64_t batch, const float* ego, const float* goal, const float* ado, const bool* ado_alive,
+               const float* task, float* mean, float* value);
+
+ private:
+  struct Impl;  // Eigen weights and scratch, made and freed only in ll_eigen_forward.cpp
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace f16race::models

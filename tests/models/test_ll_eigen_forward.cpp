@@ -1,0 +1,69 @@
+// The Eigen forward pass of the low-level actor-critic is held equal to the LibTorch one: random
+// weights (biases too), random observations with some aircraft dead and some samples with nobody
+// alive, several batch sizes, two network shapes.
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include <stdexcept>
+
+#include "models/eigen/ll_eigen_forward.hpp"
+#include "models/ll_actor_critic.hpp"
+#include "models/obs.hpp"
+
+namespace f16race::models {
+namespace {
+
+LlObs random_obs(at::Generator& g, const ObsDims& d, int64_t b) {
+  LlObs o{torch::randn({b, d.d_ego}, g), torch::randn({b, d.d_goal}, g), torch::randn({b, d.n_other, d.d_ado}, g),
+          torch::rand({b, d.n_other}, g) < 0.6, torch::randn({b, d.d_task}, g)};
+  if (b > 2) o.ado_alive[1].fill_(false);  // nobody alive: the encoder gives exact zeros
+  return o;
+}
+
+void randomize(LlActorCriticImpl& net, at::Generator& g) {
+  torch::NoGradGuard no_grad;
+  for (auto& p : net.parameters()) p.copy_(0.3 * torch::randn(p.sizes(), g));
+}
+
+TEST(LlEigenForward, EqualsTheLibTorchForwardToFloatRounding) {
+  at::Generator g = make_generator(11);
+  for (const auto& [hidden, heads] : {std::pair{std::vector<int64_t>{64, 64}, 4}, {std::vector<int64_t>{32, 16, 8}, 2}}) {
+    LlActorCriticConfig cfg;
+    cfg.dims = ObsDims{22, 8, 24, 7};
+    cfg.hidden = hidden;
+    cfg.n_heads = heads;
+    cfg.d_model = 16 * heads;
+    LlActorCritic net(cfg);
+    randomize(*net, g);
+    LlEigenForward fast;
+    fast.set_weights(net->eigen_weights());
+    for (int64_t b : {1, 5, 256, 1000}) {
+      const LlObs obs = random_obs(g, cfg.dims, b);
+      torch::NoGradGuard no_grad;
+      const LlOutput want = net(obs);
+      auto mean = torch::empty({b, 3}), value = torch::empty({b});
+      fast.forward(b, obs.ego.data_ptr<float>(), obs.goal.data_ptr<float>(), obs.ado.data_ptr<float>(),
+                   obs.ado_alive.data_ptr<bool>(), obs.task.data_ptr<float>(), mean.data_ptr<float>(),
+                   value.data_ptr<float>());
+      // Outputs are O(1) here; float rounding in another summation order stays near 1e-6.
+      EXPECT_LT((mean - want.mean).abs().max().item<double>(), 2e-5) << "B=" << b;
+      EXPECT_LT((value - want.value).abs().max().item<double>(), 2e-5) << "B=" << b;
+      EXPECT_GT(want.mean.abs().max().item<double>(), 0.1);  // not a vacuous comparison of zeros
+    }
+  }
+}
+
+TEST(LlEigenForward, RefusesWeightsThatDoNotChain) {
+  LlActorCriticConfig cfg;
+  cfg.dims = ObsDims{22, 8, 24, 7};
+  LlActorCritic net(cfg);
+  LlEigenWeights w = net->eigen_weights();
+  w.actor[1].in = 63;  // the actor's second layer no longer takes the first one's 64 outputs
+  w.actor[1].weight.resize(64 * 63);
+  LlEigenForward fast;
+  EXPECT_THROW(fast.set_weights(w), std::invalid_argument);
+  EXPECT_FALSE(fast.ready());
+}
+
+}  // namespace
+}  // namespace f16race::models
