@@ -2,7 +2,81 @@
 
 #include <cmath>
 
+#include "models/kernels/masked_attention.hpp"
+
 namespace f16race::models {
+namespace {
+
+// The masked multi-head attention core as one autograd node over the plain-loop kernels
+// (models/kernels/masked_attention.hpp). Rows are split over LibTorch's intra-op threads; each
+// row's arithmetic is the same whatever the split.
+class MaskedAttention : public torch::autograd::Function<MaskedAttention> {
+ public:
+  // q [B, H*dh], k and v [B, N, H*dh], alive [B, N] bool -> attended [B, H*dh].
+  static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& q_in,
+                               const torch::Tensor& k_in, const torch::Tensor& v_in, const torch::Tensor& alive_in,
+                               int64_t n_heads) {
+    const auto q = q_in.contiguous(), k = k_in.contiguous(), v = v_in.contiguous(), alive = alive_in.contiguous();
+    const int64_t b = q.size(0), n = k.size(1), d = q.size(1);
+    const kernels::AttentionShape shape{n, n_heads, d / n_heads};
+    auto weights = torch::empty({b, n_heads, n}, q.options());
+    auto attended = torch::empty({b, d}, q.options());
+    const float *qp = q.data_ptr<float>(), *kp = k.data_ptr<float>(), *vp = v.data_ptr<float>();
+    const bool* ap = alive.data_ptr<bool>();
+    float *wp = weights.data_ptr<float>(), *op = attended.data_ptr<float>();
+    at::parallel_for(0, b, 256, [&](int64_t begin, int64_t end) {
+      kernels::masked_attention_forward(shape, begin, end, qp, kp, vp, ap, wp, op);
+    });
+    if (ctx != nullptr) {
+      ctx->save_for_backward({q, k, v, weights});
+      ctx->saved_data["n_heads"] = n_heads;
+    }
+    return attended;
+  }
+
+  static torch::autograd::variable_list backward(torch::autograd::AutogradContext* ctx,
+                                                 torch::autograd::variable_list grads) {
+    const auto saved = ctx->get_saved_variables();
+    const auto &q = saved[0], &k = saved[1], &v = saved[2], &weights = saved[3];
+    const int64_t n_heads = ctx->saved_data["n_heads"].toInt();
+    const auto grad = grads[0].contiguous();
+    const int64_t b = q.size(0), n = k.size(1), d = q.size(1);
+    const kernels::AttentionShape shape{n, n_heads, d / n_heads};
+    auto grad_q = torch::empty_like(q), grad_k = torch::empty_like(k), grad_v = torch::empty_like(v);
+    const float *qp = q.data_ptr<float>(), *kp = k.data_ptr<float>(), *vp = v.data_ptr<float>(),
+                *wp = weights.data_ptr<float>(), *gp = grad.data_ptr<float>();
+    float *gq = grad_q.data_ptr<float>(), *gk = grad_k.data_ptr<float>(), *gv = grad_v.data_ptr<float>();
+    at::parallel_for(0, b, 256, [&](int64_t begin, int64_t end) {
+      kernels::masked_attention_backward(shape, begin, end, qp, kp, vp, wp, gp, gq, gk, gv);
+    });
+    return {grad_q, grad_k, grad_v, torch::Tensor(), torch::Tensor()};
+  }
+};
+
+}  // namespace
+
+torch::Tensor masked_attention(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v,
+                               const torch::Tensor& alive, int64_t n_heads) {
+  TORCH_CHECK(k.size(1) <= kernels::kMaxOther, "masked_attention: at most ", kernels::kMaxOther,
+              " other aircraft, got ", k.size(1));
+  return MaskedAttention::apply(q, k, v, alive, n_heads);
+}
+
+torch::Tensor masked_attention_reference(const torch::Tensor& q_flat, const torch::Tensor& k_flat,
+                                         const torch::Tensor& v_flat, const torch::Tensor& ado_alive,
+                                         int64_t n_heads) {
+  const int64_t b = q_flat.size(0), n = k_flat.size(1), d = q_flat.size(1), dh = d / n_heads;
+  const auto q = q_flat.view({b, 1, n_heads, dh});
+  const auto k = k_flat.view({b, n, n_heads, dh});
+  const auto v = v_flat.view({b, n, n_heads, dh});
+  auto scores = (k * q).sum(-1) / std::sqrt(static_cast<double>(dh));  // [B, N, H]
+  const auto alive = ado_alive.view({b, n, 1});
+  // A finite fill (not -inf) keeps all-dead rows free of NaN; exp(-1e9) is exactly 0 in float,
+  // and the multiply by `alive` zeroes the uniform weights of an all-dead row.
+  scores = scores.masked_fill(alive.logical_not(), -1e9);
+  const auto weights = torch::softmax(scores, 1) * alive.to(torch::kFloat32);
+  return (weights.unsqueeze(-1) * v).sum(1).reshape({b, d});  // [B, H * dh]
+}
 
 AttentionEncoderImpl::AttentionEncoderImpl(const AttentionEncoderConfig& cfg) : cfg_(cfg) {
   TORCH_CHECK(cfg.d_ego > 0 && cfg.d_ado > 0 && cfg.n_other > 0, "AttentionEncoder: d_ego, d_ado, n_other must be > 0");
@@ -26,22 +100,11 @@ int64_t AttentionEncoderImpl::flops_per_sample() const {
 torch::Tensor AttentionEncoderImpl::forward(const torch::Tensor& ego, const torch::Tensor& ado,
                                             const torch::Tensor& ado_alive) {
   check_tensor(ego, "ego", {-1, cfg_.d_ego}, torch::kFloat32);
-  const int64_t b = ego.size(0), n = cfg_.n_other, h = cfg_.n_heads, dh = cfg_.d_model / cfg_.n_heads;
+  const int64_t b = ego.size(0), n = cfg_.n_other, h = cfg_.n_heads;
   check_tensor(ado, "ado", {b, n, cfg_.d_ado}, torch::kFloat32);
   check_tensor(ado_alive, "ado_alive", {b, n}, torch::kBool);
 
-  // One query per sample: scores and the weighted sum are elementwise products and sums over
-  // [B, N, H, dh], measured ~2x faster here than 8192 x H tiny batched matrix products.
-  const auto q = q_proj_(ego).view({b, 1, h, dh});
-  const auto k = k_proj_(ado).view({b, n, h, dh});
-  const auto v = v_proj_(ado).view({b, n, h, dh});
-  auto scores = (k * q).sum(-1) / std::sqrt(static_cast<double>(dh));  // [B, N, H]
-  const auto alive = ado_alive.view({b, n, 1});
-  // A finite fill (not -inf) keeps all-dead rows free of NaN; exp(-1e9) is exactly 0 in float,
-  // and the multiply by `alive` zeroes the uniform weights of an all-dead row.
-  scores = scores.masked_fill(alive.logical_not(), -1e9);
-  const auto weights = torch::softmax(scores, 1) * alive.to(torch::kFloat32);
-  const auto attended = (weights.unsqueeze(-1) * v).sum(1).reshape({b, cfg_.d_model});  // [B, H * dh]
+  const auto attended = masked_attention(q_proj_(ego), k_proj_(ado), v_proj_(ado), ado_alive, h);
   const auto any_alive = ado_alive.any(1, /*keepdim=*/true).to(torch::kFloat32);
   return out_proj_(attended) * any_alive;  // drop the output bias too: exact zeros if nobody is alive
 }

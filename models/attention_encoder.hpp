@@ -11,6 +11,16 @@
 
 namespace f16race::models {
 
+// The masked multi-head attention core: q [B, H*dh] (one query per sample), k and v
+// [B, N, H*dh], alive [B, N] bool -> [B, H*dh], softmax of q.k / sqrt(dh) over the alive keys of
+// each head, exact zeros for a sample with nobody alive. One autograd node over plain-loop
+// kernels (models/kernels/masked_attention.hpp).
+torch::Tensor masked_attention(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v,
+                               const torch::Tensor& alive, int64_t n_heads);
+// The same composed of LibTorch ops (what the encoder used before): the test's reference.
+torch::Tensor masked_attention_reference(const torch::Tensor& q, const torch::Tensor& k, const torch::Tensor& v,
+                                         const torch::Tensor& alive, int64_t n_heads);
+
 struct AttentionEncoderConfig {
   int64_t d_ego = 0;
   int64_t d_ado = 0;

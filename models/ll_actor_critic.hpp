@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "models/attention_encoder.hpp"
-#include "models/eigen/ll_eigen_forward.hpp"
+#include "models/kernels/ll_eigen_forward.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {

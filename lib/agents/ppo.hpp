@@ -50,7 +50,7 @@ struct PpoConfig {
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order
   // No-grad forward passes of act() and value(): LibTorch's ops, or the same network on Eigen
-  // float kernels (models/eigen/ll_eigen_forward.hpp), equal to float rounding. Training always
+  // float kernels (models/kernels/ll_eigen_forward.hpp), equal to float rounding. Training always
   // uses LibTorch.
   bool eigen_inference = false;
 };

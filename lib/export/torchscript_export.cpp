@@ -142,6 +142,13 @@ void save_atomic(const torch::jit::Module& m, const std::string& path) {
   io::write_file_atomic(path, bytes.str());
 }
 
+std::string bins_summary(const ExportReport& rep) {
+  if (!rep.bins_equal) return "DIFFERENT";
+  if (rep.bin_ties == 0) return "identical";
+  return "identical except " + std::to_string(rep.bin_ties) + " of " + std::to_string(rep.bin_decisions) +
+         " decisions between bins whose Q tie within " + num(kBinTieTol);
+}
+
 double max_abs_diff(const torch::Tensor& a, const torch::Tensor& b) {
   if (!a.defined() && !b.defined()) return 0.0;
   if (!a.defined() || !b.defined() || a.sizes() != b.sizes()) return INFINITY;
@@ -184,7 +191,7 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "were trained with separate ones), so there is no separate encoder file.\n\n"
     << "At export the modules were run on " << rep.samples << " random observations and compared with the in-process\n"
     << "networks: max abs difference " << rep.hl_max_abs_diff << " (HL), " << rep.ll_max_abs_diff
-    << " (LL), greedy bins " << (rep.bins_equal ? "identical" : "DIFFERENT") << ". `example_io.pt` holds those\n"
+    << " (LL), greedy bins " << bins_summary(rep) << ". `example_io.pt` holds those\n"
     << "inputs and the in-process outputs as buffers (`hl_*`, `ll_*`), to check a loader:\n\n"
     << "```python\nio = dict(torch.jit.load(\"example_io.pt\").named_buffers())\n"
     << "out = ll(io[\"ego\"], io[\"goal\"], io[\"ado\"], io[\"ado_alive\"], io[\"task\"])\n"
@@ -327,6 +334,50 @@ LlReference ll_reference(train::RunPolicy& p, const ExampleObs& x) {
   return LlReference{out.mean, out.log_std, out.value};
 }
 
+void compare_bins(const torch::Tensor& q_ref, const torch::Tensor& bins_ref, const torch::Tensor& bins_out,
+                  ExportReport* report) {
+  report->bins_equal = true;
+  report->bin_decisions = 0;
+  report->bin_ties = 0;
+  if (bins_ref.sizes() != bins_out.sizes()) {
+    report->bins_equal = false;
+    return;
+  }
+  const auto q = q_ref.to(torch::kFloat64).contiguous();
+  const auto br = bins_ref.to(torch::kInt64).contiguous(), bo = bins_out.to(torch::kInt64).contiguous();
+  const std::int64_t b = br.size(0), axes = br.size(1);
+  const std::int64_t* r = br.data_ptr<std::int64_t>();
+  const std::int64_t* o = bo.data_ptr<std::int64_t>();
+  const double* qp = q.data_ptr<double>();
+  // A decision that differs is a tie when the reference values the exported choice within the tolerance.
+  auto tally = [&](double q_ref_choice, double q_out_choice) {
+    if (std::abs(q_ref_choice - q_out_choice) <= kBinTieTol)
+      ++report->bin_ties;
+    else
+      report->bins_equal = false;
+  };
+  if (q.dim() == 3) {  // decoupled: one decision per sample and axis
+    const std::int64_t nb = q.size(2);
+    report->bin_decisions = b * axes;
+    for (std::int64_t i = 0; i < b * axes; ++i)
+      if (r[i] != o[i]) tally(qp[i * nb + r[i]], qp[i * nb + o[i]]);
+  } else {  // joint (es): one decision per sample, index b0 * nb^2 + b1 * nb + b2
+    const std::int64_t n_joint = q.size(1);
+    const auto nb = static_cast<std::int64_t>(std::llround(std::cbrt(static_cast<double>(n_joint))));
+    report->bin_decisions = b;
+    for (std::int64_t i = 0; i < b; ++i) {
+      std::int64_t jr = 0, jo = 0;
+      bool same = true;
+      for (std::int64_t a = 0; a < axes; ++a) {
+        jr = jr * nb + r[i * axes + a];
+        jo = jo * nb + o[i * axes + a];
+        same = same && r[i * axes + a] == o[i * axes + a];
+      }
+      if (!same) tally(qp[i * n_joint + jr], qp[i * n_joint + jo]);
+    }
+  }
+}
+
 ExportReport export_policy(train::RunPolicy& p, const std::string& out_dir) {
   torch::NoGradGuard no_grad;
   torch::jit::Module hl = make_hl_module(p), ll = make_ll_module(p);
@@ -337,7 +388,7 @@ ExportReport export_policy(train::RunPolicy& p, const std::string& out_dir) {
   const auto lo = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
   ExportReport rep;
   rep.samples = kCheckSamples;
-  rep.bins_equal = ho.at("bins").toTensor().equal(hr.bins);
+  compare_bins(hr.q, hr.bins, ho.at("bins").toTensor(), &rep);
   rep.hl_max_abs_diff = max_abs_diff(ho.at("q").toTensor(), hr.q);
   if (hr.probs.defined()) rep.hl_max_abs_diff = std::max(rep.hl_max_abs_diff, max_abs_diff(ho.at("probs").toTensor(), hr.probs));
   rep.ll_max_abs_diff = std::max({max_abs_diff(lo.at("mean").toTensor(), lr.mean),

@@ -42,8 +42,19 @@ struct ExportReport {
   std::int64_t samples = 0;      // random observations compared
   double hl_max_abs_diff = 0.0;  // exported vs in-process on random inputs
   double ll_max_abs_diff = 0.0;
-  bool bins_equal = true;
+  bool bins_equal = true;         // no greedy decision differs, except on ties (below)
+  std::int64_t bin_decisions = 0;  // greedy decisions compared (samples x axes; samples for `es`)
+  std::int64_t bin_ties = 0;       // decisions that differ between two bins whose Q tie within kBinTieTol
 };
+
+// Two bins whose in-process Q differ by at most this are a tie: the exported module sums in
+// another order than the in-process kernels, and float rounding (~1e-7 relative) may pick either.
+constexpr double kBinTieTol = 1e-5;
+
+// Compares exported greedy bins [B, 3] with the in-process ones, given the in-process Q
+// ([B, 3, n_bins] decoupled, [B, n_bins^3] joint): sets bins_equal, bin_decisions, bin_ties.
+void compare_bins(const torch::Tensor& q_ref, const torch::Tensor& bins_ref, const torch::Tensor& bins_out,
+                  ExportReport* report);
 
 // Writes hl_policy.pt, ll_policy.pt, example_io.pt (random inputs and the in-process outputs,
 // for checking a loader) and README.md into out_dir; each file atomically. Throws

@@ -63,7 +63,10 @@ TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
     const LlReference lr = ll_reference(p, x);
     const auto ho = hl.forward({x.ego, x.prev_action, x.ado, x.ado_alive, x.task}).toGenericDict();
     const auto lo = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
-    EXPECT_TRUE(ho.at("bins").toTensor().equal(hr.bins)) << agent;
+    ExportReport bins;
+    compare_bins(hr.q, hr.bins, ho.at("bins").toTensor(), &bins);
+    EXPECT_TRUE(bins.bins_equal) << agent;  // every differing decision is a tie of two bins' Q
+    EXPECT_LE(bins.bin_ties, bins.bin_decisions / 10) << agent;
     EXPECT_LT(diff(ho.at("q").toTensor(), hr.q), 1e-5) << agent;
     EXPECT_EQ(ho.contains("probs"), agent == "es_d3");
     if (agent == "es_d3") {
@@ -74,7 +77,8 @@ TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
     EXPECT_LT(diff(lo.at("value").toTensor(), lr.value), 1e-5);
     EXPECT_LT(diff(lo.at("log_std").toTensor(), lr.log_std), 1e-7);
     EXPECT_NEAR(lo.at("log_std").toTensor()[0][0].item<double>(), -0.7, 1e-6);
-    EXPECT_TRUE(lo.at("action").toTensor().equal(lr.mean.clamp(-1.0, 1.0)));
+    EXPECT_TRUE(lo.at("action").toTensor().equal(lo.at("mean").toTensor().clamp(-1.0, 1.0)));
+    EXPECT_LT(diff(lo.at("action").toTensor(), lr.mean.clamp(-1.0, 1.0)), 1e-5);
     // The encoder's all-dead branch was exercised (sample 0 sees nobody).
     EXPECT_FALSE(x.ado_alive[0].any().item<bool>());
   }
@@ -169,4 +173,39 @@ TEST(Export, MissingOrMismatchedRunsAreRefused) {
 }
 
 }  // namespace
+// A differing greedy bin is a tie only when the in-process Q values both bins within kBinTieTol.
+TEST(Export, CompareBinsTellsTiesFromDisagreements) {
+  auto q = torch::zeros({2, 3, 7}, torch::kFloat64);
+  q[0][0][2] = 1.0;
+  q[0][0][5] = 1.0 - 1e-6;  // a tie with bin 2
+  q[0][1][1] = 1.0;
+  q[1][2][6] = 1.0;
+  q[1][2][0] = 0.5;  // not a tie
+  auto ref = torch::tensor({2, 1, 0, 0, 0, 6}, torch::kInt64).view({2, 3});
+  ExportReport r;
+  compare_bins(q, ref, ref.clone(), &r);
+  EXPECT_TRUE(r.bins_equal);
+  EXPECT_EQ(r.bin_decisions, 6);
+  EXPECT_EQ(r.bin_ties, 0);
+  auto out = ref.clone();
+  out[0][0] = 5;
+  compare_bins(q, ref, out, &r);
+  EXPECT_TRUE(r.bins_equal);
+  EXPECT_EQ(r.bin_ties, 1);
+  out[1][2] = 0;
+  compare_bins(q, ref, out, &r);
+  EXPECT_FALSE(r.bins_equal);
+  // Joint head (es): index b0 * 49 + b1 * 7 + b2.
+  auto qj = torch::zeros({1, 343}, torch::kFloat64);
+  qj[0][1 * 49 + 2 * 7 + 3] = 2.0;
+  qj[0][1 * 49 + 2 * 7 + 4] = 2.0;
+  auto bj = torch::tensor({1, 2, 3}, torch::kInt64).view({1, 3}), oj = torch::tensor({1, 2, 4}, torch::kInt64).view({1, 3});
+  compare_bins(qj, bj, oj, &r);
+  EXPECT_TRUE(r.bins_equal);
+  EXPECT_EQ(r.bin_decisions, 1);
+  EXPECT_EQ(r.bin_ties, 1);
+  compare_bins(qj, bj, torch::tensor({0, 2, 4}, torch::kInt64).view({1, 3}), &r);
+  EXPECT_FALSE(r.bins_equal);
+}
+
 }  // namespace f16race::torchscript

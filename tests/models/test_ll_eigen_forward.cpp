@@ -6,7 +6,7 @@
 
 #include <stdexcept>
 
-#include "models/eigen/ll_eigen_forward.hpp"
+#include "models/kernels/ll_eigen_forward.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
 

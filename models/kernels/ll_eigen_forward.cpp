@@ -1,8 +1,8 @@
-#include "models/eigen/ll_eigen_forward.hpp"
+#include "models/kernels/ll_eigen_forward.hpp"
+
+#include "models/kernels/masked_attention.hpp"
 
 #include <Eigen/Core>
-#include <cmath>
-#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -51,7 +51,7 @@ struct LlEigenForward::Impl {
   Dense q, k, v, out;
   std::vector<Dense> actor, critic;
   RowMatrixF q_, k_, v_, attended_, encoded_, x_, h0_, h1_, y_;  // scratch, [B, *] or [B * n_other, *]
-  std::vector<float> score_;                                      // [n_other]
+  std::vector<float> weights_;                                    // [B, H, n_other]
 
   void mlp(const std::vector<Dense>& layers, RowMatrixF* result) {
     const RowMatrixF* in = &x_;
@@ -74,8 +74,9 @@ LlEigenForward::~LlEigenForward() = default;
 bool LlEigenForward::ready() const { return impl_ != nullptr; }
 
 void LlEigenForward::set_weights(const LlEigenWeights& w) {
-  if (w.n_heads <= 0 || w.d_model % w.n_heads != 0 || w.n_other <= 0)
-    throw std::invalid_argument("LlEigenForward: d_model must be a multiple of n_heads > 0, n_other > 0");
+  if (w.n_heads <= 0 || w.d_model % w.n_heads != 0 || w.n_other <= 0 || w.n_other > kernels::kMaxOther)
+    throw std::invalid_argument("LlEigenForward: d_model must be a multiple of n_heads > 0, 0 < n_other <= " +
+                                std::to_string(kernels::kMaxOther));
   check_layer(w.q, w.d_ego, "q");
   check_layer(w.k, w.d_ado, "k");
   check_layer(w.v, w.d_ado, "v");
@@ -106,7 +107,7 @@ void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal,
                              const bool* ado_alive, const float* task, float* mean, float* value) {
   if (!impl_) throw std::logic_error("LlEigenForward::forward before set_weights");
   Impl& m = *impl_;
-  const int64_t b = batch, n = m.n_other, d = m.d_model, h = m.n_heads, dh = d / h;
+  const int64_t b = batch, n = m.n_other, d = m.d_model, h = m.n_heads;
   using CMap = Eigen::Map<const RowMatrixF>;
   m.q_.resize(b, d);
   m.q_.noalias() = CMap(ego, b, m.d_ego) * m.q.weight.transpose();
@@ -118,42 +119,11 @@ void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal,
   m.v_.noalias() = CMap(ado, b * n, m.d_ado) * m.v.weight.transpose();
   m.v_.rowwise() += m.v.bias;
 
-  // One query per sample and head, softmax over the alive rows only (as the LibTorch encoder's
-  // masked softmax); a sample with nobody alive encodes to exact zeros.
-  m.attended_.setZero(b, d);
-  m.score_.resize(static_cast<std::size_t>(n));
-  float* score = m.score_.data();
-  const float inv_sqrt_dh = static_cast<float>(1.0 / std::sqrt(static_cast<double>(dh)));
-  for (int64_t i = 0; i < b; ++i) {
-    const bool* alive = ado_alive + i * n;
-    const float* qi = m.q_.data() + i * d;
-    float* acc = m.attended_.data() + i * d;
-    for (int64_t hh = 0; hh < h; ++hh) {
-      float top = -std::numeric_limits<float>::infinity();
-      for (int64_t j = 0; j < n; ++j) {
-        if (!alive[j]) continue;
-        const float* kj = m.k_.data() + (i * n + j) * d + hh * dh;
-        float s = 0.0f;
-        for (int64_t c = 0; c < dh; ++c) s += kj[c] * qi[hh * dh + c];
-        score[j] = s * inv_sqrt_dh;
-        top = std::max(top, score[j]);
-      }
-      if (top == -std::numeric_limits<float>::infinity()) continue;  // nobody alive
-      float total = 0.0f;
-      for (int64_t j = 0; j < n; ++j) {
-        if (!alive[j]) continue;
-        score[j] = std::exp(score[j] - top);
-        total += score[j];
-      }
-      const float inv_total = 1.0f / total;
-      for (int64_t j = 0; j < n; ++j) {
-        if (!alive[j]) continue;
-        const float wj = score[j] * inv_total;
-        const float* vj = m.v_.data() + (i * n + j) * d + hh * dh;
-        for (int64_t c = 0; c < dh; ++c) acc[hh * dh + c] += wj * vj[c];
-      }
-    }
-  }
+  // The attention core is the training path's kernel; a sample with nobody alive encodes to zeros.
+  m.attended_.resize(b, d);
+  m.weights_.resize(b * h * n);
+  kernels::masked_attention_forward(kernels::AttentionShape{n, h, d / h}, 0, b, m.q_.data(), m.k_.data(),
+                                    m.v_.data(), ado_alive, m.weights_.data(), m.attended_.data());
   m.encoded_.resize(b, d);
   m.encoded_.noalias() = m.attended_ * m.out.weight.transpose();
   m.encoded_.rowwise() += m.out.bias;
