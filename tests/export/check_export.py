@@ -22,7 +22,18 @@ def main(folder):
         worst = max(worst, (h[key] - ref).abs().max().item())
     for key in ["mean", "log_std", "value"]:
         worst = max(worst, (l[key] - io["ll_" + key]).abs().max().item())
-    assert torch.equal(h["bins"], io["hl_bins"]), "greedy bins differ"
+    # A greedy bin may differ only where the in-process Q of the two bins tie (float rounding of
+    # another summation order picks either of two equal values).
+    q, ref_bins, bins = io["hl_q"].double(), io["hl_bins"], h["bins"]
+    if q.dim() == 3:  # decoupled [B, 3, n_bins]
+        gap = (q.gather(2, ref_bins.unsqueeze(-1)) - q.gather(2, bins.unsqueeze(-1))).abs().squeeze(-1)
+        differ = ref_bins != bins
+    else:  # joint [B, n_bins^3], index b0 * n^2 + b1 * n + b2
+        n = round(q.shape[1] ** (1.0 / 3.0))
+        joint = lambda b: (b[:, 0] * n + b[:, 1]) * n + b[:, 2]
+        gap = (q.gather(1, joint(ref_bins).unsqueeze(-1)) - q.gather(1, joint(bins).unsqueeze(-1))).abs().squeeze(-1)
+        differ = (ref_bins != bins).any(1)
+    assert bool((gap[differ] <= 1e-5).all()), "greedy bins differ beyond a tie"
     assert h["bins"].dtype == torch.int64 and h["bins"].shape == (io["ego"].shape[0], 3)
     assert torch.equal(l["action"], l["mean"].clamp(-1.0, 1.0))
     assert worst < 1e-5, f"max abs diff {worst}"
