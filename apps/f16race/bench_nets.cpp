@@ -115,6 +115,18 @@ void run_bench_nets(const NetsBenchOptions& o) {
     }
     std::fflush(stdout);
   }
+  // The LL forward on the Eigen kernels (ll.inference eigen, rollouts only): forward alone.
+  const double eigen_us = 1e6 * measure_ll_cost(lc, b, o.repeats, /*eigen_forward=*/true).forward_s;
+  const double eigen_gflops = static_cast<double>(ll_net->flops_per_sample()) / (eigen_us * 1e3);
+  if (o.json)
+    std::printf("{\"bench\": \"nets\", \"network\": \"ll_actor_critic_eigen\", \"samples\": %d, \"threads\": %d, "
+                "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, "
+                "\"matmul_gflops\": %.6g}\n",
+                o.samples, torch::get_num_threads(), static_cast<long long>(ll_net->flops_per_sample()), eigen_us,
+                eigen_gflops, peak_gflops);
+  else
+    std::printf("%-20s %12.1f %12.4f %10.1f %12s %10.2f\n", "ll_actor_critic_eig", 1e-3 * ll_net->flops_per_sample(),
+                eigen_us, eigen_gflops, "-", eigen_gflops / peak_gflops);
 }
 
 }  // namespace

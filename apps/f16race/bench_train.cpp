@@ -59,9 +59,13 @@ NetworkFloor network_floor(const train::TrainConfig& cfg, const train::TrainSumm
   ec.dims = lc.dims;
   if (ec.n_atoms > 1 && !(ec.v_max > ec.v_min)) ec.v_max = ec.v_min + 1.0;  // the support does not change the cost
   const models::HlCriticConfig hc = agents::es_critic_config(ec);
-  if (f.ll_forward_batch > 0) f.ll_forward_s = w.ll_forward_rows * measure_ll_cost(lc, f.ll_forward_batch, kRepeats).forward_s;
+  if (f.ll_forward_batch > 0)
+    f.ll_forward_s = w.ll_forward_rows * measure_ll_cost(lc, f.ll_forward_batch, kRepeats, cfg.ll.eigen_inference).forward_s;
+  // A minibatch's chunks run concurrently on the OpenMP threads (PpoAgent::update): priced so.
+  const std::int64_t chunks_per_step = w.ll_train_steps > 0 ? std::max<std::int64_t>(1, w.ll_train_calls / w.ll_train_steps) : 1;
+  const int concurrent = static_cast<int>(std::min<std::int64_t>(omp_get_max_threads(), chunks_per_step));
   if (f.ll_train_batch > 0)
-    f.ll_train_s = w.ll_train_rows * measure_ll_cost(lc, f.ll_train_batch, kRepeats).forward_backward_s;
+    f.ll_train_s = w.ll_train_rows * measure_ll_cost(lc, f.ll_train_batch, kRepeats, false, concurrent).forward_backward_s;
   if (f.hl_forward_batch > 0) f.hl_forward_s = w.hl_forward_rows * measure_hl_cost(hc, f.hl_forward_batch, kRepeats).forward_s;
   if (f.hl_train_batch > 0)
     f.hl_train_s = w.hl_train_rows * measure_hl_cost(hc, f.hl_train_batch, kRepeats).forward_backward_s;

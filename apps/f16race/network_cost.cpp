@@ -57,18 +57,45 @@ SampleCost measure_cost(Net& net, const Obs& obs, const std::function<torch::Ten
 
 }  // namespace
 
-SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats) {
+SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
+                           bool eigen_forward, int concurrent) {
   auto gen = models::make_generator(1);
   const models::HlObs h = random_hl_obs(cfg.dims, batch, gen);
   const models::LlObs obs{h.ego, h.prev_action, h.ado, h.ado_alive, h.task};
   models::LlActorCritic net(cfg);
-  return measure_cost<models::LlActorCritic, models::LlObs>(
-      net, obs,
-      [](models::LlActorCritic& n, const models::LlObs& o) {
-        const auto out = n(o);
-        return out.mean.sum() + out.value.sum() + out.log_std.sum();
-      },
-      batch, repeats);
+  const auto loss_of = [](models::LlActorCritic& n, const models::LlObs& o) {
+    const auto out = n(o);
+    return out.mean.sum() + out.value.sum() + out.log_std.sum();
+  };
+  SampleCost c = measure_cost<models::LlActorCritic, models::LlObs>(net, obs, loss_of, batch, repeats);
+  const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
+  if (eigen_forward) {
+    models::LlEigenForward fast;
+    fast.set_weights(net->eigen_weights());
+    auto mean = torch::empty({batch, cfg.action_dim}), value = torch::empty({batch});
+    c.forward_s = time_median_s(
+                      [&]() {
+                        for (std::int64_t k = 0; k < calls; ++k)
+                          fast.forward(batch, obs.ego.data_ptr<float>(), obs.goal.data_ptr<float>(),
+                                       obs.ado.data_ptr<float>(), obs.ado_alive.data_ptr<bool>(),
+                                       obs.task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>());
+                      },
+                      repeats) /
+                  static_cast<double>(calls * batch);
+  }
+  if (concurrent > 1) {
+    const auto params = net->parameters();
+    c.forward_backward_s = time_median_s(
+                               [&]() {
+#pragma omp parallel for num_threads(concurrent) schedule(static, 1)
+                                 for (int t = 0; t < concurrent; ++t)
+                                   for (std::int64_t k = 0; k < calls; ++k)
+                                     torch::autograd::grad({loss_of(net, obs)}, params, {}, false, false, true);
+                               },
+                               repeats) /
+                           static_cast<double>(calls * batch * concurrent);
+  }
+  return c;
 }
 
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats) {

@@ -29,7 +29,11 @@ struct SampleCost {
 
 // A sample cost at batch `batch`: each timed run repeats the call until it has seen about 8192
 // samples, so small batches (one HL decision) are timed over many calls.
-SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats);
+// LL options: `eigen_forward` prices the forward on the Eigen kernels (ll.inference eigen);
+// `concurrent` > 1 times that many forward+backward passes at once on the OpenMP threads, as
+// PpoAgent::update runs the chunks of a minibatch (per-sample cost = wall time / all samples).
+SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
+                           bool eigen_forward = false, int concurrent = 1);
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats);
 
 // GFLOP/s of a 1024 x 1024 x 1024 float matrix product at the current torch thread count: the

@@ -1,10 +1,48 @@
 #include "agents/ppo.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
+#include <array>
+#include <exception>
+#include <vector>
 
 #include "agents/checkpoint.hpp"
 
 namespace f16race::agents {
+namespace {
+
+// One chunk's share of a minibatch step: its gradients (already weighted by its share of rows)
+// and its loss terms (policy, value, entropy, approx_kl, clip_fraction).
+struct ChunkResult {
+  double weight = 0.0;
+  std::vector<torch::Tensor> grads;
+  std::array<double, 5> terms{};
+};
+
+// run(c) for every chunk c: on the OpenMP threads when there are several chunks (LibTorch ops
+// inside a parallel region run single-threaded, so the two never nest), else inline with
+// LibTorch's own intra-op threads. The first exception is rethrown here.
+template <class Run>
+void run_chunks(int64_t n_chunks, const Run& run) {
+  if (n_chunks == 1 || omp_get_max_threads() == 1) {
+    for (int64_t c = 0; c < n_chunks; ++c) run(c);
+    return;
+  }
+  std::exception_ptr error;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t c = 0; c < n_chunks; ++c) {
+    try {
+      run(c);
+    } catch (...) {
+#pragma omp critical(f16race_ppo_chunk_error)
+      if (!error) error = std::current_exception();
+    }
+  }
+  if (error) std::rethrow_exception(error);
+}
+
+}  // namespace
 
 PpoLossTerms ppo_loss(const torch::Tensor& new_log_prob, const torch::Tensor& old_log_prob,
                       const torch::Tensor& advantages, const torch::Tensor& new_value, const torch::Tensor& old_value,
@@ -123,6 +161,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   const auto returns = buffer.returns.flatten().index_select(0, rows);
   const int64_t batch = rows.numel();
 
+  const std::vector<torch::Tensor> params = net_->parameters();
   // Advantages are normalised over the whole minibatch (CleanRL), before it is cut into chunks.
   PpoConfig chunk_cfg = cfg_;
   chunk_cfg.normalize_advantages = false;
@@ -135,8 +174,11 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
       auto adv = advantages.index_select(0, mb);
       if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
       const int64_t n_chunks = cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
-      optimizer_->zero_grad();
-      for (int64_t c = 0; c < n_chunks; ++c) {
+      // Each chunk's gradient on its own (autograd::grad, nothing accumulated in place), on the
+      // OpenMP threads when there are several chunks; then summed in chunk order, which is what
+      // serial backward() calls accumulate. So the step is the same bits at any thread count.
+      std::vector<ChunkResult> chunks(static_cast<std::size_t>(n_chunks));
+      auto run_chunk = [&](int64_t c) {
         // Contiguous slices of the shuffled minibatch; each chunk's mean weighs by its share.
         const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
         const auto rows_c = mb.slice(0, lo, hi);
@@ -146,13 +188,27 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
         const auto loss = ppo_loss(new_log_prob, old_log_probs.index_select(0, rows_c), adv.slice(0, lo, hi),
                                    out.value, old_values.index_select(0, rows_c), returns.index_select(0, rows_c),
                                    entropy, chunk_cfg);
-        const double w = static_cast<double>(hi - lo) / static_cast<double>(m);
-        (n_chunks == 1 ? loss.total : loss.total * w).backward();
-        stats.policy_loss += w * loss.policy_loss.item<double>();
-        stats.value_loss += w * loss.value_loss.item<double>();
-        stats.entropy += w * loss.entropy.item<double>();
-        stats.approx_kl += w * loss.approx_kl.item<double>();
-        stats.clip_fraction += w * loss.clip_fraction.item<double>();
+        ChunkResult& r = chunks[static_cast<std::size_t>(c)];
+        r.weight = static_cast<double>(hi - lo) / static_cast<double>(m);
+        r.grads = torch::autograd::grad({n_chunks == 1 ? loss.total : loss.total * r.weight}, params,
+                                        /*grad_outputs=*/{}, /*retain_graph=*/false, /*create_graph=*/false,
+                                        /*allow_unused=*/true);
+        r.terms = {loss.policy_loss.item<double>(), loss.value_loss.item<double>(), loss.entropy.item<double>(),
+                   loss.approx_kl.item<double>(), loss.clip_fraction.item<double>()};
+      };
+      run_chunks(n_chunks, run_chunk);
+      for (std::size_t k = 0; k < params.size(); ++k) {
+        torch::Tensor sum;
+        for (const auto& r : chunks)
+          if (r.grads[k].defined()) sum = sum.defined() ? sum + r.grads[k] : r.grads[k];
+        params[k].mutable_grad() = sum;
+      }
+      for (const auto& r : chunks) {
+        stats.policy_loss += r.weight * r.terms[0];
+        stats.value_loss += r.weight * r.terms[1];
+        stats.entropy += r.weight * r.terms[2];
+        stats.approx_kl += r.weight * r.terms[3];
+        stats.clip_fraction += r.weight * r.terms[4];
         ++stats.train_passes;
       }
       torch::nn::utils::clip_grad_norm_(net_->parameters(), cfg_.max_grad_norm);

@@ -588,6 +588,7 @@ void Trainer::State::ppo_update() {
   work.ll_forward_calls += 1;
   work.ll_train_rows += last_ppo.train_rows;
   work.ll_train_calls += last_ppo.train_passes;
+  work.ll_train_steps += last_ppo.grad_steps;
   buffer->clear();
   ++ppo_updates;
   timing.ppo += since(t);

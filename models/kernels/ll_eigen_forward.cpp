@@ -2,7 +2,10 @@
 
 #include "models/kernels/masked_attention.hpp"
 
+#include <omp.h>
+
 #include <Eigen/Core>
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -44,14 +47,10 @@ std::vector<Dense> dense_of(const std::vector<DenseLayer>& layers) {
   return d;
 }
 
-}  // namespace
-
-struct LlEigenForward::Impl {
-  int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
-  Dense q, k, v, out;
-  std::vector<Dense> actor, critic;
-  RowMatrixF q_, k_, v_, attended_, encoded_, x_, h0_, h1_, y_;  // scratch, [B, *] or [B * n_other, *]
-  std::vector<float> weights_;                                    // [B, H, n_other]
+// One thread's buffers for a block of rows, reused from call to call.
+struct Scratch {
+  RowMatrixF q_, k_, v_, attended_, encoded_, x_, h0_, h1_, y_;  // [rows, *] or [rows * n_other, *]
+  std::vector<float> weights_;                                    // [rows, H, n_other]
 
   void mlp(const std::vector<Dense>& layers, RowMatrixF* result) {
     const RowMatrixF* in = &x_;
@@ -66,6 +65,22 @@ struct LlEigenForward::Impl {
       in = dst;
     }
   }
+};
+
+// Rows are computed in blocks of this many, whatever the thread count: a block's arithmetic (and
+// so every output bit) depends only on its rows, and the blocks are the same at any thread count.
+constexpr int64_t kBlockRows = 64;
+
+}  // namespace
+
+struct LlEigenForward::Impl {
+  int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
+  Dense q, k, v, out;
+  std::vector<Dense> actor, critic;
+  std::vector<Scratch> scratch;  // one per OpenMP thread
+
+  void forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
+                     const bool* ado_alive, const float* task, float* mean, float* value) const;
 };
 
 LlEigenForward::LlEigenForward() = default;
@@ -107,26 +122,45 @@ void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal,
                              const bool* ado_alive, const float* task, float* mean, float* value) {
   if (!impl_) throw std::logic_error("LlEigenForward::forward before set_weights");
   Impl& m = *impl_;
-  const int64_t b = batch, n = m.n_other, d = m.d_model, h = m.n_heads;
+  const int64_t n_blocks = (batch + kBlockRows - 1) / kBlockRows;
+  const int threads = static_cast<int>(std::min<int64_t>(omp_get_max_threads(), n_blocks));
+  if (static_cast<int>(m.scratch.size()) < std::max(threads, 1)) m.scratch.resize(static_cast<std::size_t>(std::max(threads, 1)));
+  const int64_t n = m.n_other, a = m.actor.back().weight.rows();
+  auto block = [&](int64_t k, Scratch& sc) {
+    const int64_t lo = k * kBlockRows, rows = std::min(kBlockRows, batch - lo);
+    m.forward_block(sc, rows, ego + lo * m.d_ego, goal + lo * m.d_goal, ado + lo * n * m.d_ado, ado_alive + lo * n,
+                    task + lo * m.d_task, mean + lo * a, value + lo);
+  };
+  if (threads <= 1) {
+    for (int64_t k = 0; k < n_blocks; ++k) block(k, m.scratch[0]);
+    return;
+  }
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (int64_t k = 0; k < n_blocks; ++k) block(k, m.scratch[static_cast<std::size_t>(omp_get_thread_num())]);
+}
+
+void LlEigenForward::Impl::forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
+                                         const bool* ado_alive, const float* task, float* mean, float* value) const {
+  const int64_t n = n_other, d = d_model, h = n_heads;
   using CMap = Eigen::Map<const RowMatrixF>;
   m.q_.resize(b, d);
-  m.q_.noalias() = CMap(ego, b, m.d_ego) * m.q.weight.transpose();
-  m.q_.rowwise() += m.q.bias;
+  m.q_.noalias() = CMap(ego, b, d_ego) * this->q.weight.transpose();
+  m.q_.rowwise() += this->q.bias;
   m.k_.resize(b * n, d);
-  m.k_.noalias() = CMap(ado, b * n, m.d_ado) * m.k.weight.transpose();
-  m.k_.rowwise() += m.k.bias;
+  m.k_.noalias() = CMap(ado, b * n, d_ado) * this->k.weight.transpose();
+  m.k_.rowwise() += this->k.bias;
   m.v_.resize(b * n, d);
-  m.v_.noalias() = CMap(ado, b * n, m.d_ado) * m.v.weight.transpose();
-  m.v_.rowwise() += m.v.bias;
+  m.v_.noalias() = CMap(ado, b * n, d_ado) * this->v.weight.transpose();
+  m.v_.rowwise() += this->v.bias;
 
   // The attention core is the training path's kernel; a sample with nobody alive encodes to zeros.
   m.attended_.resize(b, d);
-  m.weights_.resize(b * h * n);
+  m.weights_.resize(static_cast<std::size_t>(b * h * n));
   kernels::masked_attention_forward(kernels::AttentionShape{n, h, d / h}, 0, b, m.q_.data(), m.k_.data(),
                                     m.v_.data(), ado_alive, m.weights_.data(), m.attended_.data());
   m.encoded_.resize(b, d);
-  m.encoded_.noalias() = m.attended_ * m.out.weight.transpose();
-  m.encoded_.rowwise() += m.out.bias;
+  m.encoded_.noalias() = m.attended_ * out.weight.transpose();
+  m.encoded_.rowwise() += out.bias;
   for (int64_t i = 0; i < b; ++i) {
     bool any = false;
     for (int64_t j = 0; j < n; ++j) any = any || ado_alive[i * n + j];
@@ -134,16 +168,15 @@ void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal,
   }
 
   // [ego, goal, encoded, task], the order of LlActorCritic's torch::cat.
-  const int64_t in = m.d_ego + m.d_goal + d + m.d_task;
-  m.x_.resize(b, in);
-  m.x_.leftCols(m.d_ego) = CMap(ego, b, m.d_ego);
-  m.x_.middleCols(m.d_ego, m.d_goal) = CMap(goal, b, m.d_goal);
-  m.x_.middleCols(m.d_ego + m.d_goal, d) = m.encoded_;
-  m.x_.rightCols(m.d_task) = CMap(task, b, m.d_task);
+  m.x_.resize(b, d_ego + d_goal + d + d_task);
+  m.x_.leftCols(d_ego) = CMap(ego, b, d_ego);
+  m.x_.middleCols(d_ego, d_goal) = CMap(goal, b, d_goal);
+  m.x_.middleCols(d_ego + d_goal, d) = m.encoded_;
+  m.x_.rightCols(d_task) = CMap(task, b, d_task);
 
-  m.mlp(m.actor, &m.y_);
+  m.mlp(actor, &m.y_);
   Eigen::Map<RowMatrixF>(mean, b, m.y_.cols()) = m.y_;
-  m.mlp(m.critic, &m.y_);
+  m.mlp(critic, &m.y_);
   Eigen::Map<Eigen::VectorXf>(value, b) = m.y_.col(0);
 }
 

@@ -1,6 +1,7 @@
 // PPO: loss terms and GAE against hand-computed numbers, truncation versus termination end to
 // end, and learning a goal-reaching point mass.
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <torch/torch.h>
 
 #include <algorithm>
@@ -150,6 +151,18 @@ TEST(Ppo, ChunkedMinibatchesGiveTheSameUpdate) {
     EXPECT_TRUE(item.value().equal(p2[item.key()])) << item.key();  // one chunk: the very same arithmetic
   }
   EXPECT_LT(max_diff, 1e-5);  // summation order only (Adam moves a weight by ~lr = 3e-4 per step)
+  // Chunks run on the OpenMP threads when there are several: the same bits at 1 and 2 threads.
+  const int threads = omp_get_max_threads();
+  for (int t : {1, 2}) {
+    omp_set_num_threads(t);
+    torch::manual_seed(1);
+    cfg.max_chunk_rows = 7;
+    PpoAgent again(cfg);
+    again.update(buffer);
+    for (const auto& item : again.net()->named_parameters())
+      EXPECT_TRUE(item.value().equal(p1[item.key()])) << item.key() << " at " << t << " threads";
+  }
+  omp_set_num_threads(threads);
 }
 
 // ll.inference eigen: act() and value() on Eigen kernels give the LibTorch path's numbers (to float

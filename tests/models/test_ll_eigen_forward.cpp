@@ -2,6 +2,7 @@
 // weights (biases too), random observations with some aircraft dead and some samples with nobody
 // alive, several batch sizes, two network shapes.
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <torch/torch.h>
 
 #include <stdexcept>
@@ -51,6 +52,32 @@ TEST(LlEigenForward, EqualsTheLibTorchForwardToFloatRounding) {
       EXPECT_GT(want.mean.abs().max().item<double>(), 0.1);  // not a vacuous comparison of zeros
     }
   }
+}
+
+// Rows go in fixed blocks over the OpenMP threads: the same bits at 1 and 2 threads.
+TEST(LlEigenForward, SameBitsAtAnyThreadCount) {
+  at::Generator g = make_generator(12);
+  LlActorCriticConfig cfg;
+  cfg.dims = ObsDims{22, 8, 24, 7};
+  LlActorCritic net(cfg);
+  randomize(*net, g);
+  LlEigenForward fast;
+  fast.set_weights(net->eigen_weights());
+  const int64_t b = 777;  // 12 full blocks and a partial one
+  const LlObs obs = random_obs(g, cfg.dims, b);
+  torch::Tensor means[2], values[2];
+  const int threads = omp_get_max_threads();
+  for (int t : {1, 2}) {
+    omp_set_num_threads(t);
+    means[t - 1] = torch::empty({b, 3});
+    values[t - 1] = torch::empty({b});
+    fast.forward(b, obs.ego.data_ptr<float>(), obs.goal.data_ptr<float>(), obs.ado.data_ptr<float>(),
+                 obs.ado_alive.data_ptr<bool>(), obs.task.data_ptr<float>(), means[t - 1].data_ptr<float>(),
+                 values[t - 1].data_ptr<float>());
+  }
+  omp_set_num_threads(threads);
+  EXPECT_TRUE(torch::equal(means[0], means[1]));
+  EXPECT_TRUE(torch::equal(values[0], values[1]));
 }
 
 TEST(LlEigenForward, RefusesWeightsThatDoNotChain) {
