@@ -18,6 +18,10 @@ class RunningNormImpl : public torch::nn::Module {
   explicit RunningNormImpl(int64_t dim, double clip = 10.0, double eps = 1e-8);
   void update(const torch::Tensor& x);
   torch::Tensor normalize(const torch::Tensor& x) const;
+  // The same over the rows of x [N, dim] where keep [N] (bool) is true: statistics from those rows
+  // only, and the other rows normalise to exact zeros (dead aircraft in o_ado).
+  void update_rows(const torch::Tensor& x, const torch::Tensor& keep);
+  torch::Tensor normalize_rows(const torch::Tensor& x, const torch::Tensor& keep) const;
   const torch::Tensor& mean() const { return mean_; }
   // The float32 terms normalize() applies: (x - mean) * inv_std, clamped to +-clip.
   torch::Tensor mean_f32() const { return mean_.to(torch::kFloat32); }
