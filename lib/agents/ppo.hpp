@@ -34,8 +34,10 @@ struct PpoConfig {
   // A minibatch of more rows runs forward/backward in chunks of at most this many whose gradients
   // add up before its one optimiser step: the same update (up to float summation order), at the
   // per-sample cost of a cache-sized batch (bench nets, 2 threads: 6.1 us fwd+bwd at 2048 rows,
-  // 11.7 us at 32768). 0: one pass per minibatch.
-  int64_t max_chunk_rows = 2048;
+  // 11.7 us at 32768), and the chunks run concurrently on the OpenMP threads. 512 splits the
+  // default config's ~920-row minibatches in two, so both cores work on every PPO step
+  // (README, Performance). 0: one pass per minibatch.
+  int64_t max_chunk_rows = 512;
   double clip_coef = 0.2;
   bool clip_value_loss = true;
   double vf_coef = 0.5;
@@ -49,10 +51,11 @@ struct PpoConfig {
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order
-  // No-grad forward passes of act() and value(): LibTorch's ops, or the same network on Eigen
-  // float kernels (models/kernels/ll_eigen_forward.hpp), equal to float rounding. Training always
+  // No-grad forward passes of act() and value(): the same network on Eigen float kernels
+  // (models/kernels/ll_eigen_forward.hpp, equal to LibTorch's to float rounding; faster at rollout
+  // batch sizes, README Performance), or LibTorch's ops (ll.inference: torch). Training always
   // uses LibTorch.
-  bool eigen_inference = false;
+  bool eigen_inference = true;
 };
 
 struct PpoAction {
