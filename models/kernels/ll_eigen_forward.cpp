@@ -69,7 +69,7 @@ struct Scratch {
 
 // Rows are computed in blocks of this many, whatever the thread count: a block's arithmetic (and
 // so every output bit) depends only on its rows, and the blocks are the same at any thread count.
-constexpr int64_t kBlockRows = 64;
+constexpr int64_t kBlockRows = 32;
 
 }  // namespace
 
