@@ -28,9 +28,9 @@ void run_export(const ExportOptions& o) {
   std::printf("exported %s (%s, %lld env steps) to %s/\n", policy.name.c_str(),
               agents::es_variant_name(policy.config.hl.variant), static_cast<long long>(policy.env_steps), out.c_str());
   std::printf("  hl_policy.pt  ll_policy.pt  example_io.pt  README.md\n");
-  std::printf("  check on %lld random observations: max abs diff HL %.2e, LL %.2e, greedy bins %s\n",
-              static_cast<long long>(rep.samples), rep.hl_max_abs_diff,
-              rep.ll_max_abs_diff,
+  std::printf("  check on %lld random observations: max diff (relative to max(1, |value|)) HL %.2e, LL %.2e, greedy bins %s\n",
+              static_cast<long long>(rep.samples), rep.hl_max_diff,
+              rep.ll_max_diff,
               !rep.bins_equal      ? "different"
               : rep.bin_ties == 0  ? "identical"
                                    : ("identical but for " + std::to_string(rep.bin_ties) + " ties").c_str());

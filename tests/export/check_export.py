@@ -7,6 +7,13 @@ import sys
 import torch
 
 
+TOL = 1e-4  # |exported - in-process| / max(1, |in-process|): the same functions summed in another order
+
+
+def scaled_diff(a, ref):
+    return ((a.double() - ref.double()).abs() / ref.double().abs().clamp(min=1.0)).max().item()
+
+
 def main(folder):
     hl = torch.jit.load(f"{folder}/hl_policy.pt")
     ll = torch.jit.load(f"{folder}/ll_policy.pt")
@@ -19,9 +26,9 @@ def main(folder):
         if ref is None:
             assert key not in h, f"hl output {key} present but no reference"
             continue
-        worst = max(worst, (h[key] - ref).abs().max().item())
+        worst = max(worst, scaled_diff(h[key], ref))
     for key in ["mean", "log_std", "value"]:
-        worst = max(worst, (l[key] - io["ll_" + key]).abs().max().item())
+        worst = max(worst, scaled_diff(l[key], io["ll_" + key]))
     # A greedy bin may differ only where the in-process Q of the two bins tie (float rounding of
     # another summation order picks either of two equal values).
     q, ref_bins, bins = io["hl_q"].double(), io["hl_bins"], h["bins"]
@@ -33,14 +40,15 @@ def main(folder):
         joint = lambda b: (b[:, 0] * n + b[:, 1]) * n + b[:, 2]
         gap = (q.gather(1, joint(ref_bins).unsqueeze(-1)) - q.gather(1, joint(bins).unsqueeze(-1))).abs().squeeze(-1)
         differ = (ref_bins != bins).any(1)
-    assert bool((gap[differ] <= 1e-5).all()), "greedy bins differ beyond a tie"
+    q_ref = q.gather(-1, (ref_bins.unsqueeze(-1) if q.dim() == 3 else joint(ref_bins).unsqueeze(-1))).squeeze(-1)
+    assert bool((gap[differ] <= 2 * TOL * q_ref.abs().clamp(min=1.0)[differ]).all()), "greedy bins differ beyond a tie"
     assert h["bins"].dtype == torch.int64 and h["bins"].shape == (io["ego"].shape[0], 3)
     assert torch.equal(l["action"], l["mean"].clamp(-1.0, 1.0))
-    assert worst < 1e-5, f"max abs diff {worst}"
+    assert worst <= TOL, f"max scaled diff {worst}"
     # Any batch size, including a single aircraft.
     one = [io[k][:1] for k in ["ego", "goal", "ado", "ado_alive", "task"]]
     with torch.no_grad():
-        assert torch.allclose(ll(*one)["mean"], io["ll_mean"][:1], atol=1e-5)
+        assert scaled_diff(ll(*one)["mean"], io["ll_mean"][:1]) <= TOL
     # Wrong input shapes are refused with a message naming the input.
     try:
         ll(io["ego"][:, :3], io["goal"], io["ado"], io["ado_alive"], io["task"])
@@ -48,7 +56,7 @@ def main(folder):
         assert "ego must be" in str(e), str(e)
     else:
         raise AssertionError("bad ego shape accepted")
-    print(f"torch {torch.__version__}: {folder} OK, max abs diff {worst:.3g}")
+    print(f"torch {torch.__version__}: {folder} OK, max scaled diff {worst:.3g}")
 
 
 if __name__ == "__main__":
