@@ -228,6 +228,20 @@ void step_for_law(StageLaw law, const BatchView& v, double dt, int substeps, con
   }
 }
 
+template <AeroModel MODEL, StageLaw LAW>
+void outputs_range(const BatchView& v, int first, int count) {
+  for (int i = first; i < first + count; ++i) outputs_lane<MODEL, LAW>(v.data, v.stride, v.law, i);
+}
+
+template <AeroModel MODEL>
+void outputs_range_for_law(StageLaw law, const BatchView& v, int first, int count) {
+  switch (law) {
+    case StageLaw::kHeld: outputs_range<MODEL, StageLaw::kHeld>(v, first, count); break;
+    case StageLaw::kGcas: outputs_range<MODEL, StageLaw::kGcas>(v, first, count); break;
+    case StageLaw::kWaypoint: outputs_range<MODEL, StageLaw::kWaypoint>(v, first, count); break;
+  }
+}
+
 template <AeroModel MODEL>
 void outputs_for_law(StageLaw law, const BatchView& v) {
   switch (law) {
@@ -324,6 +338,15 @@ void F16Batch::evaluate_outputs() {
   const BatchView v = make_view(*this, data_.get(), padded_, law_.get());
   if (config_.model == AeroModel::kMorelli) outputs_for_law<AeroModel::kMorelli>(config_.stage_law, v);
   else outputs_for_law<AeroModel::kStevens>(config_.stage_law, v);
+}
+
+void F16Batch::evaluate_outputs(int first, int count) {
+  if (first < 0 || count < 0 || first + count > size_)
+    throw std::out_of_range("F16Batch::evaluate_outputs: aircraft [" + std::to_string(first) + ", " +
+                            std::to_string(first + count) + ") outside [0, " + std::to_string(size_) + ")");
+  const BatchView v = make_view(*this, data_.get(), padded_, law_.get());
+  if (config_.model == AeroModel::kMorelli) outputs_range_for_law<AeroModel::kMorelli>(config_.stage_law, v, first, count);
+  else outputs_range_for_law<AeroModel::kStevens>(config_.stage_law, v, first, count);
 }
 
 }  // namespace f16race::dynamics

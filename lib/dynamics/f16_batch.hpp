@@ -109,6 +109,9 @@ class F16Batch {
   // Fills output() rows from the current states and references (with a stage law, the ref()
   // rows first, from the law at the current states and modes).
   void evaluate_outputs();
+  // The same for aircraft [first, first + count) only, one lane at a time on the calling thread
+  // (for a caller that resets some aircraft inside its own parallel loop).
+  void evaluate_outputs(int first, int count);
 
   // Exact snapshot of every state, reference, output, law parameter and status (for checkpoints that resume
   // bit-identically). load_state throws std::runtime_error on a size mismatch or short read.

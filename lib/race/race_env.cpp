@@ -243,6 +243,9 @@ void RaceEnv::reset_env(int env) {
                                    (config_.nz_ref_max_g - config_.nz_ref_min_g) - 1.0);
     la[2] = 0.0f;
   }
+  // Velocities and Nz of the new race's first observation come from the outputs: evaluated here,
+  // they would otherwise be the ended race's (or zeros in a new env).
+  sim_.evaluate_outputs(base, n_agent_);
   update_track_geometry(env);
   compute_ranks(env);
   for (int a = 0; a < n_agent_; ++a) {

@@ -483,6 +483,42 @@ TEST(RaceEnv, TimeLimitEndsTheRaceAsATerminationUnlessConfiguredAsTruncation) {
   }
 }
 
+// A race's first observation is of its own start states: velocities and Nz come from the
+// simulator's outputs, which must be evaluated at the reset (they were the ended race's, and zeros
+// in a new env). refresh() recomputes every output and observation from the states: nothing of
+// the new race may change.
+TEST(RaceEnv, FirstObservationOfARaceIsOfItsOwnStartStates) {
+  RaceConfig c = small_config(2, 2);
+  c.time_limit_s = 2.0;
+  c.dt_hl_s = 2.0;
+  RaceEnv env(c);
+  auto row_copy = [&](const float* p, int width) {
+    return std::vector<float>(p, p + static_cast<std::size_t>(env.n_aircraft()) * width);
+  };
+  auto same_after_refresh = [&](const char* when) {
+    const auto ego = row_copy(env.obs_ego(), kEgoDim);
+    const auto ado = row_copy(env.obs_ado(), (env.n_agent() - 1) * env.ado_dim());
+    env.refresh();
+    EXPECT_EQ(ego, row_copy(env.obs_ego(), kEgoDim)) << when;
+    EXPECT_EQ(ado, row_copy(env.obs_ado(), (env.n_agent() - 1) * env.ado_dim())) << when;
+    float largest = 0.0f;  // the other aircraft's relative states are there to compare
+    for (float v : ado) largest = std::max(largest, std::abs(v));
+    EXPECT_GT(largest, 0.1f) << when;
+  };
+  same_after_refresh("new env");
+  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+  a.assign(a.size(), 0.0f);
+  for (int k = 0; k < env.n_aircraft(); ++k) a[k * kActionDim + 1] = 0.9f;  // pull hard: another state at the end
+  int ended = -1;
+  for (int s = 0; s < 100 && ended < 0; ++s) {
+    env.set_hl_actions(bins.data());
+    if (env.step(a.data()).races_finished > 0) ended = s;
+  }
+  ASSERT_GE(ended, 0);
+  same_after_refresh("after the time limit reset every race");
+}
+
 // The goal's center-line point is at the end of the preview horizon (12 000 ft) when placed, and
 // with a 20 s interval (~15 000 ft of flight) it is placed again before the aircraft reaches it:
 // the goal is never behind and never closer than ~goal_refresh_ft, with the bins of the decision.
