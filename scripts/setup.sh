@@ -9,6 +9,7 @@ packages=(
   libeigen3-dev libyaml-cpp-dev libspdlog-dev libcli11-dev libgtest-dev
   gnuplot-nox        # figures
   python3-torch      # tests load exported TorchScript policies with plain PyTorch
+  pybind11-dev python3-dev python3-numpy  # the `f16race` Python module (python/) and its tests
   libopenblas0-pthread  # LibTorch calls the system BLAS: OpenBLAS is 3-7x faster than the reference one
 )
 
