@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   cmake g++ make
   libtorch-dev       # LibTorch 1.13 (CPU): the learning layers
+  libgloo-dev        # the headers of c10d's Gloo process group (distributed runs: lib/dist)
   libeigen3-dev libyaml-cpp-dev libspdlog-dev libcli11-dev libgtest-dev
   gnuplot-nox        # figures
   python3-torch      # tests load exported TorchScript policies with plain PyTorch

@@ -10,10 +10,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "dist_options.hpp"
 #include "progress_bar.hpp"
 #include "eval/tournament.hpp"
 #include "eval/tournament_report.hpp"
@@ -21,8 +23,27 @@
 namespace f16race::app {
 namespace {
 
-void run(const eval::TournamentOptions& o) {
+// What every rank of a distributed tournament must agree on: the binary and every option.
+std::string fingerprint(const eval::TournamentOptions& o) {
+  std::ostringstream f;
+  f << "binary " << std::hex << dist::executable_hash() << std::dec << "\ntournament";
+  for (const std::string& r : o.runs) f << "\n--runs " << r;
+  f << "\n--races " << o.races_per_pair << "\n--seed " << o.seed << "\n--epsilon " << o.epsilon << "\n--batch "
+    << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
+    << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
+    << "\n--out " << o.out_dir;
+  return f.str();
+}
+
+void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
   torch::set_num_threads(omp_get_max_threads());
+  // A group of ranks shares the races; rank 0 alone prints and writes the report.
+  std::unique_ptr<dist::Group> group;
+  if (dc.world_size > 1) group = std::make_unique<dist::Group>(dc, fingerprint(o));
+  if (group && group->rank() != 0) {
+    eval::run_tournament(o, {}, group.get());
+    return;
+  }
   const bool tty = isatty(STDOUT_FILENO) != 0;
   eval::TournamentResult r;
   const auto start = std::chrono::steady_clock::now();
@@ -46,7 +67,7 @@ void run(const eval::TournamentOptions& o) {
     }
     last_percent = percent;
     std::fflush(stdout);
-  });
+  }, group.get());
   if (tty) std::printf("\n");
   std::printf("%s", eval::write_tournament_report(r, o).c_str());
   std::printf("%zu races in %.1f s\n", r.races.size(),
@@ -81,7 +102,9 @@ void add_tournament_command(CLI::App& app) {
                 "Add RUN@center and RUN@random for every run: its low level under a fixed high level (middle bin, "
                 "or uniform random bins); listed, never in the variant statistics");
   cmd->add_option("--out", o->out_dir, "Output folder");
-  cmd->callback([o]() { run(*o); });
+  auto dist_flags = std::make_shared<DistFlags>();
+  dist_flags->add_to(cmd);
+  cmd->callback([o, dist_flags]() { run(*o, dist_flags->resolve()); });
 }
 
 }  // namespace f16race::app

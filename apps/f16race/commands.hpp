@@ -32,6 +32,8 @@ void add_tournament_command(CLI::App& app);
 void add_export_command(CLI::App& app);
 void add_replay_command(CLI::App& app);
 void add_study_command(CLI::App& app);
+// `threads_option`: main's --threads (0: not given), read when the command runs.
+void add_launch_command(CLI::App& app, const int& threads_option);
 // Registered on the `bench` group by add_bench_command (apps/f16race/bench_nets.cpp).
 void add_bench_nets_command(CLI::App& bench);
 void add_bench_train_command(CLI::App& bench);

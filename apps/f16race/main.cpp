@@ -11,6 +11,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "dist/process_group.hpp"
 #include "io/input_error.hpp"
 #include "io/provenance.hpp"
 
@@ -59,6 +60,7 @@ int main(int argc, char** argv) {
   f16race::app::add_study_command(app);
   f16race::app::add_race_command(app);
   f16race::app::add_bench_command(app);
+  f16race::app::add_launch_command(app, threads);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -70,6 +72,9 @@ int main(int argc, char** argv) {
   } catch (const f16race::io::InputError& e) {  // every user error: config, CSV, run folder, disk, option
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
+  } catch (const f16race::dist::PeerLost& e) {  // another rank of the group stopped: not this one's fault
+    std::fprintf(stderr, "f16race: error: %s\n", e.what());
+    return 3;
   } catch (const std::filesystem::filesystem_error& e) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;

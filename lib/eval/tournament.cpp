@@ -13,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dist/process_group.hpp"
 #include "io/input_error.hpp"
 #include "race/block_events.hpp"
 #include "io/yaml_config.hpp"
@@ -87,9 +88,50 @@ struct Game {
   int pair, blue, red;
 };
 
+// Every rank's race records, on every rank: fixed-width rows of doubles (each field a small
+// integer or the duration, exact in a double), padded to the longest rank's count.
+std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceRecord>& mine, std::uint64_t track_seed) {
+  constexpr std::size_t kFields = 12;
+  std::vector<std::int64_t> counts(group.size(), 0);
+  counts[group.rank()] = static_cast<std::int64_t>(mine.size());
+  group.allreduce_sum(counts);
+  const std::size_t rows = static_cast<std::size_t>(*std::max_element(counts.begin(), counts.end()));
+  std::vector<double> packed(rows * kFields, -1.0);
+  for (std::size_t i = 0; i < mine.size(); ++i) {
+    const RaceRecord& r = mine[i];
+    const double f[kFields] = {double(r.pair),       double(r.blue),     double(r.red),         double(r.env),
+                               double(r.race_in_env), double(r.winner),  double(r.end_reason),  r.duration_s,
+                               double(r.blue_out),   double(r.red_out),  double(r.blue_blocks), double(r.red_blocks)};
+    std::copy(f, f + kFields, packed.begin() + static_cast<std::ptrdiff_t>(i * kFields));
+  }
+  const std::vector<double> all = group.allgather(packed);
+  std::vector<RaceRecord> out;
+  for (int q = 0; q < group.size(); ++q)
+    for (std::int64_t i = 0; i < counts[q]; ++i) {
+      const double* f = all.data() + (static_cast<std::size_t>(q) * rows + static_cast<std::size_t>(i)) * kFields;
+      RaceRecord r;
+      r.pair = static_cast<int>(f[0]);
+      r.blue = static_cast<int>(f[1]);
+      r.red = static_cast<int>(f[2]);
+      r.env = static_cast<int>(f[3]);
+      r.race_in_env = static_cast<int>(f[4]);
+      r.winner = static_cast<int>(f[5]);
+      r.end_reason = static_cast<int>(f[6]);
+      r.duration_s = f[7];
+      r.blue_out = static_cast<int>(f[8]);
+      r.red_out = static_cast<int>(f[9]);
+      r.blue_blocks = static_cast<int>(f[10]);
+      r.red_blocks = static_cast<int>(f[11]);
+      r.track_seed = track_seed;
+      out.push_back(r);
+    }
+  return out;
+}
+
 }  // namespace
 
-TournamentResult run_tournament(const TournamentOptions& o, const std::function<void(long, long)>& progress) {
+TournamentResult run_tournament(const TournamentOptions& o, const std::function<void(long, long)>& progress,
+                                dist::Group* group) {
   if (o.runs.empty() && !o.include_untrained) throw io::InputError("tournament: no entries");
   if (o.runs.empty()) throw io::InputError("tournament: give at least one run folder with --runs");
   TournamentResult res;
@@ -126,8 +168,6 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     throw io::InputError("tournament: " + res.entries.front().name +
                              " is the only entry and has no opponent; give a second run, keep the untrained entry "
                              "(drop --no-untrained) or add --controls");
-  res.wins.assign(n_entries, std::vector<double>(n_entries, 0.0));
-  res.games.assign(n_entries, std::vector<double>(n_entries, 0.0));
 
   std::vector<Game> games;
   int pair = 0;
@@ -142,32 +182,44 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   // once (its auto-reset already drew a fresh track and start), so no env idles until the
   // slowest race of a batch is over.
   const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size()));
-  rc.n_env = n;
+  // Ranks: this one races envs [lo, hi) of the n; env ids (and so tracks, starts and @random
+  // draws) are the batch's, so the split changes no race.
+  const int world = group ? group->size() : 1, rank = group ? group->rank() : 0;
+  if (n < world)
+    throw io::InputError("tournament: " + std::to_string(n) + " races at once cannot be split over " +
+                         std::to_string(world) + " ranks; give --batch (and races) of at least the number of ranks");
+  const int lo = static_cast<int>(static_cast<long long>(n) * rank / world);
+  const int hi = static_cast<int>(static_cast<long long>(n) * (rank + 1) / world);
+  const int nl = hi - lo;
+  rc.n_env = nl;
   rc.seed = o.seed * 1000003ULL;
-  race::RaceEnv env(rc);
+  race::RaceEnv env(rc, lo);
   race::BlockCounter blocks(env);
   // The @random rule's draws: one stream per env, used only at that env's own HL decisions.
   std::vector<RandomStream> control_rng;
-  for (int e = 0; e < n; ++e) control_rng.push_back(control_stream(o.seed, e));
-  std::vector<long> env_game(n, -1);  // game index raced in each env, -1 idle
-  std::vector<int> race_in_env(n, 0);
-  std::vector<int> out_blue(n, 0), out_red(n, 0);
-  std::vector<int> owner(static_cast<std::size_t>(n) * n_agent, -1);  // entry flying aircraft i
+  for (int e = 0; e < nl; ++e) control_rng.push_back(control_stream(o.seed, lo + e));
+  std::vector<long> env_game(n, -1);  // game index raced in each env of the whole batch, -1 idle
+  std::vector<int> race_in_env(nl, 0);
+  std::vector<int> out_blue(nl, 0), out_red(nl, 0);
+  std::vector<int> owner(static_cast<std::size_t>(nl) * n_agent, -1);  // entry flying this rank's aircraft i
   std::size_t next_game = 0;
-  auto assign = [&](int e) {
-    env_game[e] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
+  // Every rank makes the same assignments (global env order), its own envs' owners only.
+  auto assign = [&](int eg) {
+    env_game[eg] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
+    if (eg < lo || eg >= hi) return;
+    const int e = eg - lo;
     out_blue[e] = out_red[e] = 0;
     for (int a = 0; a < n_agent; ++a) {
-      const Game* g = env_game[e] >= 0 ? &games[env_game[e]] : nullptr;
+      const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
       owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
     }
   };
   for (int e = 0; e < n; ++e) assign(e);
   // Aircraft rows per entry: every network acts only on the aircraft it flies.
-  train::PolicyRows rows(n_entries, n * n_agent), hl_rows(n_entries, n * n_agent);
+  train::PolicyRows rows(n_entries, nl * n_agent), hl_rows(n_entries, nl * n_agent);
   rows.assign(owner);
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * n_agent * 3, rc.hl_center_bin());
-  std::vector<float> actions(static_cast<std::size_t>(n) * n_agent * 3, 0.0f);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(nl) * n_agent * 3, rc.hl_center_bin());
+  std::vector<float> actions(static_cast<std::size_t>(nl) * n_agent * 3, 0.0f);
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = rc.start_speed_ftps;
   // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
@@ -189,8 +241,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
             hl_rows.rows(id),
             pol[res.entries[id].policy].hl->act(models::index_rows(obs, hl_rows.rows(id)), o.epsilon, gen).bins,
             bins.data());
-    for (int e = 0; e < n; ++e) {
-      if (env_game[e] < 0 || !env.hl_due()[e]) continue;
+    for (int e = 0; e < nl; ++e) {
+      if (env_game[lo + e] < 0 || !env.hl_due()[e]) continue;
       for (int team = 0; team < 2; ++team) {
         const Entry& en = res.entries[owner[e * n_agent + team * ts]];
         // The autopilot has no high level: its goals stay on the center-line (reward only).
@@ -204,7 +256,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   int active = n;
   while (active > 0) {
     bool due = false;
-    for (int e = 0; e < n; ++e) due = due || (env.hl_due()[e] && env_game[e] >= 0);
+    for (int e = 0; e < nl; ++e) due = due || (env.hl_due()[e] && env_game[lo + e] >= 0);
     if (due) {
       choose_hl_bins();
       env.set_hl_actions(bins.data());
@@ -219,23 +271,23 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       }
       train::greedy_ll_actions(pol[res.entries[id].policy], env, obs, rows.rows(id), gen, actions.data());
     }
-    std::vector<double> t_before(n);
-    for (int e = 0; e < n; ++e) t_before[e] = env.race_time_s(e);
+    std::vector<double> t_before(nl);
+    for (int e = 0; e < nl; ++e) t_before[e] = env.race_time_s(e);
     env.step(actions.data());
     blocks.after_step(race::block_view(env));
-    bool changed = false;
-    for (int e = 0; e < n; ++e) {
-      if (env_game[e] < 0) continue;
+    std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
+    for (int e = 0; e < nl; ++e) {
+      if (env_game[lo + e] < 0) continue;
       for (int a = 0; a < n_agent; ++a)
         if (env.step_cause()[e * n_agent + a] != race::kCauseNone) (a < ts ? out_blue[e] : out_red[e]) += 1;
       if (!env.env_done()[e]) continue;
-      const Game& g = games[env_game[e]];
+      const Game& g = games[env_game[lo + e]];
       RaceRecord r;
       r.pair = g.pair;
       r.blue = g.blue;
       r.red = g.red;
       r.track_seed = rc.seed;
-      r.env = e;
+      r.env = lo + e;
       r.race_in_env = race_in_env[e]++;
       const int w = env.race_winner()[e];
       r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
@@ -246,18 +298,16 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       r.blue_blocks = blocks.race_blocks(e, 0);
       r.red_blocks = blocks.race_blocks(e, 1);
       res.races.push_back(r);
-      res.games[g.blue][g.red] += 1;
-      res.games[g.red][g.blue] += 1;
-      if (r.winner < 0) {
-        res.wins[g.blue][g.red] += 0.5;
-        res.wins[g.red][g.blue] += 0.5;
-      } else {
-        res.wins[r.winner][r.winner == g.blue ? g.red : g.blue] += 1;
-      }
+      ended[lo + e] = 1;
+    }
+    if (group) group->allreduce_sum(ended);
+    bool changed = false;
+    for (int eg = 0; eg < n; ++eg) {
+      if (ended[eg] == 0) continue;
       ++done_games;
-      assign(e);
-      active -= env_game[e] < 0;
-      changed = true;
+      assign(eg);
+      active -= env_game[eg] < 0;
+      changed = changed || (eg >= lo && eg < hi);
     }
     if (changed) rows.assign(owner);
     // Progress about every 1 % of the games.
@@ -265,6 +315,19 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
                      (active == 0 && done_games != reported))) {
       reported = done_games;
       progress(done_games, static_cast<long>(games.size()));
+    }
+  }
+  if (group) res.races = gather_races(*group, res.races, rc.seed);
+  res.wins.assign(n_entries, std::vector<double>(n_entries, 0.0));
+  res.games.assign(n_entries, std::vector<double>(n_entries, 0.0));
+  for (const RaceRecord& r : res.races) {
+    res.games[r.blue][r.red] += 1;
+    res.games[r.red][r.blue] += 1;
+    if (r.winner < 0) {
+      res.wins[r.blue][r.red] += 0.5;
+      res.wins[r.red][r.blue] += 0.5;
+    } else {
+      res.wins[r.winner][r.winner == r.blue ? r.red : r.blue] += 1;
     }
   }
   // Races finish in env order, not game order: sort for a stable races.csv.

@@ -10,6 +10,10 @@
 
 #include "random/random_stream.hpp"
 
+namespace f16race::dist {
+class Group;
+}
+
 namespace f16race::eval {
 
 // Where a team's HL goal bins come from: its run's trained HL policy, or a fixed rule.
@@ -91,8 +95,14 @@ struct TournamentResult {
 
 // Runs every pair; `progress(done, total)` after each batch. Throws io::InputError with the
 // run folder named when a run is missing, corrupt, or trained on a different race shape.
+// With a `group` of W ranks each rank races its share of the batch's envs (a contiguous slice,
+// its own streams under the same ids), the ranks step in lockstep and agree on which env takes
+// the next game from which races ended where, and every rank returns the whole result: the same
+// races, bit for bit, as one process (greedy HL, `epsilon` 0; per-row network outputs do not
+// depend on the batch they come in, which the test holds).
 TournamentResult run_tournament(const TournamentOptions& options,
-                                const std::function<void(long, long)>& progress = {});
+                                const std::function<void(long, long)>& progress = {},
+                                dist::Group* group = nullptr);
 
 // Its outputs (summary tables, CSVs, figures): eval/tournament_report.hpp.
 

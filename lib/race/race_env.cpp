@@ -97,7 +97,7 @@ std::size_t RaceEnv::extent_size(Extent x) const {
   return 0;
 }
 
-RaceEnv::RaceEnv(const RaceConfig& config)
+RaceEnv::RaceEnv(const RaceConfig& config, int first_env_id)
     : config_(config),
       n_agent_(config.n_agent()),
       task_dim_(race::task_dim(config)),
@@ -148,7 +148,7 @@ RaceEnv::RaceEnv(const RaceConfig& config)
     tracks_.emplace_back(track_slices_.back().get(), config_.track);
   }
   rng_.reserve(n_env());
-  for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(e));
+  for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(first_env_id + e));
   visit_arrays(*this, [&](const char*, auto& v, Extent x, auto init) {
     v.assign(extent_size(x), static_cast<typename std::decay_t<decltype(v)>::value_type>(init));
   });

@@ -56,7 +56,10 @@ struct StepStats {
 
 class RaceEnv {
  public:
-  explicit RaceEnv(const RaceConfig& config);
+  // `first_env_id`: these envs are [first_env_id, first_env_id + n_env) of a larger batch (one
+  // rank's share of a distributed one): env e draws its tracks and starts from the stream
+  // (seed, first_env_id + e), so the batch's races do not depend on how it is split.
+  explicit RaceEnv(const RaceConfig& config, int first_env_id = 0);
 
   const RaceConfig& config() const { return config_; }
   int n_env() const { return config_.n_env; }

@@ -1,0 +1,181 @@
+// `f16race launch --nproc N -- SUBCOMMAND ...`: starts N ranks of a subcommand on this host, on
+// loopback (what torchrun --standalone does for PyTorch): each rank is this executable with
+// WORLD_SIZE, RANK, LOCAL_RANK, MASTER_ADDR and MASTER_PORT set. The launcher waits for all of
+// them; when one fails, the others stop by themselves (a lost peer ends every collective), and
+// any rank still running after the group's timeout is terminated. Exit status: the first failing
+// rank's, else 0.
+#include <omp.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <netinet/in.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "commands.hpp"
+#include "dist/process_group.hpp"
+
+namespace f16race::app {
+namespace {
+
+struct LaunchOptions {
+  int nproc = 2;
+  int port = 0;  // 0: MASTER_PORT, else a free port
+  double timeout_s = 60.0;
+  std::vector<std::string> command;
+};
+
+// Forwarded to every rank: Ctrl-C of the launcher is Ctrl-C of the group.
+std::vector<pid_t> g_children;
+extern "C" void forward_signal(int sig) {
+  for (pid_t p : g_children)
+    if (p > 0) ::kill(p, sig);
+}
+
+// A loopback port that is free with the one after it (rank 0 serves a store on each).
+bool port_free(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return false;
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_port = htons(static_cast<std::uint16_t>(port));
+  const bool ok = ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  ::close(fd);
+  return ok;
+}
+
+int free_port() {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0) break;
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    int port = 0;
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0)
+      port = ntohs(a.sin_port);
+    ::close(fd);
+    if (port > 0 && port < 65535 && port_free(port) && port_free(port + 1)) return port;
+  }
+  return 29500;
+}
+
+std::string describe(int status) {
+  if (WIFSIGNALED(status)) return "was killed by signal " + std::to_string(WTERMSIG(status));
+  return "exited with status " + std::to_string(WEXITSTATUS(status));
+}
+
+int exit_code(int status) { return WIFSIGNALED(status) ? 128 + WTERMSIG(status) : WEXITSTATUS(status); }
+
+void run_launch(const LaunchOptions& o, int threads_option) {
+  if (o.command.empty()) throw io::InputError("launch: give the subcommand after --, e.g. f16race launch --nproc 2 -- tournament --runs ...");
+  if (o.command.front() == "launch") throw io::InputError("launch: the command after -- cannot be launch itself");
+  int port = o.port;
+  if (port == 0) {
+    const char* env = std::getenv("MASTER_PORT");
+    port = env ? dist::dist_config_from_environment().master_port : free_port();
+  }
+  // One core's share per rank unless --threads says otherwise: ranks on one host must not
+  // oversubscribe it (OpenMP threads spin while they wait).
+  const int threads = threads_option > 0 ? threads_option : std::max(1, omp_get_num_procs() / o.nproc);
+  std::vector<std::string> args{"f16race", "--threads", std::to_string(threads)};
+  args.insert(args.end(), o.command.begin(), o.command.end());
+  std::fflush(stdout);
+  std::fflush(stderr);
+  g_children.assign(o.nproc, -1);
+  for (int r = 0; r < o.nproc; ++r) {
+    const pid_t pid = ::fork();
+    if (pid < 0) throw std::runtime_error("launch: fork failed: " + std::string(std::strerror(errno)));
+    if (pid == 0) {
+      ::setenv("WORLD_SIZE", std::to_string(o.nproc).c_str(), 1);
+      ::setenv("RANK", std::to_string(r).c_str(), 1);
+      ::setenv("LOCAL_RANK", std::to_string(r).c_str(), 1);
+      ::setenv("MASTER_ADDR", "127.0.0.1", 1);
+      ::setenv("MASTER_PORT", std::to_string(port).c_str(), 1);
+      ::setenv("F16RACE_DIST_TIMEOUT", std::to_string(static_cast<long>(o.timeout_s)).c_str(), 1);
+      std::vector<char*> argv;
+      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      ::execv("/proc/self/exe", argv.data());
+      std::fprintf(stderr, "f16race launch: cannot start rank %d: %s\n", r, std::strerror(errno));
+      ::_exit(127);
+    }
+    g_children[r] = pid;
+  }
+  struct sigaction sa {};
+  sa.sa_handler = forward_signal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+
+  int first_failure = 0, running = o.nproc;
+  auto deadline = std::chrono::steady_clock::time_point::max();
+  bool terminated = false;
+  while (running > 0) {
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+    if (pid < 0 && errno == EINTR) continue;
+    if (pid < 0) break;
+    if (pid == 0) {
+      // After a failure the others get the group's timeout (plus the diagnosis) to stop by themselves.
+      if (std::chrono::steady_clock::now() > deadline) {
+        for (std::size_t r = 0; r < g_children.size(); ++r)
+          if (g_children[r] > 0) {
+            std::fprintf(stderr, "f16race launch: rank %zu still runs %.0f s after the failure; %s it\n", r,
+                         o.timeout_s, terminated ? "killing" : "terminating");
+            ::kill(g_children[r], terminated ? SIGKILL : SIGTERM);
+            ::kill(g_children[r], SIGCONT);  // a stopped rank takes its SIGTERM only once it runs
+          }
+        terminated = true;
+        deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      continue;
+    }
+    const auto it = std::find(g_children.begin(), g_children.end(), pid);
+    if (it == g_children.end()) continue;
+    const int r = static_cast<int>(it - g_children.begin());
+    *it = -1;
+    --running;
+    if (status != 0 && first_failure == 0) {
+      std::fprintf(stderr, "f16race launch: rank %d %s; the other ranks stop within %.0f s\n", r,
+                   describe(status).c_str(), o.timeout_s);
+      first_failure = exit_code(status);
+      deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<long>(o.timeout_s * 1000) + 5000);
+    }
+  }
+  g_children.clear();
+  if (first_failure != 0) throw ExitStatus{first_failure};
+}
+
+}  // namespace
+
+void add_launch_command(CLI::App& app, const int& threads_option) {
+  auto o = std::make_shared<LaunchOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "launch", "Start N ranks of a distributed subcommand on this host: f16race launch --nproc 2 -- tournament ...");
+  cmd->add_option("--nproc", o->nproc, "Ranks to start")->check(CLI::Range(1, 256));
+  cmd->add_option("--port", o->port,
+                  "The store's port on loopback, and the one after it (default: MASTER_PORT, else two free ones)")
+      ->check(CLI::Range(1, 65534));
+  cmd->add_option("--timeout", o->timeout_s, "Seconds a rank waits for a lost peer before it stops")
+      ->check(CLI::Range(1.0, 86400.0));
+  cmd->add_option("command", o->command, "The subcommand and its arguments, after --")->required();
+  const int* threads = &threads_option;
+  cmd->callback([o, threads]() { run_launch(*o, *threads); });
+}
+
+}  // namespace f16race::app

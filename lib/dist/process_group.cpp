@@ -1,0 +1,267 @@
+#include "dist/process_group.hpp"
+
+// The Gloo process group is compiled into Debian's libtorch_cpu; its header needs this switch
+// (Torch's CMake config sets it) and libgloo-dev's headers.
+#ifndef USE_C10D_GLOO
+#define USE_C10D_GLOO
+#endif
+#include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
+#include <torch/csrc/distributed/c10d/TCPStore.hpp>
+#include <torch/torch.h>
+
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "io/input_error.hpp"
+
+namespace f16race::dist {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(200);
+// A rank whose counter does not move for this long is taken for stopped (5 missed beats).
+constexpr auto kHeartbeatStale = std::chrono::milliseconds(1000);
+
+std::string first_line(const std::string& s) {
+  const std::string line = s.substr(0, s.find('\n'));
+  return line.size() > 200 ? line.substr(0, 200) + "..." : line;
+}
+
+long parse_long(const char* name, const char* text, long lo, long hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(text, &end, 10);
+  if (errno != 0 || end == text || *end != '\0' || v < lo || v > hi)
+    throw io::InputError(std::string(name) + "=" + text + ": expected an integer in [" + std::to_string(lo) + ", " +
+                         std::to_string(hi) + "]");
+  return v;
+}
+
+bool is_loopback(const std::string& host) {
+  return host == "localhost" || host.rfind("127.", 0) == 0 || host == "::1";
+}
+
+std::chrono::milliseconds millis(double seconds) {
+  return std::chrono::milliseconds(static_cast<std::int64_t>(seconds * 1000.0));
+}
+
+// Rank 0 serves two stores: the group's (MASTER_PORT: rendezvous, fingerprints, Gloo's own
+// rendezvous) and the heartbeats' (MASTER_PORT + 1). LibTorch 1.13's store resets every new
+// connection once Gloo has used it (measured), so the diagnosis of a lost rank, which connects
+// afresh, reads a store Gloo never touches.
+// `member`: the rank's own connection, counted in the rendezvous (rank 0's store waits for
+// every rank's); the heartbeat thread and the diagnosis open uncounted ones.
+enum class StoreUse { group, heartbeats };
+c10d::TCPStoreOptions store_options(const DistConfig& c, StoreUse use, bool member, std::chrono::milliseconds timeout) {
+  c10d::TCPStoreOptions o;
+  o.port = static_cast<std::uint16_t>(c.master_port + (use == StoreUse::heartbeats ? 1 : 0));
+  o.isServer = member && c.rank == 0;
+  o.numWorkers = member ? c10::optional<std::size_t>(static_cast<std::size_t>(c.world_size)) : c10::nullopt;
+  o.waitWorkers = member;
+  o.timeout = timeout;
+  return o;
+}
+
+std::string hb_key(int rank) { return "f16race/heartbeat/" + std::to_string(rank); }
+
+}  // namespace
+
+DistConfig dist_config_from_environment(DistConfig c) {
+  if (const char* v = std::getenv("WORLD_SIZE")) c.world_size = static_cast<int>(parse_long("WORLD_SIZE", v, 1, 4096));
+  if (const char* v = std::getenv("RANK")) c.rank = static_cast<int>(parse_long("RANK", v, 0, 4095));
+  if (const char* v = std::getenv("MASTER_ADDR")) c.master_addr = v;
+  if (const char* v = std::getenv("MASTER_PORT")) c.master_port = static_cast<int>(parse_long("MASTER_PORT", v, 1, 65534));
+  if (const char* v = std::getenv("F16RACE_DIST_TIMEOUT"))
+    c.timeout_s = static_cast<double>(parse_long("F16RACE_DIST_TIMEOUT", v, 1, 86400));
+  return c;
+}
+
+void validate(const DistConfig& c) {
+  if (c.world_size < 1) throw io::InputError("world size " + std::to_string(c.world_size) + ": must be at least 1");
+  if (c.rank < 0 || c.rank >= c.world_size)
+    throw io::InputError("rank " + std::to_string(c.rank) + " is outside a group of " + std::to_string(c.world_size) +
+                         ": RANK (--dist-rank) must be in [0, WORLD_SIZE - 1]");
+  if (c.master_port < 1 || c.master_port > 65534)
+    throw io::InputError("master port " + std::to_string(c.master_port) +
+                         ": MASTER_PORT must be in [1, 65534] (rank 0 also listens on the port after it)");
+  if (c.master_addr.empty()) throw io::InputError("MASTER_ADDR is empty: give rank 0's host name or address");
+  if (!(c.timeout_s >= 1.0)) throw io::InputError("distributed timeout must be at least 1 s");
+}
+
+std::uint64_t executable_hash() {
+  std::ifstream in("/proc/self/exe", std::ios::binary);
+  std::uint64_t h = 1469598103934665603ULL;
+  std::vector<char> buf(1 << 20);
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buf[static_cast<std::size_t>(i)]);
+      h *= 1099511628211ULL;
+    }
+  }
+  return h;
+}
+
+struct Group::Impl {
+  c10::intrusive_ptr<c10d::TCPStore> store;
+  c10::intrusive_ptr<c10d::TCPStore> beats;  // the heartbeats' store (rank 0 serves it)
+  c10::intrusive_ptr<c10d::ProcessGroupGloo> pg;
+  std::atomic<bool> stop{false};
+  std::thread heartbeat;
+};
+
+Group::Group(const DistConfig& config, const std::string& fingerprint) : config_(config), impl_(std::make_unique<Impl>()) {
+  validate(config_);
+  const DistConfig& c = config_;
+  const std::string where = c.master_addr + ":" + std::to_string(c.master_port);
+  const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
+  try {
+    impl_->store = c10::make_intrusive<c10d::TCPStore>(c.master_addr,
+                                                       store_options(c, StoreUse::group, true, millis(c.timeout_s)));
+    impl_->beats = c10::make_intrusive<c10d::TCPStore>(
+        c.master_addr, store_options(c, StoreUse::heartbeats, true, millis(c.timeout_s)));
+  } catch (const std::exception& e) {
+    if (c.rank == 0)
+      throw io::InputError(me + ": cannot serve the stores on " + where + " and the port after it (" +
+                           first_line(e.what()) + "): is one in use? choose another MASTER_PORT (--dist-port)");
+    throw io::InputError(me + ": no group at " + where + " within " + std::to_string(static_cast<int>(c.timeout_s)) +
+                         " s (" + first_line(e.what()) + "): start rank 0 there, or fix MASTER_ADDR/MASTER_PORT");
+  }
+  // Heartbeats on a connection of their own (the store client is not shared across threads).
+  impl_->beats->add(hb_key(c.rank), 1);
+  impl_->heartbeat = std::thread([this, c]() {
+    try {
+      c10d::TCPStore beat(c.master_addr, store_options(c, StoreUse::heartbeats, false, std::chrono::seconds(5)));
+      while (!impl_->stop.load()) {
+        beat.add(hb_key(c.rank), 1);
+        std::this_thread::sleep_for(kHeartbeatPeriod);
+      }
+    } catch (const std::exception&) {
+      // The store's host is gone: the next collective fails and lost() names rank 0.
+    }
+  });
+
+  // Everything that must agree (options, binary): rank 0 compares every rank's with its own.
+  const std::string fp_key = "f16race/fingerprint/";
+  impl_->store->set(fp_key + std::to_string(c.rank), std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
+  std::string verdict = "ok";
+  if (c.rank == 0) {
+    for (int q = 1; q < c.world_size && verdict == "ok"; ++q) {
+      const auto other = impl_->store->get(fp_key + std::to_string(q));
+      const std::string theirs(other.begin(), other.end());
+      if (theirs == fingerprint) continue;
+      std::istringstream a(fingerprint), b(theirs);
+      std::string la, lb;
+      while (std::getline(a, la) && std::getline(b, lb) && la == lb) {
+      }
+      verdict = "rank " + std::to_string(q) + " runs another command or build than rank 0 (rank 0: '" +
+                first_line(la) + "', rank " + std::to_string(q) + ": '" + first_line(lb) +
+                "'): start every rank with the same binary and arguments";
+    }
+    impl_->store->set("f16race/verdict", std::vector<std::uint8_t>(verdict.begin(), verdict.end()));
+  } else {
+    const auto v = impl_->store->get("f16race/verdict");
+    verdict.assign(v.begin(), v.end());
+  }
+  if (verdict != "ok") {
+    impl_->stop = true;
+    impl_->heartbeat.join();
+    throw io::InputError(me + ": " + verdict);
+  }
+
+  auto options = c10d::ProcessGroupGloo::Options::create(millis(c.timeout_s));
+  if (const char* ifname = std::getenv("GLOO_SOCKET_IFNAME"))
+    options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForInterface(ifname));
+  else if (is_loopback(c.master_addr))
+    options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForHostname("127.0.0.1"));
+  else
+    options->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
+  try {
+    impl_->pg = c10::make_intrusive<c10d::ProcessGroupGloo>(impl_->store, c.rank, c.world_size, options);
+  } catch (const std::exception& e) {
+    lost(e);
+  }
+}
+
+Group::~Group() {
+  impl_->stop = true;
+  if (impl_->heartbeat.joinable()) impl_->heartbeat.join();
+}
+
+void Group::lost(const std::exception& cause) {
+  const DistConfig& c = config_;
+  const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
+  std::string who;
+  try {
+    // Which ranks stopped beating: two reads of every counter, kHeartbeatStale apart.
+    c10d::TCPStore probe(c.master_addr, store_options(c, StoreUse::heartbeats, false, std::chrono::seconds(3)));
+    std::vector<std::int64_t> before(c.world_size);
+    for (int q = 0; q < c.world_size; ++q) before[q] = probe.add(hb_key(q), 0);
+    std::this_thread::sleep_for(kHeartbeatStale);
+    for (int q = 0; q < c.world_size; ++q)
+      if (q != c.rank && probe.add(hb_key(q), 0) == before[q]) who += (who.empty() ? "" : ", ") + std::to_string(q);
+    if (!who.empty()) who = "rank " + who + " stopped (no heartbeat for 1 s: its process ended or hangs)";
+  } catch (const std::exception& e) {
+    who = c.rank != 0 ? "rank 0 stopped (its store at " + c.master_addr + ":" + std::to_string(c.master_port + 1) +
+                            " is gone)"
+                      : "the group's heartbeats could not be read (" + first_line(e.what()) + ")";
+  }
+  if (who.empty())
+    who = "a collective failed with every rank's heartbeat alive (a rank is stuck, or the network between hosts is "
+          "blocked: GLOO_SOCKET_IFNAME)";
+  throw PeerLost(me + ": " + who + "; stopping (" + first_line(cause.what()) + ")");
+}
+
+void Group::allreduce_sum(std::vector<std::int64_t>& values) {
+  if (values.empty()) return;
+  c10::InferenceMode normal_tensors(false);  // Gloo updates them in place on its own thread
+  std::vector<at::Tensor> t{torch::from_blob(values.data(), {static_cast<std::int64_t>(values.size())}, torch::kInt64)};
+  try {
+    impl_->pg->allreduce(t)->wait();
+  } catch (const std::exception& e) {
+    lost(e);
+  }
+}
+
+void Group::allreduce_sum(std::vector<double>& values) {
+  if (values.empty()) return;
+  c10::InferenceMode normal_tensors(false);
+  std::vector<at::Tensor> t{torch::from_blob(values.data(), {static_cast<std::int64_t>(values.size())}, torch::kFloat64)};
+  try {
+    impl_->pg->allreduce(t)->wait();
+  } catch (const std::exception& e) {
+    lost(e);
+  }
+}
+
+std::vector<double> Group::allgather(const std::vector<double>& mine) {
+  const auto n = static_cast<std::int64_t>(mine.size());
+  std::vector<double> all(mine.size() * static_cast<std::size_t>(size()));
+  if (mine.empty()) return all;
+  c10::InferenceMode normal_tensors(false);
+  std::vector<at::Tensor> in{torch::from_blob(const_cast<double*>(mine.data()), {n}, torch::kFloat64)};
+  std::vector<std::vector<at::Tensor>> out(1);
+  for (int q = 0; q < size(); ++q) out[0].push_back(torch::from_blob(all.data() + q * n, {n}, torch::kFloat64));
+  try {
+    impl_->pg->allgather(out, in)->wait();
+  } catch (const std::exception& e) {
+    lost(e);
+  }
+  return all;
+}
+
+void Group::barrier() {
+  try {
+    impl_->pg->barrier()->wait();
+  } catch (const std::exception& e) {
+    lost(e);
+  }
+}
+
+}  // namespace f16race::dist
