@@ -84,6 +84,10 @@ int exit_code(int status) { return WIFSIGNALED(status) ? 128 + WTERMSIG(status) 
 void run_launch(const LaunchOptions& o, int threads_option) {
   if (o.command.empty()) throw io::InputError("launch: give the subcommand after --, e.g. f16race launch --nproc 2 -- tournament --runs ...");
   if (o.command.front() == "launch") throw io::InputError("launch: the command after -- cannot be launch itself");
+  // Subcommands that run as ranks of a group; any other would run N times over the same outputs.
+  if (o.command.front() != "tournament")
+    throw io::InputError("launch: '" + o.command.front() + "' does not run over ranks; today only tournament does "
+                         "(train is one process: docs/distributed.md)");
   int port = o.port;
   if (port == 0) {
     const char* env = std::getenv("MASTER_PORT");

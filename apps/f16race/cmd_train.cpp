@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "dist/process_group.hpp"
 #include "progress_bar.hpp"
 #include "io/run_folder.hpp"
 #include "io/yaml_config.hpp"
@@ -69,6 +70,11 @@ Trend trend(const std::vector<train::MetricsRow>& rows, double train::MetricsRow
 }
 
 void run_train(const TrainOptions& o) {
+  // N copies of one run would fight over its folder: training is one process until issue 18's
+  // data-parallel part exists (docs/distributed.md).
+  if (dist::dist_config_from_environment().world_size > 1)
+    throw io::InputError("train runs as one process (WORLD_SIZE > 1 is set): data-parallel training is not built "
+                         "yet; unset WORLD_SIZE (see docs/distributed.md)");
   spdlog::set_level(spdlog::level::from_str(o.log_level));
   // Torch's intra-op pool and the simulator's OpenMP never run at the same time; one count.
   const int threads = omp_get_max_threads();

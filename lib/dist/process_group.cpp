@@ -19,9 +19,22 @@
 
 #include "io/input_error.hpp"
 
+// glog's threshold (libc10 logs through Debian's glog): c10d's sockets log every failed connect
+// attempt with a glog banner, which would bury this program's one-line message.
+namespace fLI {
+extern int FLAGS_minloglevel;
+}
+
 namespace f16race::dist {
 
 namespace {
+
+// Quiets glog for its lifetime (FATAL only), for the connects whose failure we report ourselves.
+struct QuietGlog {
+  int saved = fLI::FLAGS_minloglevel;
+  QuietGlog() { fLI::FLAGS_minloglevel = 3; }
+  ~QuietGlog() { fLI::FLAGS_minloglevel = saved; }
+};
 
 using Clock = std::chrono::steady_clock;
 constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(200);
@@ -122,6 +135,7 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
   const std::string where = c.master_addr + ":" + std::to_string(c.master_port);
   const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
   try {
+    QuietGlog quiet;
     impl_->store = c10::make_intrusive<c10d::TCPStore>(c.master_addr,
                                                        store_options(c, StoreUse::group, true, millis(c.timeout_s)));
     impl_->beats = c10::make_intrusive<c10d::TCPStore>(
@@ -198,6 +212,7 @@ void Group::lost(const std::exception& cause) {
   const DistConfig& c = config_;
   const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
   std::string who;
+  QuietGlog quiet;
   try {
     // Which ranks stopped beating: two reads of every counter, kHeartbeatStale apart.
     c10d::TCPStore probe(c.master_addr, store_options(c, StoreUse::heartbeats, false, std::chrono::seconds(3)));

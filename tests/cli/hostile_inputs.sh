@@ -94,6 +94,15 @@ case_ "tournament one entry" -- "$bin" tournament --runs "$run" --no-untrained -
 case_ "tournament rule typo" -- "$bin" tournament --runs "$run@centre" --out t8
 case_ "tournament out under a device" -- "$bin" tournament --runs "$run" --races 2 --out /dev/null/t9
 case_ "tournament negative seed" -- "$bin" tournament --runs "$run" --seed -1 --out t10
+case_ "tournament rank outside the group" -- env WORLD_SIZE=2 RANK=2 "$bin" tournament --runs "$run" --out t11
+case_ "tournament world size text" -- env WORLD_SIZE=two "$bin" tournament --runs "$run" --out t12
+case_ "tournament master port 0" -- env WORLD_SIZE=2 MASTER_PORT=0 "$bin" tournament --runs "$run" --out t13
+case_ "tournament no group there" -- "$bin" tournament --runs "$run" --dist-world-size 2 --dist-rank 1 --dist-port 1 --dist-timeout 1 --out t14
+case_ "launch without a command" -- "$bin" launch --nproc 2
+case_ "launch 0 ranks" -- "$bin" launch --nproc 0 -- tournament --runs "$run"
+case_ "launch itself" -- "$bin" launch --nproc 2 -- launch --nproc 2 -- race
+case_ "launch train" -- "$bin" launch --nproc 2 -- train --config "$smoke" --run "$work/ln"
+case_ "train in a group" -- env WORLD_SIZE=2 "$bin" train --config "$smoke" --run "$work/wn"
 case_ "replay missing run" -- "$bin" replay --run "$work/nothing" --out r1
 case_ "replay bad opponent" -- "$bin" replay --run "$run" --opponent bogus --out r2
 case_ "replay negative seed" -- "$bin" replay --run "$run" --seed -1 --out r3
