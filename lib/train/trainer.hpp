@@ -7,7 +7,8 @@
 //   RUN/checkpoint/LATEST    name of the newest complete checkpoint folder
 //   RUN/checkpoint/step_N/   ll.pt, hl.pt, trainer.pt (env, streams, counters), meta.yaml
 //   RUN/pool/step_N/         self-play snapshots (ll.pt, hl.pt)
-//   RUN/curves.png           learning curves from metrics.csv, redrawn at every checkpoint
+//   RUN/curves.png           learning curves from metrics.csv, redrawn at a checkpoint at most
+//                            every 30 s and at the last one
 //                            (curves.gp, curves_data.csv beside it)
 #include <atomic>
 #include <cmath>
