@@ -179,9 +179,21 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
                 "'): start every rank with the same binary and arguments";
     }
     impl_->store->set("f16race/verdict", std::vector<std::uint8_t>(verdict.begin(), verdict.end()));
+    // Rank 0 serves the store: it stays until every rank has read the verdict, so a refused
+    // rank hears why instead of losing the connection.
+    if (verdict != "ok") {
+      std::vector<std::string> read;
+      for (int q = 1; q < c.world_size; ++q) read.push_back("f16race/verdict_read/" + std::to_string(q));
+      try {
+        impl_->store->wait(read);
+      } catch (const std::exception&) {
+        // A rank that never reads it stops at its own timeout; this one has its message.
+      }
+    }
   } else {
     const auto v = impl_->store->get("f16race/verdict");
     verdict.assign(v.begin(), v.end());
+    impl_->store->set("f16race/verdict_read/" + std::to_string(c.rank), std::vector<std::uint8_t>{1});
   }
   if (verdict != "ok") {
     impl_->stop = true;
