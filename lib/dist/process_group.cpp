@@ -127,6 +127,11 @@ struct Group::Impl {
   c10::intrusive_ptr<c10d::ProcessGroupGloo> pg;
   std::atomic<bool> stop{false};
   std::thread heartbeat;
+  // Also when the Group's constructor throws after the heartbeat started.
+  ~Impl() {
+    stop = true;
+    if (heartbeat.joinable()) heartbeat.join();
+  }
 };
 
 Group::Group(const DistConfig& config, const std::string& fingerprint) : config_(config), impl_(std::make_unique<Impl>()) {
@@ -149,10 +154,11 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
   }
   // Heartbeats on a connection of their own (the store client is not shared across threads).
   impl_->beats->add(hb_key(c.rank), 1);
-  impl_->heartbeat = std::thread([this, c]() {
+  Impl* impl = impl_.get();
+  impl_->heartbeat = std::thread([impl, c]() {
     try {
       c10d::TCPStore beat(c.master_addr, store_options(c, StoreUse::heartbeats, false, std::chrono::seconds(5)));
-      while (!impl_->stop.load()) {
+      while (!impl->stop.load()) {
         beat.add(hb_key(c.rank), 1);
         std::this_thread::sleep_for(kHeartbeatPeriod);
       }
@@ -163,8 +169,9 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
 
   // Everything that must agree (options, binary): rank 0 compares every rank's with its own.
   const std::string fp_key = "f16race/fingerprint/";
-  impl_->store->set(fp_key + std::to_string(c.rank), std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
   std::string verdict = "ok";
+  try {  // a rank lost during the exchange is reported as any lost rank
+  impl_->store->set(fp_key + std::to_string(c.rank), std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
   if (c.rank == 0) {
     for (int q = 1; q < c.world_size && verdict == "ok"; ++q) {
       const auto other = impl_->store->get(fp_key + std::to_string(q));
@@ -195,16 +202,20 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
     verdict.assign(v.begin(), v.end());
     impl_->store->set("f16race/verdict_read/" + std::to_string(c.rank), std::vector<std::uint8_t>{1});
   }
-  if (verdict != "ok") {
-    impl_->stop = true;
-    impl_->heartbeat.join();
-    throw io::InputError(me + ": " + verdict);
+  } catch (const std::exception& e) {
+    lost(e);
   }
+  if (verdict != "ok") throw io::InputError(me + ": " + verdict);
 
   auto options = c10d::ProcessGroupGloo::Options::create(millis(c.timeout_s));
-  if (const char* ifname = std::getenv("GLOO_SOCKET_IFNAME"))
-    options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForInterface(ifname));
-  else if (is_loopback(c.master_addr))
+  if (const char* ifname = std::getenv("GLOO_SOCKET_IFNAME")) {
+    try {
+      options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForInterface(ifname));
+    } catch (const std::exception& e) {
+      throw io::InputError(me + ": GLOO_SOCKET_IFNAME=" + ifname + " is not a usable interface (" +
+                           first_line(e.what()) + "): name one that `ip link` lists, or unset it");
+    }
+  } else if (is_loopback(c.master_addr))
     options->devices.push_back(c10d::ProcessGroupGloo::createDeviceForHostname("127.0.0.1"));
   else
     options->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
@@ -215,10 +226,7 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
   }
 }
 
-Group::~Group() {
-  impl_->stop = true;
-  if (impl_->heartbeat.joinable()) impl_->heartbeat.join();
-}
+Group::~Group() = default;
 
 void Group::lost(const std::exception& cause) {
   const DistConfig& c = config_;
@@ -233,7 +241,7 @@ void Group::lost(const std::exception& cause) {
     std::this_thread::sleep_for(kHeartbeatStale);
     for (int q = 0; q < c.world_size; ++q)
       if (q != c.rank && probe.add(hb_key(q), 0) == before[q]) who += (who.empty() ? "" : ", ") + std::to_string(q);
-    if (!who.empty()) who = "rank " + who + " stopped (no heartbeat for 1 s: its process ended or hangs)";
+    if (!who.empty()) who = "rank " + who + " is not running (no heartbeat for 1 s: its process ended, hangs or never joined)";
   } catch (const std::exception& e) {
     who = c.rank != 0 ? "rank 0 stopped (its store at " + c.master_addr + ":" + std::to_string(c.master_port + 1) +
                             " is gone)"

@@ -101,6 +101,7 @@ case_ "tournament no group there" -- "$bin" tournament --runs "$run" --dist-worl
 case_ "launch without a command" -- "$bin" launch --nproc 2
 case_ "launch 0 ranks" -- "$bin" launch --nproc 0 -- tournament --runs "$run"
 case_ "launch itself" -- "$bin" launch --nproc 2 -- launch --nproc 2 -- race
+case_ "tournament unknown network interface" -- env GLOO_SOCKET_IFNAME=nope0 "$bin" launch --nproc 2 --timeout 5 -- tournament --runs "$run" --races 2 --batch 2 --out t15
 case_ "launch train" -- "$bin" launch --nproc 2 -- train --config "$smoke" --run "$work/ln"
 case_ "train in a group" -- env WORLD_SIZE=2 "$bin" train --config "$smoke" --run "$work/wn"
 case_ "replay missing run" -- "$bin" replay --run "$work/nothing" --out r1

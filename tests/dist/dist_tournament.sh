@@ -64,7 +64,7 @@ for sig in KILL STOP; do
   kill -KILL "$victim" 2>/dev/null || true
   took=$(( $(date +%s) - start ))
   [ $rc -ne 0 ] || fail "$sig: the group exited 0 after losing rank 1"
-  grep -q "rank 0 of 2: rank 1 stopped" "$work/lost_$sig.log" || fail "$sig: no line naming rank 1: $(tail -n 4 "$work/lost_$sig.log")"
+  grep -q "rank 0 of 2: rank 1 is not running" "$work/lost_$sig.log" || fail "$sig: no line naming rank 1: $(tail -n 4 "$work/lost_$sig.log")"
   [ ! -e "$work/lost_$sig/races.csv" ] || fail "$sig: a report was written from a partial tournament"
   [ $took -lt 30 ] || fail "$sig: the group took $took s to stop"
   echo "$sig: rank 0 stopped $took s after rank 1 was lost: $(grep "rank 0 of 2" "$work/lost_$sig.log" | cut -c1-120)"
