@@ -253,50 +253,42 @@ void Group::lost(const std::exception& cause) {
   throw PeerLost(me + ": " + who + "; stopping (" + first_line(cause.what()) + ")");
 }
 
-void Group::allreduce_sum(std::vector<std::int64_t>& values) {
-  if (values.empty()) return;
-  c10::InferenceMode normal_tensors(false);  // Gloo updates them in place on its own thread
-  std::vector<at::Tensor> t{torch::from_blob(values.data(), {static_cast<std::int64_t>(values.size())}, torch::kInt64)};
+void Group::collective(const std::function<void()>& op) {
+  c10::InferenceMode normal_tensors(false);  // Gloo updates its tensors in place on its own thread
   try {
-    impl_->pg->allreduce(t)->wait();
+    op();
   } catch (const std::exception& e) {
     lost(e);
   }
 }
 
-void Group::allreduce_sum(std::vector<double>& values) {
-  if (values.empty()) return;
-  c10::InferenceMode normal_tensors(false);
-  std::vector<at::Tensor> t{torch::from_blob(values.data(), {static_cast<std::int64_t>(values.size())}, torch::kFloat64)};
-  try {
+void Group::allreduce_sum(void* data, std::size_t n, bool is_double) {
+  if (n == 0) return;
+  collective([&]() {
+    std::vector<at::Tensor> t{torch::from_blob(data, {static_cast<std::int64_t>(n)},
+                                               is_double ? torch::kFloat64 : torch::kInt64)};
     impl_->pg->allreduce(t)->wait();
-  } catch (const std::exception& e) {
-    lost(e);
-  }
+  });
 }
+
+void Group::allreduce_sum(std::vector<std::int64_t>& values) { allreduce_sum(values.data(), values.size(), false); }
+void Group::allreduce_sum(std::vector<double>& values) { allreduce_sum(values.data(), values.size(), true); }
 
 std::vector<double> Group::allgather(const std::vector<double>& mine) {
   const auto n = static_cast<std::int64_t>(mine.size());
   std::vector<double> all(mine.size() * static_cast<std::size_t>(size()));
   if (mine.empty()) return all;
-  c10::InferenceMode normal_tensors(false);
-  std::vector<at::Tensor> in{torch::from_blob(const_cast<double*>(mine.data()), {n}, torch::kFloat64)};
-  std::vector<std::vector<at::Tensor>> out(1);
-  for (int q = 0; q < size(); ++q) out[0].push_back(torch::from_blob(all.data() + q * n, {n}, torch::kFloat64));
-  try {
+  collective([&]() {
+    std::vector<at::Tensor> in{torch::from_blob(const_cast<double*>(mine.data()), {n}, torch::kFloat64)};
+    std::vector<std::vector<at::Tensor>> out(1);
+    for (int q = 0; q < size(); ++q) out[0].push_back(torch::from_blob(all.data() + q * n, {n}, torch::kFloat64));
     impl_->pg->allgather(out, in)->wait();
-  } catch (const std::exception& e) {
-    lost(e);
-  }
+  });
   return all;
 }
 
 void Group::barrier() {
-  try {
-    impl_->pg->barrier()->wait();
-  } catch (const std::exception& e) {
-    lost(e);
-  }
+  collective([&]() { impl_->pg->barrier()->wait(); });
 }
 
 }  // namespace f16race::dist

@@ -7,6 +7,7 @@
 // A lost peer never hangs the group: every rank beats a heartbeat counter in the store, and a
 // collective that fails or times out is reported as one line naming the rank(s) that stopped.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -59,6 +60,9 @@ class Group {
   DistConfig config_;
   std::unique_ptr<Impl> impl_;
   [[noreturn]] void lost(const std::exception& cause);
+  // One collective: runs `op` and turns any failure into lost().
+  void collective(const std::function<void()>& op);
+  void allreduce_sum(void* data, std::size_t n, bool is_double);
 };
 
 // FNV-1a of this process's executable file: ranks must run the same build.

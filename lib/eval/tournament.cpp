@@ -254,6 +254,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   };
   long done_games = 0, reported = 0;
   int active = n;
+  std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
   while (active > 0) {
     bool due = false;
     for (int e = 0; e < nl; ++e) due = due || (env.hl_due()[e] && env_game[lo + e] >= 0);
@@ -275,7 +276,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     for (int e = 0; e < nl; ++e) t_before[e] = env.race_time_s(e);
     env.step(actions.data());
     blocks.after_step(race::block_view(env));
-    std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
+    std::fill(ended.begin(), ended.end(), 0);
     for (int e = 0; e < nl; ++e) {
       if (env_game[lo + e] < 0) continue;
       for (int a = 0; a < n_agent; ++a)
