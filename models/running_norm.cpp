@@ -1,6 +1,7 @@
 #include "models/running_norm.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -19,41 +20,105 @@ RunningNormImpl::RunningNormImpl(int64_t dim, double clip, double eps) : dim_(di
 
 void RunningNormImpl::update(const torch::Tensor& x) { update_rows(x, torch::Tensor()); }
 
-void RunningNormImpl::update_rows(const torch::Tensor& x_in, const torch::Tensor& keep_in) {
+void RunningNormImpl::update_rows(const torch::Tensor& x, const torch::Tensor& keep) {
+  std::vector<double> moments;
+  batch_moments(x, keep, &moments);
+  merge_moments(moments.data());
+}
+
+void RunningNormImpl::batch_moments(const torch::Tensor& x_in, const torch::Tensor& keep_in,
+                                    std::vector<double>* out) const {
   check_tensor(x_in, "x", {-1, dim_}, torch::kFloat32);
   const auto x = x_in.contiguous();
   const auto keep = keep_in.defined() ? keep_in.contiguous() : keep_in;
   const int64_t rows = x.size(0), d = dim_;
   const float* xp = x.data_ptr<float>();
   const bool* kp = keep.defined() ? keep.data_ptr<bool>() : nullptr;
+  const std::size_t at = out->size();
+  out->resize(at + 1 + 2 * static_cast<std::size_t>(d), 0.0);
+  double* batch_mean = out->data() + at + 1;
+  double* batch_m2 = batch_mean + d;
   int64_t n = 0;
-  std::vector<double> batch_mean(static_cast<std::size_t>(d), 0.0), batch_m2(static_cast<std::size_t>(d), 0.0);
   for (int64_t i = 0; i < rows; ++i) {
     if (kp != nullptr && !kp[i]) continue;
     ++n;
     for (int64_t c = 0; c < d; ++c) batch_mean[c] += xp[i * d + c];
   }
+  (*out)[at] = static_cast<double>(n);
   if (n == 0) return;
   for (int64_t c = 0; c < d; ++c) batch_mean[c] /= static_cast<double>(n);
-  for (int64_t i = 0; i < rows; ++i) {  // second pass: the biased variance about the batch mean
+  for (int64_t i = 0; i < rows; ++i) {  // second pass: squared deviations about the batch mean
     if (kp != nullptr && !kp[i]) continue;
     for (int64_t c = 0; c < d; ++c) {
       const double dev = xp[i * d + c] - batch_mean[c];
       batch_m2[c] += dev * dev;
     }
   }
+}
+
+void RunningNormImpl::merge_moments(const double* moments) {
+  const double batch_count = moments[0];
+  if (batch_count == 0.0) return;
+  const double* batch_mean = moments + 1;
+  const double* batch_m2 = batch_mean + dim_;
   // Chan et al.'s merge of (count, mean, var) with the batch, as gym's RunningMeanStd.
   torch::NoGradGuard no_grad;
   double* mean = mean_.data_ptr<double>();
   double* var = var_.data_ptr<double>();
-  const double count = count_.item<double>(), batch_count = static_cast<double>(n), total = count + batch_count;
-  for (int64_t c = 0; c < d; ++c) {
+  const double count = count_.item<double>(), total = count + batch_count;
+  for (int64_t c = 0; c < dim_; ++c) {
     const double delta = batch_mean[c] - mean[c];
     const double m2 = var[c] * count + batch_m2[c] + delta * delta * (count * batch_count / total);
     mean[c] += delta * (batch_count / total);
     var[c] = m2 / total;
   }
   count_.fill_(total);
+}
+
+namespace {
+// Moments b (as batch_moments writes them, width d) merged into a, Chan et al.: the moments of
+// the union of both batches.
+void combine_moments(double* a, const double* b, int64_t d) {
+  const double na = a[0], nb = b[0], n = na + nb;
+  if (nb == 0.0) return;
+  if (na == 0.0) {
+    std::copy(b, b + 1 + 2 * d, a);
+    return;
+  }
+  for (int64_t c = 0; c < d; ++c) {
+    const double delta = b[1 + c] - a[1 + c];
+    a[1 + d + c] += b[1 + d + c] + delta * delta * (na * nb / n);
+    a[1 + c] += delta * (nb / n);
+  }
+  a[0] = n;
+}
+}  // namespace
+
+void ObsNormalizerImpl::update_replicated(const torch::Tensor& ego, const torch::Tensor& extra,
+                                          const torch::Tensor& ado, const torch::Tensor& alive,
+                                          const torch::Tensor& task) {
+  const std::array<RunningNorm*, 4> norms{&ego_, &extra_, &ado_norm_, &task_};
+  std::vector<double> mine;
+  ego_->batch_moments(ego, torch::Tensor(), &mine);
+  extra_->batch_moments(extra, torch::Tensor(), &mine);
+  ado_norm_->batch_moments(ado.reshape({-1, dims_.d_ado}), alive.reshape({-1}), &mine);
+  task_->batch_moments(task, torch::Tensor(), &mine);
+  const std::vector<double> all = gather_(mine);
+  TORCH_CHECK(!all.empty() && all.size() % mine.size() == 0, "ObsNormalizer: the replicas' moments do not line up");
+  const std::size_t width = mine.size(), replicas = all.size() / width;
+  std::vector<double> pooled(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(width));
+  for (std::size_t r = 1; r < replicas; ++r) {
+    std::size_t at = 0;
+    for (RunningNorm* norm : norms) {
+      combine_moments(pooled.data() + at, all.data() + r * width + at, (*norm)->dim());
+      at += 1 + 2 * static_cast<std::size_t>((*norm)->dim());
+    }
+  }
+  std::size_t at = 0;
+  for (RunningNorm* norm : norms) {
+    (*norm)->merge_moments(pooled.data() + at);
+    at += 1 + 2 * static_cast<std::size_t>((*norm)->dim());
+  }
 }
 
 torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const { return normalize_rows(x, torch::Tensor()); }
@@ -105,6 +170,10 @@ torch::Tensor ObsNormalizerImpl::ado_(const torch::Tensor& ado, const torch::Ten
 HlObs ObsNormalizerImpl::normalize(const HlObs& obs, bool update_stats) {
   check_obs(obs, dims_);
   torch::NoGradGuard no_grad;
+  if (update_stats && gather_) {
+    update_replicated(obs.ego, obs.prev_action, obs.ado, obs.ado_alive, obs.task);
+    update_stats = false;
+  }
   if (update_stats) {
     ego_->update(obs.ego);
     extra_->update(obs.prev_action);
@@ -117,6 +186,10 @@ HlObs ObsNormalizerImpl::normalize(const HlObs& obs, bool update_stats) {
 LlObs ObsNormalizerImpl::normalize(const LlObs& obs, bool update_stats) {
   check_obs(obs, dims_);
   torch::NoGradGuard no_grad;
+  if (update_stats && gather_) {
+    update_replicated(obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task);
+    update_stats = false;
+  }
   if (update_stats) {
     ego_->update(obs.ego);
     extra_->update(obs.goal);

@@ -9,6 +9,9 @@
 //                      alive rows only and dead rows normalise to 0.
 #include <torch/torch.h>
 
+#include <functional>
+#include <vector>
+
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -22,6 +25,12 @@ class RunningNormImpl : public torch::nn::Module {
   // only, and the other rows normalise to exact zeros (dead aircraft in o_ado).
   void update_rows(const torch::Tensor& x, const torch::Tensor& keep);
   torch::Tensor normalize_rows(const torch::Tensor& x, const torch::Tensor& keep) const;
+  // update_rows in two halves, for replicas that pool their batches first: a batch's moments
+  // appended to `out` as [n, mean (dim), m2 (dim)] (m2: summed squared deviations), and the merge
+  // of such moments into the statistics (n = 0: nothing).
+  void batch_moments(const torch::Tensor& x, const torch::Tensor& keep, std::vector<double>* out) const;
+  void merge_moments(const double* moments);
+  int64_t dim() const { return dim_; }
   const torch::Tensor& mean() const { return mean_; }
   // The float32 terms normalize() applies: (x - mean) * inv_std, clamped to +-clip.
   torch::Tensor mean_f32() const { return mean_.to(torch::kFloat32); }
@@ -37,9 +46,16 @@ class RunningNormImpl : public torch::nn::Module {
 };
 TORCH_MODULE(RunningNorm);
 
+// Every replica's moments (the same length on each), concatenated in replica order; issue 18's
+// data-parallel ranks set one so that their statistics absorb every rank's batch at once.
+using MomentsGather = std::function<std::vector<double>(const std::vector<double>&)>;
+
 class ObsNormalizerImpl : public torch::nn::Module {
  public:
   explicit ObsNormalizerImpl(const ObsDims& dims, double clip = 10.0);
+  // With a gather, an update absorbs the union of every replica's batch (merged in replica
+  // order), so replicas keep equal statistics; without one (the default), this batch alone.
+  void set_moments_gather(MomentsGather gather) { gather_ = std::move(gather); }
   // Normalised copy of `obs`; with update_stats the statistics first absorb this batch.
   HlObs normalize(const HlObs& obs, bool update_stats);
   LlObs normalize(const LlObs& obs, bool update_stats);
@@ -51,6 +67,10 @@ class ObsNormalizerImpl : public torch::nn::Module {
 
  private:
   torch::Tensor ado_(const torch::Tensor& ado, const torch::Tensor& alive, bool update_stats);
+  // The four fields' statistics absorb every replica's batch (one gather for all four).
+  void update_replicated(const torch::Tensor& ego, const torch::Tensor& extra, const torch::Tensor& ado,
+                         const torch::Tensor& alive, const torch::Tensor& task);
+  MomentsGather gather_;
   ObsDims dims_;
   RunningNorm ego_{nullptr}, extra_{nullptr}, ado_norm_{nullptr}, task_{nullptr};
 };

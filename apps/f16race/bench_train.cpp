@@ -11,10 +11,13 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
+#include "dist/process_group.hpp"
+#include "dist_options.hpp"
 #include "io/yaml_config.hpp"
 #include "agents/expected_sarsa.hpp"
 #include "network_cost.hpp"
@@ -31,6 +34,7 @@ struct TrainBenchOptions {
   std::vector<std::string> overrides;
   long long updates = 20;
   bool json = false;
+  int nproc = 1;  // >1: as a group of ranks on this host (issue 18)
 };
 
 // The network floor: the run's network work (rows through each network, in calls of their mean
@@ -73,7 +77,77 @@ NetworkFloor network_floor(const train::TrainConfig& cfg, const train::TrainSumm
   return f;
 }
 
-void run_bench_train(const TrainBenchOptions& o) {
+// `bench train` as one rank of a group (started by --nproc through launch): the group trains one
+// run; each rank reports its own throughput and its time inside collectives, rank 0 prints them.
+// On one host the ranks share its cores, so this measures the cost of the group, not a speed-up.
+void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc) {
+  torch::set_num_threads(omp_get_max_threads());
+  std::ostringstream fp;
+  fp << "binary " << std::hex << dist::executable_hash() << std::dec << "\nbench train --updates " << o.updates;
+  for (const std::string& c : o.configs) fp << "\n--config " << c;
+  for (const std::string& v : o.overrides) fp << "\n--set " << v;
+  dist::Group group(dc, fp.str());
+  const bool lead = group.rank() == 0;
+  if (lead && !o.json)
+    std::printf("f16race bench train: %lld updates per config, a group of %d ranks x %d threads on this host\n",
+                o.updates, group.size(), omp_get_max_threads());
+  for (const std::string& path : o.configs) {
+    const train::TrainConfig cfg = train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path);
+    const std::string dir =
+        (std::filesystem::temp_directory_path() / ("f16race_bench_train." + std::to_string(::getpid()))).string();
+    if (lead) std::filesystem::remove_all(dir);
+    double total_s = 0.0;
+    std::vector<double> mine;
+    std::int64_t env_steps = 0;
+    {
+      train::Trainer trainer(cfg, dir, &group);
+      const train::TrainSummary s = trainer.run(nullptr, o.updates);
+      const int n_agent = 2 * cfg.race.team_size;
+      total_s = s.time.total;
+      env_steps = s.env_steps;
+      mine = {static_cast<double>(s.rank_env_steps) * n_agent / s.time.total, s.communication_s / s.time.total,
+              s.time.total};
+    }
+    if (lead) std::filesystem::remove_all(dir);
+    const std::vector<double> all = group.allgather(mine);
+    if (!lead) continue;
+    const int n_agent = 2 * cfg.race.team_size;
+    double slowest = total_s;
+    for (int r = 0; r < group.size(); ++r) slowest = std::max(slowest, all[3 * r + 2]);
+    const double rate = static_cast<double>(env_steps) * n_agent / slowest;
+    if (o.json) {
+      std::string per_rank, comm;
+      for (int r = 0; r < group.size(); ++r) {
+        per_rank += (r ? ", " : "") + std::to_string(all[3 * r]);
+        comm += (r ? ", " : "") + std::to_string(all[3 * r + 1]);
+      }
+      std::printf("{\"bench\": \"train\", \"config\": \"%s\", \"envs\": %d, \"ranks\": %d, \"threads_per_rank\": %d, "
+                  "\"aircraft_steps_per_s\": %.6g, \"per_rank_aircraft_steps_per_s\": [%s], "
+                  "\"communication_share\": [%s]}\n",
+                  path.c_str(), cfg.race.n_env, group.size(), omp_get_max_threads(), rate, per_rank.c_str(), comm.c_str());
+    } else {
+      std::printf("%s: %d envs x %d aircraft over %d ranks, %lld env steps in %.1f s -> %.0f aircraft-steps/s for the "
+                  "group\n",
+                  path.c_str(), cfg.race.n_env, n_agent, group.size(), static_cast<long long>(env_steps), slowest, rate);
+      for (int r = 0; r < group.size(); ++r)
+        std::printf("  rank %d: %d envs, %.0f aircraft-steps/s, %.0f%% of its time in collectives\n", r,
+                    cfg.race.n_env / group.size(), all[3 * r], 100.0 * all[3 * r + 1]);
+    }
+    std::fflush(stdout);
+  }
+}
+
+void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int threads_option) {
+  if (dc.world_size > 1) return run_bench_train_rank(o, dc);
+  if (o.nproc > 1) {
+    // The same bench as ranks of a group, started by launch on loopback.
+    std::vector<std::string> command{"bench", "train", "--updates", std::to_string(o.updates)};
+    for (const std::string& c : o.configs) command.insert(command.end(), {"--config", c});
+    for (const std::string& v : o.overrides) command.insert(command.end(), {"--set", v});
+    if (o.json) command.push_back("--json");
+    launch_ranks(o.nproc, command, threads_option, 60.0);
+    return;
+  }
   torch::set_num_threads(omp_get_max_threads());
   if (!o.json)
     std::printf("f16race bench train: %lld updates per config (LL and HL phases as configured), %d threads\n",
@@ -125,14 +199,21 @@ void run_bench_train(const TrainBenchOptions& o) {
 
 }  // namespace
 
-void add_bench_train_command(CLI::App& bench) {
+void add_bench_train_command(CLI::App& bench, const int& threads_option) {
   auto o = std::make_shared<TrainBenchOptions>();
   CLI::App* cmd = bench.add_subcommand("train", "End-to-end training throughput with a time breakdown");
   cmd->add_option("--config", o->configs, "Configs to measure (default: configs/default.yaml; paper.yaml takes tens of minutes on 2 cores)");
   cmd->add_option("--updates", o->updates, "Updates per config")->check(CLI::Range(1, 100000));
   cmd->add_option("--set", o->overrides, "Override a key of every config, e.g. --set race.n_env=256 (repeatable)");
   cmd->add_flag("--json", o->json, "One JSON object per config, one per line");
-  cmd->callback([o]() { run_bench_train(*o); });
+  cmd->add_option("--nproc", o->nproc,
+                  "Train as a group of this many ranks on this host (each --threads, default the cores' share): "
+                  "per-rank throughput and time in collectives")
+      ->check(CLI::Range(1, 256));
+  auto dist_flags = std::make_shared<DistFlags>();
+  dist_flags->add_to(cmd);
+  const int* threads = &threads_option;
+  cmd->callback([o, dist_flags, threads]() { run_bench_train(*o, dist_flags->resolve(), *threads); });
 }
 
 }  // namespace f16race::app

@@ -234,7 +234,7 @@ void run_bench_soak(const SoakBenchOptions& o) {
 
 }  // namespace
 
-void add_bench_command(CLI::App& app) {
+void add_bench_command(CLI::App& app, const int& threads_option) {
   CLI::App* bench = app.add_subcommand("bench", "Throughput benchmarks (medians of repeated runs)");
   bench->require_subcommand(1);
   auto sim = std::make_shared<SimBenchOptions>();
@@ -271,7 +271,7 @@ void add_bench_command(CLI::App& app) {
   ecmd->callback([envo]() { run_bench_env(*envo); });
 
   add_bench_nets_command(*bench);
-  add_bench_train_command(*bench);
+  add_bench_train_command(*bench, threads_option);
 }
 
 }  // namespace f16race::app

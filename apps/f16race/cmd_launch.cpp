@@ -81,13 +81,22 @@ std::string describe(int status) {
 
 int exit_code(int status) { return WIFSIGNALED(status) ? 128 + WTERMSIG(status) : WEXITSTATUS(status); }
 
-void run_launch(const LaunchOptions& o, int threads_option) {
+}  // namespace
+
+void launch_ranks(int nproc, const std::vector<std::string>& command, int threads_option, double timeout_s, int port_option) {
+  LaunchOptions o;
+  o.nproc = nproc;
+  o.command = command;
+  o.timeout_s = timeout_s;
+  o.port = port_option;
   if (o.command.empty()) throw io::InputError("launch: give the subcommand after --, e.g. f16race launch --nproc 2 -- tournament --runs ...");
   if (o.command.front() == "launch") throw io::InputError("launch: the command after -- cannot be launch itself");
   // Subcommands that run as ranks of a group; any other would run N times over the same outputs.
-  if (o.command.front() != "tournament")
-    throw io::InputError("launch: '" + o.command.front() + "' does not run over ranks; today only tournament does "
-                         "(train is one process: docs/distributed.md)");
+  const bool ranked = o.command.front() == "tournament" || o.command.front() == "train" ||
+                     (o.command.front() == "bench" && o.command.size() > 1 && o.command[1] == "train");
+  if (!ranked)
+    throw io::InputError("launch: '" + o.command.front() + "' does not run over ranks; train, tournament and bench "
+                         "train do (docs/distributed.md)");
   int port = o.port;
   if (port == 0) {
     const char* env = std::getenv("MASTER_PORT");
@@ -165,8 +174,6 @@ void run_launch(const LaunchOptions& o, int threads_option) {
   if (first_failure != 0) throw ExitStatus{first_failure};
 }
 
-}  // namespace
-
 void add_launch_command(CLI::App& app, const int& threads_option) {
   auto o = std::make_shared<LaunchOptions>();
   CLI::App* cmd = app.add_subcommand(
@@ -179,7 +186,7 @@ void add_launch_command(CLI::App& app, const int& threads_option) {
       ->check(CLI::Range(1.0, 86400.0));
   cmd->add_option("command", o->command, "The subcommand and its arguments, after --")->required();
   const int* threads = &threads_option;
-  cmd->callback([o, threads]() { run_launch(*o, *threads); });
+  cmd->callback([o, threads]() { launch_ranks(o->nproc, o->command, *threads, o->timeout_s, o->port); });
 }
 
 }  // namespace f16race::app

@@ -11,11 +11,13 @@
 #include <csignal>
 #include <cstdio>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
 #include "dist/process_group.hpp"
+#include "dist_options.hpp"
 #include "progress_bar.hpp"
 #include "io/run_folder.hpp"
 #include "io/yaml_config.hpp"
@@ -69,22 +71,27 @@ Trend trend(const std::vector<train::MetricsRow>& rows, double train::MetricsRow
   return t;
 }
 
-void run_train(const TrainOptions& o) {
-  // N copies of one run would fight over its folder: training is one process until issue 18's
-  // data-parallel part exists (docs/distributed.md).
-  if (dist::dist_config_from_environment().world_size > 1)
-    throw io::InputError("train runs as one process (WORLD_SIZE > 1 is set): data-parallel training is not built "
-                         "yet; unset WORLD_SIZE (see docs/distributed.md)");
+void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   spdlog::set_level(spdlog::level::from_str(o.log_level));
   // Torch's intra-op pool and the simulator's OpenMP never run at the same time; one count.
   const int threads = omp_get_max_threads();
   torch::set_num_threads(threads);
+  // One rank of a data-parallel group (issue 18) when WORLD_SIZE > 1; rank 0 alone prints and
+  // writes the run folder.
+  const bool lead = dc.rank == 0;
+  std::unique_ptr<dist::Group> group;
   std::unique_ptr<train::Trainer> trainer;
   if (!o.resume.empty()) {
     if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0 || o.overwrite)
       throw io::InputError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
-    trainer = train::Trainer::resume(o.resume);
-    spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
+    if (dc.world_size > 1) {
+      std::ostringstream fp;
+      fp << "binary " << std::hex << dist::executable_hash() << std::dec << "\ntrain --resume " << o.resume
+         << "\n--max-updates " << o.max_updates;
+      group = std::make_unique<dist::Group>(dc, fp.str());
+    }
+    trainer = train::Trainer::resume(o.resume, group.get());
+    if (lead) spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
   } else {
     YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
     if (!o.agent.empty()) io::apply_override(root, "hl.agent=" + o.agent);
@@ -94,7 +101,16 @@ void run_train(const TrainOptions& o) {
     if (run.empty()) {
       run = "runs/" + std::string(agents::es_variant_name(cfg.hl.variant)) + "_seed" + std::to_string(cfg.seed);
     }
-    if (o.overwrite && !io::run_data_in(run).empty()) {
+    if (dc.world_size > 1) {
+      // The resolved config, not the command line: a rank on another host reads its own copy of
+      // the YAML file, and every rank must train the same configuration.
+      std::ostringstream fp;
+      fp << "binary " << std::hex << dist::executable_hash() << std::dec << "\ntrain --run " << run
+         << "\n--max-updates " << o.max_updates << "\n--overwrite " << o.overwrite << "\n"
+         << train::train_config_yaml(cfg);
+      group = std::make_unique<dist::Group>(dc, fp.str());
+    }
+    if (lead && o.overwrite && !io::run_data_in(run).empty()) {
       std::string aside;
       {
         const io::RunFolderLock lock(run);  // not while another train writes it
@@ -102,17 +118,22 @@ void run_train(const TrainOptions& o) {
       }
       spdlog::info("moved the run that was in {} aside to {}", run, aside);
     }
-    trainer = std::make_unique<train::Trainer>(cfg, run);
-    spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads", run, cfg.race.n_env,
-                 cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
-                 cfg.loop.total_env_steps, threads);
+    trainer = std::make_unique<train::Trainer>(cfg, run, group.get());
+    if (lead)
+      spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads{}", run, cfg.race.n_env,
+                   cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
+                   cfg.loop.total_env_steps, threads,
+                   dc.world_size > 1 ? fmt::format(" per rank, {} ranks of {} envs", dc.world_size,
+                                                   cfg.race.n_env / dc.world_size)
+                                     : std::string());
   }
   const auto& cfg = trainer->config();
-  const bool tty = isatty(STDOUT_FILENO) != 0 && !o.quiet;
+  const bool quiet = o.quiet || !lead;
+  const bool tty = isatty(STDOUT_FILENO) != 0 && !quiet;
   std::signal(SIGINT, on_sigint);
   std::signal(SIGTERM, on_sigint);
   auto on_row = [&](const train::MetricsRow& r) {
-    if (o.quiet) return;
+    if (quiet) return;
     const double frac = static_cast<double>(r.env_steps) / static_cast<double>(cfg.loop.total_env_steps);
     const double eta = frac > 0 ? r.wall_s * (1.0 - frac) / frac : NAN;
     char line[400];
@@ -131,6 +152,10 @@ void run_train(const TrainOptions& o) {
   };
   const train::TrainSummary sum = trainer->run(&g_stop, o.max_updates, on_row);
   if (tty) std::printf("\n");
+  if (!lead) {
+    if (sum.interrupted) throw ExitStatus{130};
+    return;
+  }
   if (sum.interrupted) {
     std::printf("interrupted: checkpoint written at update %lld; continue with --resume\n",
                 static_cast<long long>(sum.updates));
@@ -144,6 +169,9 @@ void run_train(const TrainOptions& o) {
   const Trend vt = trend(sum.rows, &train::MetricsRow::airspeed_ftps);
   std::printf("done: %lld updates, %lld env steps, %lld HL gradient steps\n", static_cast<long long>(sum.updates),
               static_cast<long long>(sum.env_steps), static_cast<long long>(sum.hl_grad_steps));
+  if (dc.world_size > 1)
+    std::printf("group of %d ranks: rank 0 spent %.0f%% of its time in collectives\n", dc.world_size,
+                100.0 * sum.communication_s / std::max(sum.time.total, 1e-9));
   if (!sum.curves_problem.empty()) std::printf("no curves.png: %s\n", sum.curves_problem.c_str());
   std::printf("first -> last tenth: goal distance %.0f -> %.0f ft, finish rate %.2f -> %.2f, "
               "LL return %.2f -> %.2f, HL return %.2f -> %.2f, airspeed %.0f -> %.0f ft/s\n",
@@ -168,7 +196,9 @@ void add_train_command(CLI::App& app) {
                 "Start afresh in a --run folder that holds a run, moving the old one aside to RUN.old-N");
   cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
-  cmd->callback([o]() { run_train(*o); });
+  auto dist_flags = std::make_shared<DistFlags>();
+  dist_flags->add_to(cmd);
+  cmd->callback([o, dist_flags]() { run_train(*o, dist_flags->resolve()); });
 }
 
 }  // namespace f16race::app

@@ -2,6 +2,7 @@
 // Each subcommand lives in its own file and registers itself on the CLI11 app here.
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -25,7 +26,7 @@ struct ExitStatus {
 };
 
 void add_simulate_command(CLI::App& app);
-void add_bench_command(CLI::App& app);
+void add_bench_command(CLI::App& app, const int& threads_option);
 void add_race_command(CLI::App& app);
 void add_train_command(CLI::App& app);
 void add_tournament_command(CLI::App& app);
@@ -34,8 +35,12 @@ void add_replay_command(CLI::App& app);
 void add_study_command(CLI::App& app);
 // `threads_option`: main's --threads (0: not given), read when the command runs.
 void add_launch_command(CLI::App& app, const int& threads_option);
+// Starts `nproc` ranks of `command` (a subcommand and its arguments) on loopback and waits for
+// them (apps/f16race/cmd_launch.cpp); threads per rank: `threads`, or the cores' share if 0.
+// Throws ExitStatus with the first failing rank's status.
+void launch_ranks(int nproc, const std::vector<std::string>& command, int threads, double timeout_s, int port = 0);
 // Registered on the `bench` group by add_bench_command (apps/f16race/bench_nets.cpp).
 void add_bench_nets_command(CLI::App& bench);
-void add_bench_train_command(CLI::App& bench);
+void add_bench_train_command(CLI::App& bench, const int& threads_option);
 
 }  // namespace f16race::app

@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   f16race::app::add_replay_command(app);
   f16race::app::add_study_command(app);
   f16race::app::add_race_command(app);
-  f16race::app::add_bench_command(app);
+  f16race::app::add_bench_command(app, threads);
   f16race::app::add_launch_command(app, threads);
   try {
     app.parse(argc, argv);

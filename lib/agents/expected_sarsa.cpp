@@ -276,15 +276,15 @@ EsStats EsAgent::update(const EsBatch& batch) {
   }
   const auto obs = prepare(flat_obs, false);
   EsTarget target;
-  {
+  EsStats stats;
+  // A replica with no transition this time (t = 0) only joins the group's steps below.
+  if (t > 0) {
     torch::NoGradGuard no_grad;
     const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
     target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
                        cfg_.gamma, support_);
   }
-
-  EsStats stats;
-  {
+  if (t > 0) {
     torch::NoGradGuard no_grad;
     const auto rows = active.reshape({-1}).nonzero().squeeze(1);
     const auto out = critic_(obs);
@@ -307,22 +307,56 @@ EsStats EsAgent::update(const EsBatch& batch) {
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(t, generator_, torch::kInt64);
     for (const auto& teams : perm.tensor_split(cfg_.n_minibatches)) {
-      if (teams.numel() == 0) continue;
+      if (teams.numel() == 0 && !replicas_.active()) continue;
       const auto rows = (teams.unsqueeze(1) * n_a + aircraft).reshape({-1});
-      EsTarget mb_target{target.value.index_select(0, teams),
-                         target.dist.defined() ? target.dist.index_select(0, teams) : torch::Tensor()};
-      const auto out = critic_(models::index_rows(obs, rows));
-      stats.train_rows += rows.numel();
-      const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams), active.index_select(0, teams),
-                             mb_target, cfg_.huber_delta, support_, cfg_.component_ce_weight);
+      EsTarget mb_target;
+      if (teams.numel() > 0)
+        mb_target = EsTarget{target.value.index_select(0, teams),
+                             target.dist.defined() ? target.dist.index_select(0, teams) : torch::Tensor()};
       optimizer_->zero_grad();
-      l.loss.backward();
+      double loss = 0.0, q = 0.0, td = 0.0;
+      if (replicas_.active()) {
+        // The union's loss is a mean over its valid units: each replica's gradient weighs by its
+        // count of them (exact for the paper's loss; the optional component term is averaged so too).
+        double units = 0.0;
+        if (teams.numel() > 0) {
+          const auto out = critic_(models::index_rows(obs, rows));
+          stats.train_rows += rows.numel();
+          const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams),
+                                 active.index_select(0, teams), mb_target, cfg_.huber_delta, support_,
+                                 cfg_.component_ce_weight);
+          units = l.valid.sum().item<double>();
+          if (units > 0.0) {
+            l.loss.backward();
+            torch::NoGradGuard no_grad;
+            loss = l.loss.item<double>();
+            q = masked_mean(l.prediction, l.valid).item<double>();
+            td = masked_mean((l.prediction - mb_target.value).abs(), l.valid).item<double>();
+          }
+        }
+        std::vector<double> extra{units, loss * units, q * units, td * units};
+        sum_weighted_gradients(critic_->parameters(), units, extra, replicas_);
+        if (extra[0] == 0.0) continue;  // no valid unit on any replica: no step anywhere
+        for (auto& p : critic_->parameters()) p.mutable_grad().div_(static_cast<float>(extra[0]));
+        loss = extra[1] / extra[0];
+        q = extra[2] / extra[0];
+        td = extra[3] / extra[0];
+      } else {
+        const auto out = critic_(models::index_rows(obs, rows));
+        stats.train_rows += rows.numel();
+        const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams), active.index_select(0, teams),
+                               mb_target, cfg_.huber_delta, support_, cfg_.component_ce_weight);
+        l.loss.backward();
+        torch::NoGradGuard no_grad;
+        loss = l.loss.item<double>();
+        q = masked_mean(l.prediction, l.valid).item<double>();
+        td = masked_mean((l.prediction - mb_target.value).abs(), l.valid).item<double>();
+      }
       stats.grad_norm = torch::nn::utils::clip_grad_norm_(critic_->parameters(), cfg_.max_grad_norm);
       optimizer_->step();
-      torch::NoGradGuard no_grad;
-      loss_sum += l.loss.item<double>();
-      q_sum += masked_mean(l.prediction, l.valid).item<double>();
-      td_sum += masked_mean((l.prediction - mb_target.value).abs(), l.valid).item<double>();
+      loss_sum += loss;
+      q_sum += q;
+      td_sum += td;
       ++n_steps;
     }
   }
@@ -339,7 +373,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
   stats.q_mean = q_sum / n;
   stats.td_abs_mean = td_sum / n;
   const auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
-  stats.target_mean = masked_mean(target.value, valid).item<double>();
+  stats.target_mean = t > 0 ? masked_mean(target.value, valid).item<double>() : std::nan("");
   return stats;
 }
 
@@ -352,11 +386,26 @@ void EsAgent::save(const std::string& path) const {
   save_archive_atomic(root, path);
 }
 
+void EsAgent::set_replicas(const Replicas& replicas) {
+  replicas_ = replicas;
+  normalizer_->set_moments_gather(replicas.gather);
+}
+
 void EsAgent::load(const std::string& path) {
   torch::serialize::InputArchive root;
   root.load_from(path);
+  load_archive(root);
+}
+
+void EsAgent::load_bytes(const std::string& bytes) {
+  torch::serialize::InputArchive root;
+  root.load_from(bytes.data(), bytes.size());
+  load_archive(root);
+}
+
+void EsAgent::load_archive(torch::serialize::InputArchive& root) {
   const auto variant = static_cast<EsVariant>(read_int(root, "variant"));
-  TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: ", path, " holds variant ", es_variant_name(variant),
+  TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: the file holds variant ", es_variant_name(variant),
               ", this agent is ", es_variant_name(cfg_.variant));
   read_sub_archive(root, "critic", *critic_);
   read_sub_archive(root, "target", *target_);

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "agents/c51.hpp"
+#include "agents/replicas.hpp"
 #include "models/hl_critic.hpp"
 #include "models/obs.hpp"
 #include "models/running_norm.hpp"
@@ -167,10 +168,15 @@ class EsAgent {
   explicit EsAgent(const EsConfig& cfg);
   // Decentralised eps-greedy action of each aircraft; obs fields have batch B. No gradients.
   EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator);
+  // With replicas set (issue 18), every rank calls update() at the same point with its own batch
+  // (T may differ, even be 0), and each gradient step is the step on the union of the ranks'
+  // minibatches. The diagnostics of EsStats (loss_before, shares, spread) are this rank's.
   EsStats update(const EsBatch& batch);
+  void set_replicas(const Replicas& replicas);
   void sync_target();
   void save(const std::string& path) const;
   void load(const std::string& path);
+  void load_bytes(const std::string& bytes);  // a file's bytes, received instead of read
 
   const EsConfig& config() const { return cfg_; }
   models::HlCritic& critic() { return critic_; }
@@ -178,10 +184,15 @@ class EsAgent {
   models::ObsNormalizer& normalizer() { return normalizer_; }
   torch::optim::Adam& optimizer() { return *optimizer_; }
   int64_t update_count() const { return update_count_; }
+  // Minibatch order. A data-parallel replica's draws depend on its own batch sizes, so each rank
+  // keeps its own state (the trainer's per-rank checkpoint part).
+  at::Generator& minibatch_generator() { return generator_; }
 
  private:
   models::HlObs prepare(const models::HlObs& flat_obs, bool update_stats);
+  void load_archive(torch::serialize::InputArchive& root);
   EsConfig cfg_;
+  Replicas replicas_;
   C51Support support_;
   models::HlCritic critic_{nullptr}, target_{nullptr};
   models::ObsNormalizer normalizer_{nullptr};

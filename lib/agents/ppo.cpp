@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <exception>
 #include <vector>
 
@@ -150,9 +151,10 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   for (auto& group : optimizer_->param_groups()) {
     static_cast<torch::optim::AdamOptions&>(group.options()).lr(stats.learning_rate);
   }
-  // Only valid samples (aircraft that acted) enter the update.
+  // Only valid samples (aircraft that acted) enter the update. A replica may hold none this time
+  // and still takes part in every step (its share is then 0).
   const auto rows = buffer.valid.flatten().nonzero().squeeze(1);
-  TORCH_CHECK(rows.numel() > 0, "PpoAgent::update: the buffer holds no valid sample");
+  TORCH_CHECK(rows.numel() > 0 || replicas_.active(), "PpoAgent::update: the buffer holds no valid sample");
   const auto obs = models::index_rows(models::flatten2(buffer.obs), rows);
   const auto actions = buffer.actions.flatten(0, 1).index_select(0, rows);
   const auto old_log_probs = buffer.log_probs.flatten().index_select(0, rows);
@@ -170,10 +172,29 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
     const auto perm = torch::randperm(batch, generator_, torch::kInt64);
     for (const auto& mb : perm.tensor_split(cfg_.n_minibatches)) {
       const int64_t m = mb.numel();
-      if (m == 0) continue;
       auto adv = advantages.index_select(0, mb);
-      if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
-      const int64_t n_chunks = cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
+      double share = 1.0;  // this process's share of the step's rows (replicas: of the union's)
+      if (replicas_.active()) {
+        // The union's row count and advantage moments, so every replica normalises as one
+        // process would over the union (unbiased std, as CleanRL).
+        std::array<double, 3> moments{static_cast<double>(m), 0.0, 0.0};
+        const float* a = adv.data_ptr<float>();
+        for (int64_t i = 0; i < m; ++i) moments[1] += a[i], moments[2] += static_cast<double>(a[i]) * a[i];
+        replicas_.sum_doubles(moments.data(), 3);
+        const double total = moments[0];
+        if (total == 0.0) continue;  // the same on every replica
+        share = static_cast<double>(m) / total;
+        if (cfg_.normalize_advantages && total > 1.0 && m > 0) {
+          const double mean = moments[1] / total;
+          const double var = std::max(0.0, (moments[2] - total * mean * mean) / (total - 1.0));
+          adv = (adv - static_cast<float>(mean)) / static_cast<float>(std::sqrt(var) + 1e-8);
+        }
+      } else {
+        if (m == 0) continue;
+        if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
+      }
+      const int64_t n_chunks =
+          m == 0 ? 0 : cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
       // Each chunk's gradient on its own (autograd::grad, nothing accumulated in place), on the
       // OpenMP threads when there are several chunks; then summed in chunk order, which is what
       // serial backward() calls accumulate. So the step is the same bits at any thread count.
@@ -197,20 +218,28 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
                    loss.approx_kl.item<double>(), loss.clip_fraction.item<double>()};
       };
       run_chunks(n_chunks, run_chunk);
+      std::array<double, 5> terms{};
+      for (const auto& r : chunks)
+        for (std::size_t k = 0; k < terms.size(); ++k) terms[k] += r.weight * r.terms[k];
       for (std::size_t k = 0; k < params.size(); ++k) {
         torch::Tensor sum;
         for (const auto& r : chunks)
           if (r.grads[k].defined()) sum = sum.defined() ? sum + r.grads[k] : r.grads[k];
         params[k].mutable_grad() = sum;
       }
-      for (const auto& r : chunks) {
-        stats.policy_loss += r.weight * r.terms[0];
-        stats.value_loss += r.weight * r.terms[1];
-        stats.entropy += r.weight * r.terms[2];
-        stats.approx_kl += r.weight * r.terms[3];
-        stats.clip_fraction += r.weight * r.terms[4];
-        ++stats.train_passes;
+      if (replicas_.active()) {
+        // The union's gradient: each replica's weighted by its share of the union's rows.
+        std::vector<double> extra(terms.size());
+        for (std::size_t k = 0; k < terms.size(); ++k) extra[k] = terms[k] * share;
+        sum_weighted_gradients(params, share, extra, replicas_);
+        std::copy(extra.begin(), extra.end(), terms.begin());
       }
+      stats.policy_loss += terms[0];
+      stats.value_loss += terms[1];
+      stats.entropy += terms[2];
+      stats.approx_kl += terms[3];
+      stats.clip_fraction += terms[4];
+      stats.train_passes += n_chunks;
       torch::nn::utils::clip_grad_norm_(net_->parameters(), cfg_.max_grad_norm);
       optimizer_->step();
       stats.train_rows += m;
@@ -233,6 +262,11 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   return stats;
 }
 
+void PpoAgent::set_replicas(const Replicas& replicas) {
+  replicas_ = replicas;
+  normalizer_->set_moments_gather(replicas.gather);
+}
+
 void PpoAgent::save(const std::string& path) const {
   torch::serialize::OutputArchive root;
   write_sub_archive(root, "net", *net_);
@@ -243,6 +277,16 @@ void PpoAgent::save(const std::string& path) const {
 void PpoAgent::load(const std::string& path) {
   torch::serialize::InputArchive root;
   root.load_from(path);
+  load_archive(root);
+}
+
+void PpoAgent::load_bytes(const std::string& bytes) {
+  torch::serialize::InputArchive root;
+  root.load_from(bytes.data(), bytes.size());
+  load_archive(root);
+}
+
+void PpoAgent::load_archive(torch::serialize::InputArchive& root) {
   read_sub_archive(root, "net", *net_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
   eigen_stale_ = true;

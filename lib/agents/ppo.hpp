@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 
+#include "agents/replicas.hpp"
 #include "agents/rollout_buffer.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
@@ -104,9 +105,16 @@ class PpoAgent {
   PpoAction act(const models::LlObs& raw, at::Generator& generator, bool update_stats = true);
   // V(raw obs) with the current statistics, not updating them: last_value and bootstrap values.
   torch::Tensor value(const models::LlObs& raw);
+  // With replicas set (issue 18), every rank calls update() at the same point with its own
+  // buffer, and each minibatch step is the step on the union of the ranks' minibatches.
   PpoStats update(const RolloutBuffer& buffer);
+  // Learn as one of several data-parallel replicas (agents/replicas.hpp); the statistics of
+  // act(update_stats) then absorb every replica's rows.
+  void set_replicas(const Replicas& replicas);
   void save(const std::string& path) const;
   void load(const std::string& path);
+  // The same from a file's bytes (a rank that received them instead of reading the file).
+  void load_bytes(const std::string& bytes);
 
   double learning_rate_for_update(int64_t update_index) const;
   const PpoConfig& config() const { return cfg_; }
@@ -114,11 +122,16 @@ class PpoAgent {
   models::ObsNormalizer& normalizer() { return normalizer_; }
   torch::optim::Adam& optimizer() { return *optimizer_; }
   int64_t update_count() const { return update_count_; }
+  // Minibatch order. A data-parallel replica's draws depend on its own batch sizes, so each rank
+  // keeps its own state (the trainer's per-rank checkpoint part).
+  at::Generator& minibatch_generator() { return generator_; }
 
  private:
   // mean [B, A] and value [B] of a normalised observation, by the configured inference path.
   std::pair<torch::Tensor, torch::Tensor> infer(const models::LlObs& obs);
+  void load_archive(torch::serialize::InputArchive& root);
   PpoConfig cfg_;
+  Replicas replicas_;
   models::LlActorCritic net_{nullptr};
   models::ObsNormalizer normalizer_{nullptr};
   std::unique_ptr<torch::optim::Adam> optimizer_;

@@ -9,6 +9,7 @@
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -255,24 +256,28 @@ void Group::lost(const std::exception& cause) {
 
 void Group::collective(const std::function<void()>& op) {
   c10::InferenceMode normal_tensors(false);  // Gloo updates its tensors in place on its own thread
+  const auto t0 = Clock::now();
   try {
     op();
   } catch (const std::exception& e) {
     lost(e);
   }
+  collective_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-void Group::allreduce_sum(void* data, std::size_t n, bool is_double) {
+void Group::allreduce_sum(void* data, std::size_t n, Kind kind) {
   if (n == 0) return;
+  const auto dtype = kind == Kind::int64 ? torch::kInt64 : kind == Kind::float32 ? torch::kFloat32 : torch::kFloat64;
   collective([&]() {
-    std::vector<at::Tensor> t{torch::from_blob(data, {static_cast<std::int64_t>(n)},
-                                               is_double ? torch::kFloat64 : torch::kInt64)};
+    std::vector<at::Tensor> t{torch::from_blob(data, {static_cast<std::int64_t>(n)}, dtype)};
     impl_->pg->allreduce(t)->wait();
   });
 }
 
-void Group::allreduce_sum(std::vector<std::int64_t>& values) { allreduce_sum(values.data(), values.size(), false); }
-void Group::allreduce_sum(std::vector<double>& values) { allreduce_sum(values.data(), values.size(), true); }
+void Group::allreduce_sum(std::vector<std::int64_t>& values) { allreduce_sum(values.data(), values.size(), Kind::int64); }
+void Group::allreduce_sum(std::vector<double>& values) { allreduce_sum(values.data(), values.size(), Kind::float64); }
+void Group::allreduce_sum(float* values, std::size_t n) { allreduce_sum(values, n, Kind::float32); }
+void Group::allreduce_sum(double* values, std::size_t n) { allreduce_sum(values, n, Kind::float64); }
 
 std::vector<double> Group::allgather(const std::vector<double>& mine) {
   const auto n = static_cast<std::int64_t>(mine.size());
@@ -285,6 +290,38 @@ std::vector<double> Group::allgather(const std::vector<double>& mine) {
     impl_->pg->allgather(out, in)->wait();
   });
   return all;
+}
+
+std::vector<std::string> Group::allgather_bytes(const std::string& mine) {
+  // Lengths first, then every rank's bytes padded to the longest.
+  std::vector<std::int64_t> lengths(static_cast<std::size_t>(size()), 0);
+  lengths[static_cast<std::size_t>(rank())] = static_cast<std::int64_t>(mine.size());
+  allreduce_sum(lengths);
+  const std::int64_t longest = std::max<std::int64_t>(1, *std::max_element(lengths.begin(), lengths.end()));
+  std::string padded = mine;
+  padded.resize(static_cast<std::size_t>(longest), '\0');
+  std::string all(static_cast<std::size_t>(longest * size()), '\0');
+  collective([&]() {
+    std::vector<at::Tensor> in{torch::from_blob(padded.data(), {longest}, torch::kUInt8)};
+    std::vector<std::vector<at::Tensor>> out(1);
+    for (int q = 0; q < size(); ++q) out[0].push_back(torch::from_blob(all.data() + q * longest, {longest}, torch::kUInt8));
+    impl_->pg->allgather(out, in)->wait();
+  });
+  std::vector<std::string> result;
+  for (int q = 0; q < size(); ++q)
+    result.emplace_back(all.data() + q * longest, static_cast<std::size_t>(lengths[static_cast<std::size_t>(q)]));
+  return result;
+}
+
+void Group::broadcast_bytes(std::string& bytes) {
+  std::vector<std::int64_t> length{rank() == 0 ? static_cast<std::int64_t>(bytes.size()) : 0};
+  allreduce_sum(length);
+  bytes.resize(static_cast<std::size_t>(length[0]));
+  if (length[0] == 0) return;
+  collective([&]() {
+    std::vector<at::Tensor> t{torch::from_blob(bytes.data(), {length[0]}, torch::kUInt8)};
+    impl_->pg->broadcast(t)->wait();
+  });
 }
 
 void Group::barrier() {

@@ -48,12 +48,21 @@ class Group {
   int size() const { return config_.world_size; }
   const DistConfig& config() const { return config_; }
 
-  // Element-wise sum over the ranks, in place (int64: exact; double: the same bits on every rank).
+  // Element-wise sum over the ranks, in place (int64: exact; float and double: the same bits on
+  // every rank, since Gloo reduces each element once and sends the result to all).
   void allreduce_sum(std::vector<std::int64_t>& values);
   void allreduce_sum(std::vector<double>& values);
+  void allreduce_sum(float* values, std::size_t n);
+  void allreduce_sum(double* values, std::size_t n);
   // Every rank's `mine` (the same length on every rank), concatenated in rank order.
   std::vector<double> allgather(const std::vector<double>& mine);
+  // Every rank's bytes (any length), in rank order.
+  std::vector<std::string> allgather_bytes(const std::string& mine);
+  // Rank 0's `bytes` on every rank (the others' input is replaced).
+  void broadcast_bytes(std::string& bytes);
   void barrier();
+  // Seconds this process spent inside collectives (waiting for the others included).
+  double collective_seconds() const { return collective_s_; }
 
  private:
   struct Impl;
@@ -62,7 +71,9 @@ class Group {
   [[noreturn]] void lost(const std::exception& cause);
   // One collective: runs `op` and turns any failure into lost().
   void collective(const std::function<void()>& op);
-  void allreduce_sum(void* data, std::size_t n, bool is_double);
+  enum class Kind { int64, float32, float64 };
+  void allreduce_sum(void* data, std::size_t n, Kind kind);
+  double collective_s_ = 0.0;
 };
 
 // FNV-1a of this process's executable file: ranks must run the same build.

@@ -16,10 +16,12 @@
 
 #include "io/input_error.hpp"
 #include "agents/checkpoint.hpp"
+#include "dist/process_group.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
 #include "io/learning_curves.hpp"
 #include "io/run_folder.hpp"
+#include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "random/random_stream.hpp"
 #include "train/obs_views.hpp"
@@ -148,6 +150,9 @@ struct OpenHl {
 struct Trainer::State {
   // Declared first, so released last: no other process writes the folder while this one lives.
   std::unique_ptr<io::RunFolderLock> lock;
+  // Data-parallel ranks (issue 18): null or size 1 for one process. Rank 0 writes the run folder.
+  dist::Group* group = nullptr;
+  int rank = 0, world = 1;
   TrainConfig cfg;
   std::string run_dir;
   std::string resolved_yaml;
@@ -159,7 +164,8 @@ struct Trainer::State {
   PolicyRows ll_rows{2, 0}, hl_rows{2, 0};  // [n_env * n_agent] learner (0) and pool (1) rows
   at::Generator gen;
   RandomStream stream{1, 0xC0FFEE};
-  int n_env = 0, n_agent = 0, ts = 0;
+  int n_env = 0, n_agent = 0, ts = 0;  // n_env: this rank's envs
+  int n_env_global = 0;                // race.n_env: the group's
   models::ObsDims dims;
 
   // Counters.
@@ -224,6 +230,13 @@ struct Trainer::State {
   }
 
   void build(bool fresh);
+  bool writes() const { return rank == 0; }
+  // Sums over the ranks, in place (nothing for one process).
+  void group_sum(std::vector<double>& v) const;
+  void group_sum(std::vector<std::int64_t>& v) const;
+  // The ranks' networks are the same bits (they take the same steps): checked at every
+  // checkpoint, so a broken invariant stops the run instead of training diverged replicas.
+  void check_replicas_agree();
   torch::Tensor learner_index() const;
   LlObs ll_view(bool final_obs) const { return ll_obs_view(*env, final_obs); }
   HlObs hl_view(bool final_obs) const { return hl_obs_view(*env, final_obs); }
@@ -237,10 +250,12 @@ struct Trainer::State {
   void write_row(const MetricsRow& r);
   void snapshot_pool();
   void load_opponent();
+  void load_pool_snapshot();  // the pool's `opponent` into opp_ppo, opp_es
   // `last`: the run's final checkpoint (budget reached, stopped, or --max-updates), which always
   // redraws the learning curves.
   void save_checkpoint(bool last);
   void load_checkpoint();
+  void truncate_metrics();
   // Everything trainer.pt holds, in one list both adapters walk. The clock and the stream are
   // passed as plain values: saved from wall() and stream.state(), restored by the caller.
   template <class V>
@@ -276,9 +291,23 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
 Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
 Trainer::~Trainer() = default;
 
-Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std::make_unique<State>()) {
+Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Group* group)
+    : s_(std::make_unique<State>()) {
   s_->cfg = config;
   s_->run_dir = run_dir;
+  if (group != nullptr && group->size() > 1) {
+    s_->group = group;
+    s_->rank = group->rank();
+    s_->world = group->size();
+  }
+  if (!s_->writes()) {  // another rank: the run folder is rank 0's
+    s_->resolved_yaml = train_config_yaml(config);
+    s_->hash = config_hash(s_->resolved_yaml);
+    s_->build(true);
+    s_->snapshot_pool();
+    s_->load_opponent();
+    return;
+  }
   s_->lock = std::make_unique<io::RunFolderLock>(run_dir);
   // Anything in the folder may be a run whose LATEST was lost: never write over it.
   if (const std::vector<std::string> data = io::run_data_in(run_dir); !data.empty()) {
@@ -298,12 +327,42 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir) : s_(std
   s_->load_opponent();
 }
 
-std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir) {
-  if (!fs::is_directory(run_dir)) throw io::InputError(run_dir + ": no such run folder to resume");
-  auto lock = std::make_unique<io::RunFolderLock>(run_dir);
-  RunConfig run = read_run_config(run_dir);
+std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group* group) {
   auto st = std::make_unique<State>();
-  st->lock = std::move(lock);
+  if (group != nullptr && group->size() > 1) {
+    st->group = group;
+    st->rank = group->rank();
+    st->world = group->size();
+  }
+  RunConfig run;
+  if (st->group == nullptr) {
+    if (!fs::is_directory(run_dir)) throw io::InputError(run_dir + ": no such run folder to resume");
+    st->lock = std::make_unique<io::RunFolderLock>(run_dir);
+    run = read_run_config(run_dir);
+  } else {
+    // Rank 0 reads the run's config and sends it: the other ranks may be on hosts without the
+    // folder. A problem on rank 0 is every rank's one line.
+    std::string problem;
+    if (st->writes()) {
+      try {
+        if (!fs::is_directory(run_dir)) throw io::InputError(run_dir + ": no such run folder to resume");
+        st->lock = std::make_unique<io::RunFolderLock>(run_dir);
+        run = read_run_config(run_dir);
+      } catch (const std::exception& e) {
+        problem = e.what();
+      }
+    }
+    group->broadcast_bytes(problem);
+    if (!problem.empty()) throw io::InputError(problem);
+    std::string yaml = run.yaml;
+    group->broadcast_bytes(yaml);
+    if (!st->writes()) {
+      run.yaml = yaml;
+      const std::string source = run_dir + "/config.yaml (from rank 0)";
+      run.config = read_train_config(io::parse_yaml_text(run.yaml, source), source);
+      run.hash = config_hash(run.yaml);
+    }
+  }
   st->cfg = run.config;
   st->run_dir = run_dir;
   st->resolved_yaml = std::move(run.yaml);
@@ -321,7 +380,17 @@ std::vector<float> Trainer::hl_parameters() const { return flat_parameters(*s_->
 void Trainer::State::build(bool fresh) {
   // Network initialisation draws from torch's global generator: seed it, once, here.
   torch::manual_seed(cfg.seed);
-  env = std::make_unique<race::RaceEnv>(cfg.race);
+  n_env_global = cfg.race.n_env;
+  race::RaceConfig slice = cfg.race;
+  if (world > 1) {
+    if (cfg.race.n_env % world != 0)
+      throw io::InputError("race.n_env = " + std::to_string(cfg.race.n_env) + " does not split evenly over " +
+                           std::to_string(world) + " ranks: make it a multiple of " + std::to_string(world) +
+                           " (each rank steps race.n_env / ranks envs)");
+    slice.n_env = cfg.race.n_env / world;
+  }
+  // Global env ids: a rank's races are those envs of the group's batch (RaceEnv's first_env_id).
+  env = std::make_unique<race::RaceEnv>(slice, rank * slice.n_env);
   n_env = env->n_env();
   n_agent = env->n_agent();
   ts = cfg.race.team_size;
@@ -336,15 +405,25 @@ void Trainer::State::build(bool fresh) {
                                                            static_cast<double>(cfg.ll.n_steps));
   const double ll_steps = (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
   cfg.ll.total_updates =
-      std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env)) + 1);
+      std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env_global)) + 1);
   ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   es = std::make_unique<agents::EsAgent>(cfg.hl);
   opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
   buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
                                                    race::kActionDim);
-  gen = models::make_generator(cfg.seed * 7919 + 3);
-  stream = RandomStream(cfg.seed, 0xC0FFEE);
+  // Each rank its own streams (rank 0's are a single process's): actions, matchups.
+  gen = models::make_generator(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003);
+  stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank));
+  if (group != nullptr) {
+    agents::Replicas replicas;
+    dist::Group* g = group;
+    replicas.sum_floats = [g](float* v, std::int64_t n) { g->allreduce_sum(v, static_cast<std::size_t>(n)); };
+    replicas.sum_doubles = [g](double* v, std::int64_t n) { g->allreduce_sum(v, static_cast<std::size_t>(n)); };
+    replicas.gather = [g](const std::vector<double>& v) { return g->allgather(v); };
+    ppo->set_replicas(replicas);
+    es->set_replicas(replicas);
+  }
   side.assign(n_env, 0);
   vs_pool.assign(n_env, 0);
   ll_rows = PolicyRows(2, n_env * n_agent);
@@ -512,7 +591,7 @@ void Trainer::State::ll_step(bool learn) {
   const auto t_env = Clock::now();
   env->step(actions.data_ptr<float>());
   timing.env += since(t_env);
-  env_steps += n_env;
+  env_steps += n_env_global;  // the group's steps: every rank steps in lockstep
 
   // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
   // than the simulator.
@@ -613,13 +692,27 @@ void Trainer::State::es_update() {
     return HlObs{torch::stack(a), torch::stack(b), torch::stack(c), torch::stack(d), torch::stack(e)};
   };
   agents::EsBatch batch;
-  batch.obs = stack_obs(done_obs);
-  batch.next_obs = stack_obs(done_next);
-  batch.actions = torch::stack(done_actions);
-  batch.reward = torch::stack(done_reward);
-  batch.done = torch::stack(done_flag);
-  batch.active = torch::stack(done_active);
-  batch.next_active = torch::stack(done_next_active);
+  if (done_obs.empty()) {
+    // A rank of a group can close no transition before the group has its batch; it still takes
+    // part in every gradient step, with none of the rows.
+    const auto none = [](const torch::Tensor& t) { return t.slice(0, 0, 0).clone(); };
+    batch.obs = HlObs{none(open.obs.ego), none(open.obs.prev_action), none(open.obs.ado), none(open.obs.ado_alive),
+                      none(open.obs.task)};
+    batch.next_obs = batch.obs;
+    batch.actions = none(open.actions);
+    batch.reward = none(open.reward);
+    batch.done = torch::zeros({0}, torch::kBool);
+    batch.active = none(open.active);
+    batch.next_active = none(open.active);
+  } else {
+    batch.obs = stack_obs(done_obs);
+    batch.next_obs = stack_obs(done_next);
+    batch.actions = torch::stack(done_actions);
+    batch.reward = torch::stack(done_reward);
+    batch.done = torch::stack(done_flag);
+    batch.active = torch::stack(done_active);
+    batch.next_active = torch::stack(done_next_active);
+  }
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
   hl_grad_steps += last_es.grad_steps;
@@ -638,7 +731,24 @@ void Trainer::State::es_update() {
   timing.es += since(t_start);
 }
 
+void Trainer::State::group_sum(std::vector<double>& v) const {
+  if (group != nullptr) group->allreduce_sum(v);
+}
+void Trainer::State::group_sum(std::vector<std::int64_t>& v) const {
+  if (group != nullptr) group->allreduce_sum(v);
+}
+
 MetricsRow Trainer::State::make_row(const char* phase_name) {
+  if (group != nullptr) {
+    // The group's row: every rank's races and returns.
+    std::vector<double> acc{sum_ll_ret, sum_hl_ret, n_ret, n_hl_ret, sum_goal, n_goal, sum_vt, n_vt, races, wins, finishes};
+    acc.insert(acc.end(), std::begin(term), std::end(term));
+    group_sum(acc);
+    std::size_t k = 0;
+    for (double* x : {&sum_ll_ret, &sum_hl_ret, &n_ret, &n_hl_ret, &sum_goal, &n_goal, &sum_vt, &n_vt, &races, &wins, &finishes})
+      *x = acc[k++];
+    for (double& t : term) t = acc[k++];
+  }
   MetricsRow r;
   r.update = ppo_updates + es_updates;
   r.phase = phase_name;
@@ -705,6 +815,7 @@ std::vector<double> metrics_values(const MetricsRow& r) {
 }  // namespace
 
 void Trainer::State::write_row(const MetricsRow& r) {
+  if (!writes()) return;
   // Appended line by line: a crash loses at most the row being written, and resume drops rows
   // past the checkpoint it continues from.
   const std::string path = run_dir + "/metrics.csv";
@@ -720,7 +831,7 @@ void Trainer::State::write_row(const MetricsRow& r) {
 
 void Trainer::State::snapshot_pool() {
   const fs::path dir = fs::path(run_dir) / "pool" / step_name(env_steps);
-  try {
+  if (writes()) try {
     fs::create_directories(dir);
     ppo->save((dir / "ll.pt").string());
     es->save((dir / "hl.pt").string());
@@ -734,7 +845,7 @@ void Trainer::State::snapshot_pool() {
     // Oldest first, but never the snapshot the current phase is playing against.
     auto victim = pool.begin();
     if (*victim == opponent) ++victim;
-    fs::remove_all(fs::path(run_dir) / "pool" / step_name(*victim));
+    if (writes()) fs::remove_all(fs::path(run_dir) / "pool" / step_name(*victim));
     pool.erase(victim);
   }
 }
@@ -744,15 +855,89 @@ void Trainer::State::load_opponent() {
     opponent = -1;
     return;
   }
-  opponent = pool[draw_pool_entry(stream, pool.size())];
+  std::vector<std::int64_t> pick{static_cast<std::int64_t>(draw_pool_entry(stream, pool.size()))};
+  if (group != nullptr) {  // rank 0's draw for the group (every rank draws: streams advance alike)
+    if (!writes()) pick[0] = 0;
+    group_sum(pick);
+  }
+  opponent = pool[static_cast<std::size_t>(pick[0])];
+  load_pool_snapshot();
+}
+
+void Trainer::State::load_pool_snapshot() {
   const fs::path dir = fs::path(run_dir) / "pool" / step_name(opponent);
-  opp_ppo->load((dir / "ll.pt").string());
-  opp_es->load((dir / "hl.pt").string());
+  if (group == nullptr) {
+    opp_ppo->load((dir / "ll.pt").string());
+    opp_es->load((dir / "hl.pt").string());
+    return;
+  }
+  // Rank 0 holds the pool; the others get the snapshot's bytes.
+  std::string ll, hl;
+  if (writes()) ll = read_text((dir / "ll.pt").string()), hl = read_text((dir / "hl.pt").string());
+  group->broadcast_bytes(ll);
+  group->broadcast_bytes(hl);
+  opp_ppo->load_bytes(ll);
+  opp_es->load_bytes(hl);
+}
+
+namespace {
+// A rank's trainer state in a checkpoint folder: rank 0's is a single process's file.
+std::string trainer_file(int rank) { return rank == 0 ? "trainer.pt" : "trainer_rank" + std::to_string(rank) + ".pt"; }
+
+std::uint64_t fnv1a(const torch::nn::Module& m, std::uint64_t h) {
+  for (const auto& t : m.parameters()) {
+    const auto c = t.detach().contiguous();
+    const auto* p = static_cast<const unsigned char*>(c.data_ptr());
+    for (std::size_t i = 0; i < static_cast<std::size_t>(c.nbytes()); ++i) h = (h ^ p[i]) * 1099511628211ULL;
+  }
+  for (const auto& t : m.buffers()) {
+    const auto c = t.detach().contiguous();
+    const auto* p = static_cast<const unsigned char*>(c.data_ptr());
+    for (std::size_t i = 0; i < static_cast<std::size_t>(c.nbytes()); ++i) h = (h ^ p[i]) * 1099511628211ULL;
+  }
+  return h;
+}
+}  // namespace
+
+void Trainer::State::check_replicas_agree() {
+  std::uint64_t h = 1469598103934665603ULL;
+  h = fnv1a(*ppo->net(), h);
+  h = fnv1a(*ppo->normalizer(), h);
+  h = fnv1a(*es->critic(), h);
+  h = fnv1a(*es->normalizer(), h);
+  // Two exact halves in doubles.
+  const std::vector<double> all = group->allgather({static_cast<double>(h >> 32), static_cast<double>(h & 0xFFFFFFFFULL)});
+  for (int r = 1; r < world; ++r)
+    if (all[2 * r] != all[0] || all[2 * r + 1] != all[1])
+      throw std::runtime_error("rank " + std::to_string(r) + "'s networks differ from rank 0's at update " +
+                               std::to_string(ppo_updates + es_updates) +
+                               ": the replicas diverged (a bug: please report it); the last checkpoint is intact");
 }
 
 void Trainer::State::save_checkpoint(bool last) {
   const std::string name = step_name(env_steps) + "_u" + std::to_string(ppo_updates + es_updates);
   const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
+  // Every rank's trainer state as bytes; in a group they go to rank 0, which writes the folder.
+  std::vector<std::string> states(1);
+  {
+    CheckpointWriter w;
+    double wall_s = wall();
+    std::uint64_t stream_state = stream.state();
+    visit_checkpoint(w, wall_s, stream_state);
+    w.a.write("generator", gen.get_state());
+    if (world > 1) {  // ll.pt and hl.pt hold rank 0's minibatch order
+      w.a.write("ppo_minibatch_generator", ppo->minibatch_generator().get_state());
+      w.a.write("es_minibatch_generator", es->minibatch_generator().get_state());
+    }
+    std::ostringstream bytes;
+    w.a.save_to(bytes);
+    states[0] = bytes.str();
+  }
+  if (group != nullptr) {
+    check_replicas_agree();
+    states = group->allgather_bytes(states[0]);
+    if (!writes()) return;
+  }
   const std::string previous = latest_checkpoint_name(run_dir);
   // A checkpoint that cannot be completed (full disk) is removed whole; LATEST still names the
   // previous one, which stays intact.
@@ -760,15 +945,11 @@ void Trainer::State::save_checkpoint(bool last) {
     fs::create_directories(dir);
     ppo->save((dir / "ll.pt").string());
     es->save((dir / "hl.pt").string());
-    CheckpointWriter w;
-    double wall_s = wall();
-    std::uint64_t stream_state = stream.state();
-    visit_checkpoint(w, wall_s, stream_state);
-    w.a.write("generator", gen.get_state());
-    agents::save_archive_atomic(w.a, (dir / "trainer.pt").string());
+    for (int r = 0; r < world; ++r) io::write_file_atomic((dir / trainer_file(r)).string(), states[static_cast<std::size_t>(r)]);
     std::ostringstream meta;
     meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
          << "\nupdates: " << ppo_updates + es_updates << "\n";
+    if (world > 1) meta << "world_size: " << world << "\n";
     io::write_file_atomic((dir / "meta.yaml").string(), meta.str());
     // The pointer flips only once the folder is complete; then older checkpoints go.
     io::write_file_atomic(run_dir + "/checkpoint/LATEST", name);
@@ -827,66 +1008,134 @@ std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint6
 }
 
 void Trainer::State::load_checkpoint() {
-  const std::string name = latest_checkpoint_name(run_dir);
-  if (name.empty())
-    throw io::InputError(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing or empty)");
-  const fs::path dir = fs::path(run_dir) / "checkpoint" / name;
-  fs::path file = dir / "meta.yaml";  // the file being read, for the error message
+  // Rank 0 (or the single process) reads the files; in a group it sends every rank its part and
+  // a problem found on any rank is every rank's one line.
+  std::string problem, ll_bytes, hl_bytes;
+  std::vector<std::string> states(static_cast<std::size_t>(world));
+  fs::path dir, file;  // the file being read, for the error message
+  if (writes()) {
+    try {
+      const std::string name = latest_checkpoint_name(run_dir);
+      if (name.empty())
+        throw io::InputError(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing or empty)");
+      dir = fs::path(run_dir) / "checkpoint" / name;
+      file = dir / "meta.yaml";
+      int written_by = 1;
+      try {
+        check_checkpoint_meta(dir.string(), hash);
+        const YAML::Node ws = YAML::LoadFile(file.string())["world_size"];
+        written_by = ws ? ws.as<int>() : 1;
+        if (written_by == world) {
+          file = dir / "ll.pt";
+          ll_bytes = read_text(file.string());
+          file = dir / "hl.pt";
+          hl_bytes = read_text(file.string());
+          for (int r = 0; r < world; ++r) {
+            file = dir / trainer_file(r);
+            states[static_cast<std::size_t>(r)] = read_text(file.string());
+          }
+        }
+      } catch (const std::exception& e) {
+        throw io::InputError(file.string() + ": cannot resume from this checkpoint (" + checkpoint_error_reason(e) +
+                             "); the file is corrupt, truncated or from another build: restore it or train again");
+      }
+      if (written_by != world)
+        throw io::InputError(
+            file.string() + ": this checkpoint was written by " +
+            (written_by == 1 ? std::string("one process; resume it with one process (no WORLD_SIZE, no launch)")
+                             : "a group of " + std::to_string(written_by) +
+                                   " ranks, each holding its envs' states; resume it with f16race launch --nproc " +
+                                   std::to_string(written_by) + " -- train --resume " + run_dir));
+    } catch (const std::exception& e) {
+      problem = e.what();
+    }
+  }
+  std::string mine = states[0];
+  if (group != nullptr) {
+    group->broadcast_bytes(problem);
+    if (problem.empty()) {
+      group->broadcast_bytes(ll_bytes);
+      group->broadcast_bytes(hl_bytes);
+      for (int r = 0; r < world; ++r) {
+        std::string bytes = states[static_cast<std::size_t>(r)];
+        group->broadcast_bytes(bytes);
+        if (r == rank) mine = std::move(bytes);
+      }
+    }
+  }
+  if (!problem.empty()) throw io::InputError(problem);
+  // Parse on every rank; any rank's failure stops them all with its line.
+  std::string what_failed;
+  const std::string where = dir.empty() ? run_dir + "/checkpoint (rank 0's)" : dir.string();
+  std::string part = "ll.pt";
   try {
-    check_checkpoint_meta(dir.string(), hash);
-    file = dir / "ll.pt";
-    ppo->load(file.string());
-    file = dir / "hl.pt";
-    es->load(file.string());
-    file = dir / "trainer.pt";
+    ppo->load_bytes(ll_bytes);
+    part = "hl.pt";
+    es->load_bytes(hl_bytes);
+    part = trainer_file(rank);
     CheckpointReader r;
-    r.a.load_from(file.string());
+    r.a.load_from(mine.data(), mine.size());
     std::uint64_t stream_state = 0;
     visit_checkpoint(r, wall_offset, stream_state);
     stream.set_state(stream_state);
     gen.set_state(r.get("generator"));
-    t0 = std::chrono::steady_clock::now();
-    wall_at_row = wall_offset;
-    steps_at_row = env_steps;
-    if (opponent >= 0) {
-      const fs::path pd = fs::path(run_dir) / "pool" / step_name(opponent);
-      file = pd / "ll.pt";
-      opp_ppo->load(file.string());
-      file = pd / "hl.pt";
-      opp_es->load(file.string());
+    if (world > 1) {
+      ppo->minibatch_generator().set_state(r.get("ppo_minibatch_generator"));
+      es->minibatch_generator().set_state(r.get("es_minibatch_generator"));
     }
   } catch (const std::exception& e) {
-    throw io::InputError(file.string() + ": cannot resume from this checkpoint (" +
-                             checkpoint_error_reason(e) +
-                             "); the file is corrupt, truncated or from another build: restore it or train again");
+    what_failed = where + "/" + part + ": cannot resume from this checkpoint (" + checkpoint_error_reason(e) +
+                  "); the file is corrupt, truncated or from another build: restore it or train again";
   }
+  if (group != nullptr)
+    for (const std::string& p : group->allgather_bytes(what_failed))
+      if (!p.empty()) throw io::InputError(p);
+  if (!what_failed.empty()) throw io::InputError(what_failed);
+  t0 = std::chrono::steady_clock::now();
+  wall_at_row = wall_offset;
+  steps_at_row = env_steps;
+  if (opponent >= 0) {
+    try {
+      load_pool_snapshot();
+    } catch (const io::InputError&) {
+      throw;
+    } catch (const dist::PeerLost&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw io::InputError(run_dir + "/pool/" + step_name(opponent) + ": cannot load the pool snapshot this checkpoint plays (" +
+                           checkpoint_error_reason(e) + "); restore it or train again");
+    }
+  }
+  if (writes()) truncate_metrics();
+}
+
+void Trainer::State::truncate_metrics() {
   // Drop metrics rows written after this checkpoint (the resumed run writes them again). A run
   // written by a build with fewer columns (a prefix of today's header) gets today's header and
   // empty cells for the new columns in its old rows, so every row has the header's width.
   const std::string mpath = run_dir + "/metrics.csv";
-  if (fs::exists(mpath)) {
-    std::istringstream in(read_text(mpath));
-    std::string line, out, pad;
-    bool header = true;
-    const std::int64_t upd = ppo_updates + es_updates;
-    while (std::getline(in, line)) {
-      if (line.empty()) continue;
-      if (header) {
-        const std::string now = metrics_header_line();
-        if (line != now && now.compare(0, line.size() + 1, line + ",") == 0) {
-          pad.assign(static_cast<std::size_t>(std::count(now.begin(), now.end(), ',') -
-                                              std::count(line.begin(), line.end(), ',')),
-                     ',');
-          line = now;
-        }
-        out += line + "\n";
-      } else if (std::stoll(line.substr(0, line.find(','))) <= upd) {
-        out += line + pad + "\n";
+  if (!fs::exists(mpath)) return;
+  std::istringstream in(read_text(mpath));
+  std::string line, out, pad;
+  bool header = true;
+  const std::int64_t upd = ppo_updates + es_updates;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    if (header) {
+      const std::string now = metrics_header_line();
+      if (line != now && now.compare(0, line.size() + 1, line + ",") == 0) {
+        pad.assign(static_cast<std::size_t>(std::count(now.begin(), now.end(), ',') -
+                                            std::count(line.begin(), line.end(), ',')),
+                   ',');
+        line = now;
       }
-      header = false;
+      out += line + "\n";
+    } else if (std::stoll(line.substr(0, line.find(','))) <= upd) {
+      out += line + pad + "\n";
     }
-    io::write_file_atomic(mpath, out);
+    header = false;
   }
+  io::write_file_atomic(mpath, out);
 }
 
 TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_updates,
@@ -896,7 +1145,16 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   s.timing = TimeBreakdown{};
   const auto t_run = State::Clock::now();
   std::int64_t done_here = 0;
-  const std::int64_t hl_batch = static_cast<std::int64_t>(s.n_env) * s.cfg.hl.n_steps_per_update;
+  const std::int64_t hl_batch = static_cast<std::int64_t>(s.n_env_global) * s.cfg.hl.n_steps_per_update;
+  const double comm_at_start = s.group != nullptr ? s.group->collective_seconds() : 0.0;
+  const std::int64_t steps_at_start = s.env_steps;
+  // Transitions the group has closed (one process: its own), to know when an ES batch is full;
+  // a group steps in lockstep until the sum reaches it.
+  auto hl_closed = [&s]() {
+    std::vector<std::int64_t> n{static_cast<std::int64_t>(s.done_obs.size())};
+    s.group_sum(n);
+    return n[0];
+  };
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
@@ -904,7 +1162,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
       for (std::int64_t k = 0; k < s.cfg.ll.n_steps; ++k) s.ll_step(true);
       s.ppo_update();
     } else {
-      while (static_cast<std::int64_t>(s.done_obs.size()) < hl_batch) s.ll_step(false);
+      while (hl_closed() < hl_batch) s.ll_step(false);
       s.es_update();
     }
     ++done_here;
@@ -934,7 +1192,9 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
       for (int e = 0; e < s.n_env; ++e)
         if (s.opponent < 0) s.vs_pool[e] = 0;
     }
-    const bool stopping = stop != nullptr && stop->load();
+    std::vector<std::int64_t> stop_votes{stop != nullptr && stop->load() ? 1 : 0};
+    s.group_sum(stop_votes);  // a stop seen by any rank stops the group after the same update
+    const bool stopping = stop_votes[0] > 0;
     const bool last =
         stopping || s.env_steps >= s.cfg.loop.total_env_steps || (max_updates >= 0 && done_here >= max_updates);
     if (last || upd % s.cfg.loop.checkpoint_every_updates == 0) {
@@ -951,6 +1211,8 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   summary.env_steps = s.env_steps;
   summary.hl_grad_steps = s.hl_grad_steps;
   summary.curves_problem = s.curves_problem;
+  summary.rank_env_steps = (s.env_steps - steps_at_start) / std::max(1, s.world);
+  summary.communication_s = s.group != nullptr ? s.group->collective_seconds() - comm_at_start : 0.0;
   s.timing.total = State::since(t_run);
   s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io;
   summary.time = s.timing;

@@ -10,6 +10,11 @@
 //   RUN/curves.png           learning curves from metrics.csv, redrawn at a checkpoint at most
 //                            every 30 s and at the last one
 //                            (curves.gp, curves_data.csv beside it)
+// Data-parallel over a dist::Group (issue 18, docs/distributed.md): every rank steps its slice of
+// race.n_env (global env ids, its own random streams), the learners' gradient steps and
+// observation statistics are agreed across ranks (agents/replicas.hpp), and rank 0 alone writes
+// the run folder; a checkpoint holds every rank's trainer state (trainer.pt for rank 0,
+// trainer_rankN.pt for the others), gathered to rank 0.
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -22,6 +27,10 @@
 #include "race/race_env.hpp"
 #include "random/random_stream.hpp"
 #include "train/train_config.hpp"
+
+namespace f16race::dist {
+class Group;
+}
 
 namespace f16race::train {
 
@@ -108,16 +117,22 @@ struct TrainSummary {
   std::int64_t hl_grad_steps = 0;  // ES gradient steps of the whole run
   std::string curves_problem;      // why RUN/curves.png was not drawn at the last checkpoint, if not
   bool interrupted = false;
-  std::vector<MetricsRow> rows;  // every row written by this process
+  double communication_s = 0.0;  // inside the group's collectives (also counted in `time`'s parts)
+  std::int64_t rank_env_steps = 0;  // LL steps of this rank's envs in this run() (env_steps: the group's, in all)
+  std::vector<MetricsRow> rows;  // every row written by this process (rank 0: the group's)
 };
 
 class Trainer {
  public:
   // Fresh run: creates `run_dir` and locks it for this object's lifetime; refused if the folder
-  // holds anything of a run (io::run_data_in) or another process holds its lock.
-  Trainer(const TrainConfig& config, const std::string& run_dir);
+  // holds anything of a run (io::run_data_in) or another process holds its lock. With a group of
+  // more than one rank, this is one rank of it: only rank 0 touches `run_dir`, every rank must
+  // be given the same config, and race.n_env must split evenly over the ranks.
+  Trainer(const TrainConfig& config, const std::string& run_dir, dist::Group* group = nullptr);
   // Resume: reads RUN/config.yaml and the LATEST checkpoint; refuses a corrupt or mismatched one.
-  static std::unique_ptr<Trainer> resume(const std::string& run_dir);
+  // With a group, rank 0 reads them and sends each rank its part; the group must have the size
+  // the checkpoint was written by.
+  static std::unique_ptr<Trainer> resume(const std::string& run_dir, dist::Group* group = nullptr);
   ~Trainer();
 
   // Trains until the step budget, `stop` becoming true (checked after every update; then a

@@ -102,8 +102,9 @@ case_ "launch without a command" -- "$bin" launch --nproc 2
 case_ "launch 0 ranks" -- "$bin" launch --nproc 0 -- tournament --runs "$run"
 case_ "launch itself" -- "$bin" launch --nproc 2 -- launch --nproc 2 -- race
 case_ "tournament unknown network interface" -- env GLOO_SOCKET_IFNAME=nope0 "$bin" launch --nproc 2 --timeout 5 -- tournament --runs "$run" --races 2 --batch 2 --out t15
-case_ "launch train" -- "$bin" launch --nproc 2 -- train --config "$smoke" --run "$work/ln"
-case_ "train in a group" -- env WORLD_SIZE=2 "$bin" train --config "$smoke" --run "$work/wn"
+case_ "train: n_env over ranks" -- "$bin" launch --nproc 2 -- train --config "$smoke" --set race.n_env=3 --run "$work/ln"
+case_ "train: one process's checkpoint by 2 ranks" -- "$bin" launch --nproc 2 -- train --resume "$run"
+case_ "launch simulate" -- "$bin" launch --nproc 2 -- simulate --duration 1
 case_ "replay missing run" -- "$bin" replay --run "$work/nothing" --out r1
 case_ "replay bad opponent" -- "$bin" replay --run "$run" --opponent bogus --out r2
 case_ "replay negative seed" -- "$bin" replay --run "$run" --seed -1 --out r3
