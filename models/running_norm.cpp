@@ -94,19 +94,43 @@ void combine_moments(double* a, const double* b, int64_t d) {
 }
 }  // namespace
 
-void ObsNormalizerImpl::update_replicated(const torch::Tensor& ego, const torch::Tensor& extra,
-                                          const torch::Tensor& ado, const torch::Tensor& alive,
-                                          const torch::Tensor& task) {
-  const std::array<RunningNorm*, 4> norms{&ego_, &extra_, &ado_norm_, &task_};
-  std::vector<double> mine;
-  ego_->batch_moments(ego, torch::Tensor(), &mine);
-  extra_->batch_moments(extra, torch::Tensor(), &mine);
-  ado_norm_->batch_moments(ado.reshape({-1, dims_.d_ado}), alive.reshape({-1}), &mine);
-  task_->batch_moments(task, torch::Tensor(), &mine);
+void ObsNormalizerImpl::set_moments_gather(MomentsGather gather) {
+  gather_ = std::move(gather);
+  pending_.clear();
+}
+
+void ObsNormalizerImpl::hold_back(const torch::Tensor& ego, const torch::Tensor& extra, const torch::Tensor& ado,
+                                  const torch::Tensor& alive, const torch::Tensor& task) {
+  std::vector<double> batch;
+  ego_->batch_moments(ego, torch::Tensor(), &batch);
+  extra_->batch_moments(extra, torch::Tensor(), &batch);
+  ado_norm_->batch_moments(ado.reshape({-1, dims_.d_ado}), alive.reshape({-1}), &batch);
+  task_->batch_moments(task, torch::Tensor(), &batch);
+  if (pending_.empty()) {
+    pending_ = std::move(batch);
+    return;
+  }
+  std::size_t at = 0;
+  for (const RunningNorm* norm : {&ego_, &extra_, &ado_norm_, &task_}) {
+    combine_moments(pending_.data() + at, batch.data() + at, (*norm)->dim());
+    at += 1 + 2 * static_cast<std::size_t>((*norm)->dim());
+  }
+}
+
+void ObsNormalizerImpl::sync_replicas() {
+  if (!gather_) return;
+  // A replica that saw no batch since the last sync sends zero counts of the same width.
+  std::vector<double> mine = pending_;
+  if (mine.empty()) {
+    for (const RunningNorm* norm : {&ego_, &extra_, &ado_norm_, &task_})
+      mine.resize(mine.size() + 1 + 2 * static_cast<std::size_t>((*norm)->dim()), 0.0);
+  }
+  pending_.clear();
   const std::vector<double> all = gather_(mine);
   TORCH_CHECK(!all.empty() && all.size() % mine.size() == 0, "ObsNormalizer: the replicas' moments do not line up");
   const std::size_t width = mine.size(), replicas = all.size() / width;
   std::vector<double> pooled(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(width));
+  const std::array<RunningNorm*, 4> norms{&ego_, &extra_, &ado_norm_, &task_};
   for (std::size_t r = 1; r < replicas; ++r) {
     std::size_t at = 0;
     for (RunningNorm* norm : norms) {
@@ -171,7 +195,7 @@ HlObs ObsNormalizerImpl::normalize(const HlObs& obs, bool update_stats) {
   check_obs(obs, dims_);
   torch::NoGradGuard no_grad;
   if (update_stats && gather_) {
-    update_replicated(obs.ego, obs.prev_action, obs.ado, obs.ado_alive, obs.task);
+    hold_back(obs.ego, obs.prev_action, obs.ado, obs.ado_alive, obs.task);
     update_stats = false;
   }
   if (update_stats) {
@@ -187,7 +211,7 @@ LlObs ObsNormalizerImpl::normalize(const LlObs& obs, bool update_stats) {
   check_obs(obs, dims_);
   torch::NoGradGuard no_grad;
   if (update_stats && gather_) {
-    update_replicated(obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task);
+    hold_back(obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task);
     update_stats = false;
   }
   if (update_stats) {

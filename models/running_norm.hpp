@@ -47,15 +47,21 @@ class RunningNormImpl : public torch::nn::Module {
 TORCH_MODULE(RunningNorm);
 
 // Every replica's moments (the same length on each), concatenated in replica order; issue 18's
-// data-parallel ranks set one so that their statistics absorb every rank's batch at once.
+// data-parallel ranks set one so that their statistics absorb every rank's batches together.
 using MomentsGather = std::function<std::vector<double>(const std::vector<double>&)>;
 
 class ObsNormalizerImpl : public torch::nn::Module {
  public:
   explicit ObsNormalizerImpl(const ObsDims& dims, double clip = 10.0);
-  // With a gather, an update absorbs the union of every replica's batch (merged in replica
-  // order), so replicas keep equal statistics; without one (the default), this batch alone.
-  void set_moments_gather(MomentsGather gather) { gather_ = std::move(gather); }
+  // With a gather (data-parallel replicas), updates are held back: normalize(update_stats) adds
+  // the batch's moments to a pending sum and the statistics stay as they are, until
+  // sync_replicas() merges every replica's pending moments (one gather, merged in replica
+  // order). Replicas so normalise alike at every step, and the statistics lag one rollout behind
+  // a single process's. Without a gather (the default) a batch is absorbed at once.
+  void set_moments_gather(MomentsGather gather);
+  // Replicas: absorb every replica's pending batches (a collective: every replica calls it at the
+  // same point). One process: nothing to do.
+  void sync_replicas();
   // Normalised copy of `obs`; with update_stats the statistics first absorb this batch.
   HlObs normalize(const HlObs& obs, bool update_stats);
   LlObs normalize(const LlObs& obs, bool update_stats);
@@ -67,10 +73,11 @@ class ObsNormalizerImpl : public torch::nn::Module {
 
  private:
   torch::Tensor ado_(const torch::Tensor& ado, const torch::Tensor& alive, bool update_stats);
-  // The four fields' statistics absorb every replica's batch (one gather for all four).
-  void update_replicated(const torch::Tensor& ego, const torch::Tensor& extra, const torch::Tensor& ado,
-                         const torch::Tensor& alive, const torch::Tensor& task);
+  // A batch of the four fields into `pending_` (replicas).
+  void hold_back(const torch::Tensor& ego, const torch::Tensor& extra, const torch::Tensor& ado,
+                 const torch::Tensor& alive, const torch::Tensor& task);
   MomentsGather gather_;
+  std::vector<double> pending_;  // the four fields' moments since the last sync, batch_moments' layout
   ObsDims dims_;
   RunningNorm ego_{nullptr}, extra_{nullptr}, ado_norm_{nullptr}, task_{nullptr};
 };

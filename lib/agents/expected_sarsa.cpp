@@ -273,6 +273,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
   if (cfg_.normalize_obs) {
     // Statistics from the aircraft that took the decision only (dead ones hold stale states).
     normalizer_->normalize(models::index_rows(flat_obs, active.reshape({-1}).nonzero().squeeze(1)), true);
+    normalizer_->sync_replicas();  // replicas: every rank's batch, before it is normalised
   }
   const auto obs = prepare(flat_obs, false);
   EsTarget target;

@@ -146,6 +146,8 @@ double PpoAgent::learning_rate_for_update(int64_t update_index) const {
 
 PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   TORCH_CHECK(buffer.finished(), "PpoAgent::update: call RolloutBuffer::finish first");
+  // Replicas: the rollout's observation statistics, held back during it, absorb every rank's now.
+  if (cfg_.normalize_obs) normalizer_->sync_replicas();
   PpoStats stats;
   stats.learning_rate = learning_rate_for_update(update_count_);
   for (auto& group : optimizer_->param_groups()) {
@@ -170,23 +172,37 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   int64_t n_steps = 0;
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(batch, generator_, torch::kInt64);
-    for (const auto& mb : perm.tensor_split(cfg_.n_minibatches)) {
+    const std::vector<torch::Tensor> minibatches = perm.tensor_split(cfg_.n_minibatches);
+    // Replicas: each union minibatch's row count and advantage moments, for the whole epoch in one
+    // reduction, so every replica normalises as one process would over the union (unbiased std,
+    // as CleanRL).
+    std::vector<double> moments;
+    if (replicas_.active()) {
+      moments.assign(3 * minibatches.size(), 0.0);
+      const float* a = advantages.data_ptr<float>();
+      for (std::size_t k = 0; k < minibatches.size(); ++k) {
+        const int64_t* idx = minibatches[k].data_ptr<int64_t>();
+        moments[3 * k] = static_cast<double>(minibatches[k].numel());
+        for (int64_t i = 0; i < minibatches[k].numel(); ++i) {
+          const double x = a[idx[i]];
+          moments[3 * k + 1] += x;
+          moments[3 * k + 2] += x * x;
+        }
+      }
+      replicas_.sum_doubles(moments.data(), static_cast<int64_t>(moments.size()));
+    }
+    for (std::size_t k = 0; k < minibatches.size(); ++k) {
+      const torch::Tensor& mb = minibatches[k];
       const int64_t m = mb.numel();
       auto adv = advantages.index_select(0, mb);
       double share = 1.0;  // this process's share of the step's rows (replicas: of the union's)
       if (replicas_.active()) {
-        // The union's row count and advantage moments, so every replica normalises as one
-        // process would over the union (unbiased std, as CleanRL).
-        std::array<double, 3> moments{static_cast<double>(m), 0.0, 0.0};
-        const float* a = adv.data_ptr<float>();
-        for (int64_t i = 0; i < m; ++i) moments[1] += a[i], moments[2] += static_cast<double>(a[i]) * a[i];
-        replicas_.sum_doubles(moments.data(), 3);
-        const double total = moments[0];
+        const double total = moments[3 * k];
         if (total == 0.0) continue;  // the same on every replica
         share = static_cast<double>(m) / total;
         if (cfg_.normalize_advantages && total > 1.0 && m > 0) {
-          const double mean = moments[1] / total;
-          const double var = std::max(0.0, (moments[2] - total * mean * mean) / (total - 1.0));
+          const double mean = moments[3 * k + 1] / total;
+          const double var = std::max(0.0, (moments[3 * k + 2] - total * mean * mean) / (total - 1.0));
           adv = (adv - static_cast<float>(mean)) / static_cast<float>(std::sqrt(var) + 1e-8);
         }
       } else {
@@ -220,17 +236,17 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
       run_chunks(n_chunks, run_chunk);
       std::array<double, 5> terms{};
       for (const auto& r : chunks)
-        for (std::size_t k = 0; k < terms.size(); ++k) terms[k] += r.weight * r.terms[k];
-      for (std::size_t k = 0; k < params.size(); ++k) {
+        for (std::size_t q = 0; q < terms.size(); ++q) terms[q] += r.weight * r.terms[q];
+      for (std::size_t p = 0; p < params.size(); ++p) {
         torch::Tensor sum;
         for (const auto& r : chunks)
-          if (r.grads[k].defined()) sum = sum.defined() ? sum + r.grads[k] : r.grads[k];
-        params[k].mutable_grad() = sum;
+          if (r.grads[p].defined()) sum = sum.defined() ? sum + r.grads[p] : r.grads[p];
+        params[p].mutable_grad() = sum;
       }
       if (replicas_.active()) {
         // The union's gradient: each replica's weighted by its share of the union's rows.
         std::vector<double> extra(terms.size());
-        for (std::size_t k = 0; k < terms.size(); ++k) extra[k] = terms[k] * share;
+        for (std::size_t q = 0; q < terms.size(); ++q) extra[q] = terms[q] * share;
         sum_weighted_gradients(params, share, extra, replicas_);
         std::copy(extra.begin(), extra.end(), terms.begin());
       }

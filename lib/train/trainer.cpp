@@ -170,6 +170,7 @@ struct Trainer::State {
 
   // Counters.
   std::int64_t env_steps = 0, ppo_updates = 0, es_updates = 0, hl_grad_steps = 0;
+  std::int64_t rank_env_steps = 0;  // this rank's own, in this process (not checkpointed)
   int phase = 0;               // 0: low level learns, 1: high level learns
   int phase_updates = 0;       // updates done in the current phase
   std::int64_t opponent = -1;  // pool snapshot (its env_steps) the pool envs play, -1: none
@@ -591,7 +592,8 @@ void Trainer::State::ll_step(bool learn) {
   const auto t_env = Clock::now();
   env->step(actions.data_ptr<float>());
   timing.env += since(t_env);
-  env_steps += n_env_global;  // the group's steps: every rank steps in lockstep
+  env_steps += n_env;  // a group sums its ranks' steps after each update (Trainer::run)
+  rank_env_steps += n_env;
 
   // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
   // than the simulator.
@@ -1145,25 +1147,26 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   s.timing = TimeBreakdown{};
   const auto t_run = State::Clock::now();
   std::int64_t done_here = 0;
-  const std::int64_t hl_batch = static_cast<std::int64_t>(s.n_env_global) * s.cfg.hl.n_steps_per_update;
+  // Each rank fills its own share of an ES batch (a group's ranks may step different numbers of
+  // steps in an HL phase: no collective per step) and the group sums its steps after the update.
+  const std::int64_t hl_batch = static_cast<std::int64_t>(s.n_env) * s.cfg.hl.n_steps_per_update;
   const double comm_at_start = s.group != nullptr ? s.group->collective_seconds() : 0.0;
-  const std::int64_t steps_at_start = s.env_steps;
-  // Transitions the group has closed (one process: its own), to know when an ES batch is full;
-  // a group steps in lockstep until the sum reaches it.
-  auto hl_closed = [&s]() {
-    std::vector<std::int64_t> n{static_cast<std::int64_t>(s.done_obs.size())};
-    s.group_sum(n);
-    return n[0];
-  };
+  const std::int64_t rank_steps_at_start = s.rank_env_steps;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
+    const std::int64_t steps_before = s.env_steps;
     if (ll_phase) {
       for (std::int64_t k = 0; k < s.cfg.ll.n_steps; ++k) s.ll_step(true);
       s.ppo_update();
     } else {
-      while (hl_closed() < hl_batch) s.ll_step(false);
+      while (static_cast<std::int64_t>(s.done_obs.size()) < hl_batch) s.ll_step(false);
       s.es_update();
+    }
+    if (s.group != nullptr) {
+      std::vector<std::int64_t> stepped{s.env_steps - steps_before};
+      s.group_sum(stepped);
+      s.env_steps = steps_before + stepped[0];
     }
     ++done_here;
     ++s.phase_updates;
@@ -1211,7 +1214,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   summary.env_steps = s.env_steps;
   summary.hl_grad_steps = s.hl_grad_steps;
   summary.curves_problem = s.curves_problem;
-  summary.rank_env_steps = (s.env_steps - steps_at_start) / std::max(1, s.world);
+  summary.rank_env_steps = s.rank_env_steps - rank_steps_at_start;
   summary.communication_s = s.group != nullptr ? s.group->collective_seconds() - comm_at_start : 0.0;
   s.timing.total = State::since(t_run);
   s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io;

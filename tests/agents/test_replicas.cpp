@@ -106,8 +106,13 @@ TEST(Replicas, TwoPpoReplicasTakeTheUnionsSteps) {
   const PpoConfig cfg = replica_ppo_config(dims);
   const PpoSamples samples = ppo_samples(dims);
 
+  // The reference: one process with all ten aircraft, as a group of one (whose observation
+  // statistics are held back over the rollout as a group's are; see
+  // APpoReplicaWithoutValidRowsStillTakesPart for a plain agent).
+  ThreadGroup solo(1);
   torch::manual_seed(4);
   PpoAgent one(cfg);
+  one.set_replicas(solo.replicas(0));
   const PpoStats one_stats = ppo_update_on(one, samples, 0, 10);
 
   std::vector<PpoStats> stats(2);
@@ -124,7 +129,8 @@ TEST(Replicas, TwoPpoReplicasTakeTheUnionsSteps) {
   torch::manual_seed(4);
   PpoAgent initial(cfg);
   EXPECT_GT(max_abs_diff(*one.net(), *initial.net()), 1e-3);  // the update did move the weights
-  // Observation statistics absorbed the union: equal to one process's to rounding.
+  // Observation statistics absorbed the union: equal to one process's to rounding; they moved.
+  EXPECT_NEAR(one.normalizer()->ego()->count(), 6 * 10 + 1e-4, 1e-9);
   EXPECT_NEAR(ranks[1]->normalizer()->ego()->count(), one.normalizer()->ego()->count(), 1e-9);
   EXPECT_LT((ranks[1]->normalizer()->ego()->mean() - one.normalizer()->ego()->mean()).abs().max().item<double>(), 1e-12);
   EXPECT_LT((ranks[0]->normalizer()->ado()->var() - one.normalizer()->ado()->var()).abs().max().item<double>(), 1e-12);

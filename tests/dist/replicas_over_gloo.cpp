@@ -64,8 +64,15 @@ int main() {
   ppo_update_on(replica, samples, cut[r], cut[r + 1]);
   if (!ranks_agree(group, *replica.net())) ok = false, std::printf("rank %d: PPO replicas differ between ranks\n", r);
   if (r == 0) {
+    // One process with all the aircraft, as a group of one (statistics held back over the
+    // rollout, as a group's are).
+    agents::Replicas solo;
+    solo.sum_floats = [](float*, std::int64_t) {};
+    solo.sum_doubles = [](double*, std::int64_t) {};
+    solo.gather = [](const std::vector<double>& v) { return v; };
     torch::manual_seed(4);
     PpoAgent one(ppo_cfg);
+    one.set_replicas(solo);
     ppo_update_on(one, samples, 0, 10);
     const double d = max_abs_diff(*one.net(), *replica.net());
     std::printf("PPO: 2 ranks (6 + 4 aircraft) vs one process (10): max |weight difference| %.3g\n", d);
