@@ -38,7 +38,9 @@ struct LaunchOptions {
 
 // Forwarded to every rank: Ctrl-C of the launcher is Ctrl-C of the group.
 std::vector<pid_t> g_children;
+volatile sig_atomic_t g_forwarded = 0;  // the user stopped the group: its ranks' exits are no failure
 extern "C" void forward_signal(int sig) {
+  g_forwarded = 1;
   for (pid_t p : g_children)
     if (p > 0) ::kill(p, sig);
 }
@@ -163,7 +165,9 @@ void launch_ranks(int nproc, const std::vector<std::string>& command, int thread
     const int r = static_cast<int>(it - g_children.begin());
     *it = -1;
     --running;
-    if (status != 0 && first_failure == 0) {
+    if (status != 0 && first_failure == 0 && g_forwarded) {
+      first_failure = exit_code(status);  // e.g. 130 after a checkpoint: the rank says so itself
+    } else if (status != 0 && first_failure == 0) {
       std::fprintf(stderr, "f16race launch: rank %d %s; the other ranks stop within %.0f s\n", r,
                    describe(status).c_str(), o.timeout_s);
       first_failure = exit_code(status);

@@ -7,6 +7,7 @@
 #  - race.n_env that does not split over the ranks, and ranks with different configs, are refused;
 #  - a rank killed mid-run: the other stops within the timeout with one line naming it, non-zero
 #    exit, the last checkpoint intact, and the group resumes from it;
+#  - Ctrl-C of the launcher: exit 130 with a checkpoint at the last update, no failure reported;
 #  - bench train --nproc 2 reports each rank's throughput and time in collectives.
 # (a), the gradients of a step over ranks against one process's: tests/agents/test_replicas.cpp.
 # Usage: dist_train.sh F16RACE_BINARY SMOKE_CONFIG WORK_DIR
@@ -108,6 +109,22 @@ before=$(sed -n 's/^updates: //p' "$ck/meta.yaml")
 after=$(sed -n 's/^updates: //p' "$(latest "$work/killed")/meta.yaml")
 [ "$after" -eq $((before + 3)) ] || fail "resumed from update $before, now at $after (expected $((before + 3)))"
 echo "killed: rank 0 stopped $took s after rank 1 was killed; the group resumed at update $before"
+
+# Ctrl-C of the launcher: every rank stops after the same update, rank 0 writes its checkpoint.
+"$bin" --threads 1 launch --nproc 2 -- train --config "$config" --set train.total_env_steps=10000000 \
+  --run "$work/int" --quiet > "$work/int.log" 2>&1 &
+launcher=$!
+for _ in $(seq 300); do sleep 0.1; [ -f "$work/int/checkpoint/LATEST" ] && break; done
+sleep 1
+kill -INT $launcher
+set +e
+wait $launcher
+rc=$?
+set -e
+[ $rc -eq 130 ] || fail "Ctrl-C: exit $rc, expected 130: $(tail -n 3 "$work/int.log")"
+at=$(sed -n 's/^interrupted: checkpoint written at update \([0-9]*\);.*/\1/p' "$work/int.log")
+[ -n "$at" ] && grep -qx "updates: $at" "$(latest "$work/int")/meta.yaml" || fail "Ctrl-C: no checkpoint at the last update: $(cat "$work/int.log")"
+! grep -q "exited with status" "$work/int.log" || fail "Ctrl-C reported as a failure: $(cat "$work/int.log")"
 
 # bench train over 2 ranks.
 out=$("$bin" --threads 1 bench train --nproc 2 --config "$config" --updates 3 2>&1) || fail "bench train --nproc 2: $out"
