@@ -71,8 +71,13 @@ NetworkFloor network_floor(const train::TrainConfig& cfg, const train::TrainSumm
   if (f.ll_train_batch > 0)
     f.ll_train_s = w.ll_train_rows * measure_ll_cost(lc, f.ll_train_batch, kRepeats, false, concurrent).forward_backward_s;
   if (f.hl_forward_batch > 0) f.hl_forward_s = w.hl_forward_rows * measure_hl_cost(hc, f.hl_forward_batch, kRepeats).forward_s;
+  // ES steps' chunks (hl.minibatch_chunks) run concurrently too.
+  const std::int64_t hl_chunks_per_step =
+      w.hl_train_steps > 0 ? std::max<std::int64_t>(1, w.hl_train_calls / w.hl_train_steps) : 1;
+  const int hl_concurrent = static_cast<int>(std::min<std::int64_t>(omp_get_max_threads(), hl_chunks_per_step));
   if (f.hl_train_batch > 0)
-    f.hl_train_s = w.hl_train_rows * measure_hl_cost(hc, f.hl_train_batch, kRepeats).forward_backward_s;
+    f.hl_train_s =
+        w.hl_train_rows * measure_hl_cost(hc, f.hl_train_batch, kRepeats, hl_concurrent).forward_backward_s;
   f.total_s = f.ll_forward_s + f.ll_train_s + f.hl_forward_s + f.hl_train_s;
   return f;
 }

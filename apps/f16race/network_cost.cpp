@@ -55,6 +55,24 @@ SampleCost measure_cost(Net& net, const Obs& obs, const std::function<torch::Ten
   return c;
 }
 
+// Seconds per sample of `concurrent` forward+backward passes at once on the OpenMP threads, as
+// the agents run a minibatch's chunks (wall time / all samples).
+template <class Net, class Obs, class LossOf>
+double concurrent_forward_backward_s(Net& net, const Obs& obs, const LossOf& loss_of, std::int64_t batch, int repeats,
+                                     int concurrent) {
+  const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
+  const auto params = net->parameters();
+  return time_median_s(
+             [&]() {
+#pragma omp parallel for num_threads(concurrent) schedule(static, 1)
+               for (int t = 0; t < concurrent; ++t)
+                 for (std::int64_t k = 0; k < calls; ++k)
+                   torch::autograd::grad({loss_of(net, obs)}, params, {}, false, false, true);
+             },
+             repeats) /
+         static_cast<double>(calls * batch * concurrent);
+}
+
 }  // namespace
 
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
@@ -83,32 +101,21 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
                       repeats) /
                   static_cast<double>(calls * batch);
   }
-  if (concurrent > 1) {
-    const auto params = net->parameters();
-    c.forward_backward_s = time_median_s(
-                               [&]() {
-#pragma omp parallel for num_threads(concurrent) schedule(static, 1)
-                                 for (int t = 0; t < concurrent; ++t)
-                                   for (std::int64_t k = 0; k < calls; ++k)
-                                     torch::autograd::grad({loss_of(net, obs)}, params, {}, false, false, true);
-                               },
-                               repeats) /
-                           static_cast<double>(calls * batch * concurrent);
-  }
+  if (concurrent > 1) c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
   return c;
 }
 
-SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats) {
+SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent) {
   auto gen = models::make_generator(1);
   const models::HlObs obs = random_hl_obs(cfg.dims, batch, gen);
   models::HlCritic net(cfg);
-  return measure_cost<models::HlCritic, models::HlObs>(
-      net, obs,
-      [](models::HlCritic& n, const models::HlObs& o) {
-        const auto out = n(o);
-        return out.log_probs.defined() ? out.log_probs.sum() : out.q.sum();
-      },
-      batch, repeats);
+  const auto loss_of = [](models::HlCritic& n, const models::HlObs& o) {
+    const auto out = n(o);
+    return out.log_probs.defined() ? out.log_probs.sum() : out.q.sum();
+  };
+  SampleCost c = measure_cost<models::HlCritic, models::HlObs>(net, obs, loss_of, batch, repeats);
+  if (concurrent > 1) c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
+  return c;
 }
 
 double matmul_gflops(int repeats) {

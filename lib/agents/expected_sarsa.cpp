@@ -1,9 +1,11 @@
 #include "agents/expected_sarsa.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "agents/checkpoint.hpp"
+#include "agents/concurrent_chunks.hpp"
 
 namespace f16race::agents {
 
@@ -309,49 +311,69 @@ EsStats EsAgent::update(const EsBatch& batch) {
     const auto perm = torch::randperm(t, generator_, torch::kInt64);
     for (const auto& teams : perm.tensor_split(cfg_.n_minibatches)) {
       if (teams.numel() == 0 && !replicas_.active()) continue;
-      const auto rows = (teams.unsqueeze(1) * n_a + aircraft).reshape({-1});
-      EsTarget mb_target;
-      if (teams.numel() > 0)
-        mb_target = EsTarget{target.value.index_select(0, teams),
-                             target.dist.defined() ? target.dist.index_select(0, teams) : torch::Tensor()};
-      optimizer_->zero_grad();
+      // The step's chunks: units (what the loss averages over) first, so each chunk's gradient
+      // can weigh by its share while the chunks run concurrently.
+      const int64_t m = teams.numel();
+      const int64_t n_chunks = m == 0 ? 0 : std::min(cfg_.minibatch_chunks, m);
+      struct Chunk {
+        torch::Tensor teams;
+        double units = 0.0, loss = 0.0, q = 0.0, td = 0.0;
+        std::vector<torch::Tensor> grads;
+      };
+      std::vector<Chunk> chunks(static_cast<std::size_t>(n_chunks));
+      double units = 0.0;
+      for (int64_t c = 0; c < n_chunks; ++c) {
+        Chunk& k = chunks[static_cast<std::size_t>(c)];
+        k.teams = teams.slice(0, m * c / n_chunks, m * (c + 1) / n_chunks);
+        const auto act = active.index_select(0, k.teams);
+        k.units = (es_is_team(cfg_.variant) ? act.any(1) : act).sum().item<double>();
+        units += k.units;
+      }
+      const std::vector<torch::Tensor> params = critic_->parameters();
+      run_chunks(n_chunks, [&](int64_t c) {
+        Chunk& k = chunks[static_cast<std::size_t>(c)];
+        // A replica leaves out what has no unit (its loss would be 0/0); one process runs it as a
+        // plain backward() would.
+        if (k.units == 0.0 && (replicas_.active() || n_chunks > 1)) return;
+        const auto rows_c = (k.teams.unsqueeze(1) * n_a + aircraft).reshape({-1});
+        const EsTarget target_c{target.value.index_select(0, k.teams),
+                                target.dist.defined() ? target.dist.index_select(0, k.teams) : torch::Tensor()};
+        const auto out = critic_(models::index_rows(obs, rows_c));
+        const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, k.teams),
+                               active.index_select(0, k.teams), target_c, cfg_.huber_delta, support_,
+                               cfg_.component_ce_weight);
+        const double weight = n_chunks == 1 ? 1.0 : k.units / units;
+        k.grads = torch::autograd::grad({n_chunks == 1 ? l.loss : l.loss * weight}, params, /*grad_outputs=*/{},
+                                        /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
+        torch::NoGradGuard no_grad;
+        k.loss = l.loss.item<double>();
+        k.q = masked_mean(l.prediction, l.valid).item<double>();
+        k.td = masked_mean((l.prediction - target_c.value).abs(), l.valid).item<double>();
+      });
+      stats.train_rows += m * n_a;
+      for (const Chunk& k : chunks) stats.train_passes += k.grads.empty() ? 0 : 1;
       double loss = 0.0, q = 0.0, td = 0.0;
+      for (std::size_t p = 0; p < params.size(); ++p) {
+        torch::Tensor sum;
+        for (const Chunk& k : chunks)
+          if (!k.grads.empty() && k.grads[p].defined()) sum = sum.defined() ? sum + k.grads[p] : k.grads[p];
+        // Assigned, not accumulated (a gradient may be a view, which zero_grad() cannot clear).
+        params[p].mutable_grad() = sum.defined() ? sum : torch::zeros_like(params[p]);
+      }
+      for (const Chunk& k : chunks) {
+        const double w = n_chunks == 1 ? 1.0 : (units > 0.0 ? k.units / units : 0.0);
+        loss += w * k.loss, q += w * k.q, td += w * k.td;
+      }
       if (replicas_.active()) {
         // The union's loss is a mean over its valid units: each replica's gradient weighs by its
-        // count of them (exact for the paper's loss; the optional component term is averaged so too).
-        double units = 0.0;
-        if (teams.numel() > 0) {
-          const auto out = critic_(models::index_rows(obs, rows));
-          stats.train_rows += rows.numel();
-          const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams),
-                                 active.index_select(0, teams), mb_target, cfg_.huber_delta, support_,
-                                 cfg_.component_ce_weight);
-          units = l.valid.sum().item<double>();
-          if (units > 0.0) {
-            l.loss.backward();
-            torch::NoGradGuard no_grad;
-            loss = l.loss.item<double>();
-            q = masked_mean(l.prediction, l.valid).item<double>();
-            td = masked_mean((l.prediction - mb_target.value).abs(), l.valid).item<double>();
-          }
-        }
+        // count of them (exact for the paper's loss; the optional component term is weighted so too).
         std::vector<double> extra{units, loss * units, q * units, td * units};
-        sum_weighted_gradients(critic_->parameters(), units, extra, replicas_);
+        sum_weighted_gradients(params, units, extra, replicas_);
         if (extra[0] == 0.0) continue;  // no valid unit on any replica: no step anywhere
-        for (auto& p : critic_->parameters()) p.mutable_grad().div_(static_cast<float>(extra[0]));
+        for (auto& p : params) p.mutable_grad().div_(static_cast<float>(extra[0]));
         loss = extra[1] / extra[0];
         q = extra[2] / extra[0];
         td = extra[3] / extra[0];
-      } else {
-        const auto out = critic_(models::index_rows(obs, rows));
-        stats.train_rows += rows.numel();
-        const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, teams), active.index_select(0, teams),
-                               mb_target, cfg_.huber_delta, support_, cfg_.component_ce_weight);
-        l.loss.backward();
-        torch::NoGradGuard no_grad;
-        loss = l.loss.item<double>();
-        q = masked_mean(l.prediction, l.valid).item<double>();
-        td = masked_mean((l.prediction - mb_target.value).abs(), l.valid).item<double>();
       }
       stats.grad_norm = torch::nn::utils::clip_grad_norm_(critic_->parameters(), cfg_.max_grad_norm);
       optimizer_->step();

@@ -69,6 +69,12 @@ struct EsConfig {
   int64_t target_update_interval = 10;  // updates between hard target-network syncs
   int64_t n_epochs = 1;       // passes over each batch
   int64_t n_minibatches = 1;  // gradient steps per pass (team samples split evenly)
+  // A gradient step's teams in this many contiguous chunks whose gradients (each weighted by its
+  // share of the step's valid units) run concurrently on the OpenMP threads and add up in chunk
+  // order: the same step up to float summation order, the same bits at any thread count (exact
+  // for the paper's loss; with component_ce_weight the component term is weighted so too). 1: one
+  // pass, the arithmetic of a plain backward().
+  int64_t minibatch_chunks = 1;
   double learning_rate = 3e-4;
   double adam_eps = 1e-5;
   double max_grad_norm = 10.0;
@@ -113,6 +119,7 @@ struct EsStats {
   int64_t update_index = 0;  // updates done, including this one
   int64_t grad_steps = 0;    // gradient steps of this update
   int64_t train_rows = 0;    // aircraft rows through forward+backward, summed over its steps
+  int64_t train_passes = 0;  // forward+backward passes (a step's chunks with valid units)
   int64_t forward_rows = 0;  // aircraft rows through no-grad forwards (target, diagnostics)
   bool target_synced = false;
   // Diagnostics of the online critic on the batch before the update (rows that took the

@@ -721,7 +721,8 @@ void Trainer::State::es_update() {
   work.hl_forward_rows += last_es.forward_rows;
   work.hl_forward_calls += 2;
   work.hl_train_rows += last_es.train_rows;
-  work.hl_train_calls += last_es.grad_steps;
+  work.hl_train_calls += last_es.train_passes;
+  work.hl_train_steps += last_es.grad_steps;
   done_obs.clear();
   done_next.clear();
   done_actions.clear();

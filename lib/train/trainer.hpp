@@ -106,7 +106,8 @@ struct NetworkWork {
   std::int64_t ll_train_rows = 0, ll_train_calls = 0;      // PPO minibatch chunks, forward+backward
   std::int64_t ll_train_steps = 0;                          // PPO minibatch steps (their chunks run concurrently)
   std::int64_t hl_forward_rows = 0, hl_forward_calls = 0;  // HL no-grad: decisions, ES targets and diagnostics
-  std::int64_t hl_train_rows = 0, hl_train_calls = 0;      // ES minibatches, forward+backward
+  std::int64_t hl_train_rows = 0, hl_train_calls = 0;      // ES minibatch chunks, forward+backward
+  std::int64_t hl_train_steps = 0;                          // ES gradient steps (their chunks run concurrently)
 };
 
 struct TrainSummary {

@@ -9,7 +9,8 @@
 #    exit, the last checkpoint intact, and the group resumes from it;
 #  - Ctrl-C of the launcher: exit 130 with a checkpoint at the last update, no failure reported;
 #  - bench train --nproc 2 reports each rank's throughput and time in collectives.
-# (a), the gradients of a step over ranks against one process's: tests/agents/test_replicas.cpp.
+# (a), a step over ranks against one process's on the union of the samples: tests/agents/test_replicas.cpp
+# (threads as ranks) and replicas_over_gloo.sh (ctest dist_replicas_over_gloo).
 # Usage: dist_train.sh F16RACE_BINARY SMOKE_CONFIG WORK_DIR
 set -euo pipefail
 bin=$1 config=$2 work=$3
