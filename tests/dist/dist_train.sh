@@ -5,8 +5,8 @@
 #    ll.pt, hl.pt and metrics (but wall time) as the unbroken group run;
 #  - a checkpoint of 2 ranks is refused by one process (and the reverse), naming the fix;
 #  - race.n_env that does not split over the ranks, and ranks with different configs, are refused;
-#  - a rank killed mid-run: the other stops within the timeout with one line naming it, non-zero
-#    exit, the last checkpoint intact, and the group resumes from it;
+#  - a rank killed or hung mid-run: the other stops within the timeout with one line naming it,
+#    non-zero exit, the last checkpoint intact, and the group resumes from it;
 #  - Ctrl-C of the launcher: exit 130 with a checkpoint at the last update, no failure reported;
 #  - bench train --nproc 2 reports each rank's throughput and time in collectives.
 # (a), a step over ranks against one process's on the union of the samples: tests/agents/test_replicas.cpp
@@ -78,30 +78,36 @@ set -e
 grep -q "rank 1 runs another command or build than rank 0" "$work/mm0.log" || fail "rank 0: $(cat "$work/mm0.log")"
 [ ! -e "$work/mm/metrics.csv" ] || fail "mismatched ranks trained"
 
-# A rank killed mid-run: the other stops, the last checkpoint stays, the group resumes from it.
-"$bin" --threads 1 launch --nproc 2 --timeout 5 -- train --config "$config" --set train.total_env_steps=10000000 \
-  --run "$work/killed" --quiet > "$work/killed.log" 2>&1 &
-launcher=$!
-victim=""
-for _ in $(seq 300); do
-  sleep 0.1
-  for p in $(pgrep -P $launcher || true); do
-    tr '\0' '\n' < /proc/$p/environ 2>/dev/null | grep -qx "RANK=1" && victim=$p
+# A rank killed (KILL) or hung (STOP) mid-run: the other stops with one line naming it, the last
+# checkpoint stays; the group resumes from the killed run's.
+for sig in KILL STOP; do
+  "$bin" --threads 1 launch --nproc 2 --timeout 5 -- train --config "$config" --set train.total_env_steps=10000000 \
+    --run "$work/lost_$sig" --quiet > "$work/lost_$sig.log" 2>&1 &
+  launcher=$!
+  victim=""
+  for _ in $(seq 300); do
+    sleep 0.1
+    for p in $(pgrep -P $launcher || true); do
+      tr '\0' '\n' < /proc/$p/environ 2>/dev/null | grep -qx "RANK=1" && victim=$p
+    done
+    [ -n "$victim" ] && [ -f "$work/lost_$sig/checkpoint/LATEST" ] && break
   done
-  [ -n "$victim" ] && [ -f "$work/killed/checkpoint/LATEST" ] && break
+  [ -n "$victim" ] && [ -f "$work/lost_$sig/checkpoint/LATEST" ] || fail "$sig: the group never wrote a checkpoint"
+  sleep 1
+  start=$(date +%s)
+  kill -$sig "$victim"
+  set +e
+  wait $launcher
+  rc=$?
+  set -e
+  kill -KILL "$victim" 2>/dev/null || true
+  took=$(( $(date +%s) - start ))
+  [ $rc -ne 0 ] || fail "$sig: the group exited 0 after losing rank 1"
+  grep -q "rank 0 of 2: rank 1 is not running" "$work/lost_$sig.log" || fail "$sig: no line naming rank 1: $(tail -n 4 "$work/lost_$sig.log")"
+  [ $took -lt 30 ] || fail "$sig: the group took $took s to stop"
+  echo "$sig: the group (rank 0, then the launcher ending the stopped rank) ended $took s after rank 1 was lost"
 done
-[ -n "$victim" ] && [ -f "$work/killed/checkpoint/LATEST" ] || fail "the group never wrote a checkpoint"
-sleep 1
-start=$(date +%s)
-kill -KILL "$victim"
-set +e
-wait $launcher
-rc=$?
-set -e
-took=$(( $(date +%s) - start ))
-[ $rc -ne 0 ] || fail "the group exited 0 after losing rank 1"
-grep -q "rank 0 of 2: rank 1 is not running" "$work/killed.log" || fail "no line naming rank 1: $(tail -n 4 "$work/killed.log")"
-[ $took -lt 30 ] || fail "rank 0 took $took s to stop"
+mv "$work/lost_KILL" "$work/killed"
 ck=$(latest "$work/killed")
 for f in ll.pt hl.pt trainer.pt trainer_rank1.pt meta.yaml; do [ -s "$ck/$f" ] || fail "the last checkpoint lost $f"; done
 before=$(sed -n 's/^updates: //p' "$ck/meta.yaml")
@@ -109,7 +115,7 @@ before=$(sed -n 's/^updates: //p' "$ck/meta.yaml")
   fail "resume after the kill: $(tail -n 3 "$work/resumed.log")"
 after=$(sed -n 's/^updates: //p' "$(latest "$work/killed")/meta.yaml")
 [ "$after" -eq $((before + 3)) ] || fail "resumed from update $before, now at $after (expected $((before + 3)))"
-echo "killed: rank 0 stopped $took s after rank 1 was killed; the group resumed at update $before"
+echo "killed: the group resumed at update $before"
 
 # Ctrl-C of the launcher: every rank stops after the same update, rank 0 writes its checkpoint.
 "$bin" --threads 1 launch --nproc 2 -- train --config "$config" --set train.total_env_steps=10000000 \
