@@ -16,6 +16,7 @@ set -euo pipefail
 bin=$1 config=$2 work=$3
 rm -rf "$work" && mkdir -p "$work"
 fail() { echo "FAIL: $*"; exit 1; }
+source "$(dirname "$0")/lose_rank.sh"
 steps=(--set train.total_env_steps=1600)
 # Metrics without the wall-time columns (wall_s, samples_per_s).
 metrics() { cut -d, -f1-3,6- "$1/metrics.csv"; }
@@ -81,31 +82,10 @@ grep -q "rank 1 runs another command or build than rank 0" "$work/mm0.log" || fa
 # A rank killed (KILL) or hung (STOP) mid-run: the other stops with one line naming it, the last
 # checkpoint stays; the group resumes from the killed run's.
 for sig in KILL STOP; do
-  "$bin" --threads 1 launch --nproc 2 --timeout 5 -- train --config "$config" --set train.total_env_steps=10000000 \
-    --run "$work/lost_$sig" --quiet > "$work/lost_$sig.log" 2>&1 &
-  launcher=$!
-  victim=""
-  for _ in $(seq 300); do
-    sleep 0.1
-    for p in $(pgrep -P $launcher || true); do
-      tr '\0' '\n' < /proc/$p/environ 2>/dev/null | grep -qx "RANK=1" && victim=$p
-    done
-    [ -n "$victim" ] && [ -f "$work/lost_$sig/checkpoint/LATEST" ] && break
-  done
-  [ -n "$victim" ] && [ -f "$work/lost_$sig/checkpoint/LATEST" ] || fail "$sig: the group never wrote a checkpoint"
-  sleep 1
-  start=$(date +%s)
-  kill -$sig "$victim"
-  set +e
-  wait $launcher
-  rc=$?
-  set -e
-  kill -KILL "$victim" 2>/dev/null || true
-  took=$(( $(date +%s) - start ))
-  [ $rc -ne 0 ] || fail "$sig: the group exited 0 after losing rank 1"
-  grep -q "rank 0 of 2: rank 1 is not running" "$work/lost_$sig.log" || fail "$sig: no line naming rank 1: $(tail -n 4 "$work/lost_$sig.log")"
-  [ $took -lt 30 ] || fail "$sig: the group took $took s to stop"
-  echo "$sig: the group (rank 0, then the launcher ending the stopped rank) ended $took s after rank 1 was lost"
+  lose_rank1 $sig "$work/lost_$sig/checkpoint/LATEST" "$work/lost_$sig.log" -- \
+    "$bin" --threads 1 launch --nproc 2 --timeout 5 -- train --config "$config" --set train.total_env_steps=10000000 \
+    --run "$work/lost_$sig" --quiet
+  echo "$sig: the group (rank 0, then the launcher ending a stopped rank) ended $took s after rank 1 was lost"
 done
 mv "$work/lost_KILL" "$work/killed"
 ck=$(latest "$work/killed")
