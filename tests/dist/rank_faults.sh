@@ -1,4 +1,5 @@
-# Sourced by the dist_*.sh tests (which define `fail`): lose rank 1 of a running group.
+# Sourced by the dist_*.sh tests (which define `fail` and `bin`): a group's ranks that differ, and a
+# rank lost from a running group.
 #
 # lose_rank1 SIG READY_PATH LOG -- COMMAND...
 #   starts COMMAND (an `f16race launch --nproc 2 ...` line) in the background, its output in LOG;
@@ -31,4 +32,27 @@ lose_rank1() {
   [ $rc -ne 0 ] || fail "$sig: the group exited 0 after losing rank 1"
   grep -q "rank 0 of 2: rank 1 is not running" "$log" || fail "$sig: no line naming rank 1: $(tail -n 4 "$log")"
   [ $took -lt 30 ] || fail "$sig: the group took $took s to stop"
+}
+
+# refused_pair LOG_PREFIX RANK0_ARGS RANK1_ARGS
+#   starts rank 0 and rank 1 of a group of two, each `$bin --threads 1` with the arguments of the
+#   array named RANK0_ARGS / RANK1_ARGS (they differ), outputs in LOG_PREFIX0.log / LOG_PREFIX1.log.
+#   Fails unless both are refused at the start (exit 2) with the line naming rank 1's difference.
+refused_pair() {
+  local prefix=$1
+  local -n args0=$2 args1=$3
+  local port=$((20000 + RANDOM % 20000)) p1 rc0 rc1
+  set +e
+  WORLD_SIZE=2 RANK=1 MASTER_PORT=$port "$bin" --threads 1 "${args1[@]}" > "${prefix}1.log" 2>&1 &
+  p1=$!
+  WORLD_SIZE=2 RANK=0 MASTER_PORT=$port "$bin" --threads 1 "${args0[@]}" > "${prefix}0.log" 2>&1
+  rc0=$?
+  wait $p1
+  rc1=$?
+  set -e
+  [ $rc0 -eq 2 ] && [ $rc1 -eq 2 ] || fail "mismatched ranks: exit $rc0 / $rc1, expected 2 / 2"
+  local r
+  for r in 0 1; do
+    grep -q "rank 1 runs another command or build than rank 0" "${prefix}$r.log" || fail "rank $r: $(cat "${prefix}$r.log")"
+  done
 }
