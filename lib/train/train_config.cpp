@@ -102,6 +102,7 @@ void bind_loop(R& r, LoopConfig* c) {
 template <class R>
 void bind_pool(R& r, PoolConfig* c) {
   r.read("p_self_play", &c->p_self_play, 0.0, 1.0);
+  r.read("p_center", &c->p_center, 0.0, 1.0);
   r.read("snapshot_every_updates", &c->snapshot_every_updates, 1, 1000000);
   r.read("max_snapshots", &c->max_snapshots, 1, 100000);
   r.read("randomize_sides", &c->randomize_sides);

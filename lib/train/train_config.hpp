@@ -37,6 +37,10 @@ struct LoopConfig {
 
 struct PoolConfig {
   double p_self_play = 0.5;        // paper: current policy or a past checkpoint with equal odds
+  // Share of races (drawn first) against a center-line control: the learner's own low level
+  // with every opponent's high level fixed at the middle bin, the `@center` entry of a
+  // tournament. 0: the paper's pool only (docs/learning.md, "A fixed plan in the pool").
+  double p_center = 0.0;
   int snapshot_every_updates = 40; // PPO+ES updates between pool snapshots
   int max_snapshots = 20;          // oldest snapshots are removed beyond this
   bool randomize_sides = true;     // learner plays blue or red at random per race

@@ -176,7 +176,10 @@ struct Trainer::State {
   std::int64_t opponent = -1;  // pool snapshot (its env_steps) the pool envs play, -1: none
   std::vector<std::int64_t> pool;
   std::vector<int> side;       // [n_env] learner team
-  std::vector<std::uint8_t> vs_pool;  // [n_env] opponent is the pool snapshot
+  // [n_env] who the opponent is: kVsSelf the current policy, kVsPool the pool snapshot,
+  // kVsCenter the current low level with a center-line high level (pool.p_center).
+  std::vector<std::uint8_t> vs_pool;
+  enum : std::uint8_t { kVsSelf = 0, kVsPool = 1, kVsCenter = 2 };
 
   // HL transitions.
   OpenHl open;
@@ -221,12 +224,18 @@ struct Trainer::State {
   bool is_learner(int e, int agent) const { return agent / ts == side[e]; }
   // Who flies each aircraft: 0 the learner's networks (its team, and both teams in self-play
   // envs), 1 the pool snapshot (the other team in pool envs); -1 where `only` is given and
-  // its env's flag is down (an HL decision only for the envs that are due).
-  std::vector<int> owners(const std::uint8_t* only = nullptr) const {
+  // its env's flag is down (an HL decision only for the envs that are due), and for the high
+  // level of a center-line opponent (its rows keep the middle bin).
+  std::vector<int> owners(const std::uint8_t* only = nullptr, bool high_level = false) const {
     std::vector<int> o(static_cast<std::size_t>(n_env) * n_agent);
     for (int e = 0; e < n_env; ++e)
-      for (int a = 0; a < n_agent; ++a)
-        o[e * n_agent + a] = only && !only[e] ? -1 : (vs_pool[e] && !is_learner(e, a) ? 1 : 0);
+      for (int a = 0; a < n_agent; ++a) {
+        int who = 0;
+        if (only && !only[e]) who = -1;
+        else if (!is_learner(e, a) && vs_pool[e] == kVsPool) who = 1;
+        else if (!is_learner(e, a) && vs_pool[e] == kVsCenter) who = high_level ? -1 : 0;
+        o[e * n_agent + a] = who;
+      }
     return o;
   }
 
@@ -448,7 +457,11 @@ Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_ava
   // Both numbers are always drawn, so the stream advances the same way whatever the settings.
   const double u_side = stream.uniform(), u_pool = stream.uniform();
   m.learner_side = pool.randomize_sides && u_side < 0.5 ? 1 : 0;
-  m.vs_pool = pool_available && u_pool >= pool.p_self_play;
+  // u_pool below p_center: the center-line control; above it, self-play or pool in the odds
+  // p_self_play gives (p_center 0 leaves the paper's draws unchanged).
+  m.vs_center = u_pool < pool.p_center;
+  m.vs_pool = !m.vs_center && pool_available &&
+              u_pool >= pool.p_center + (1.0 - pool.p_center) * pool.p_self_play;
   return m;
 }
 
@@ -459,7 +472,7 @@ std::size_t draw_pool_entry(RandomStream& stream, std::size_t n) {
 void Trainer::State::draw_matchup(int e) {
   const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0);
   side[e] = m.learner_side;
-  vs_pool[e] = m.vs_pool ? 1 : 0;
+  vs_pool[e] = m.vs_center ? kVsCenter : (m.vs_pool ? kVsPool : kVsSelf);
 }
 
 torch::Tensor Trainer::State::learner_index() const {
@@ -493,7 +506,7 @@ void Trainer::State::hl_decisions() {
   const auto t_act = Clock::now();
   // Each critic decides for the aircraft it flies in the envs that are due, nothing else; the
   // other rows keep the middle bin, which set_hl_actions ignores outside due envs.
-  hl_rows.assign(owners(due));
+  hl_rows.assign(owners(due, /*high_level=*/true));
   torch::Tensor bins =
       torch::full({static_cast<std::int64_t>(n_env) * n_agent, race::kHlDims}, cfg.race.hl_center_bin(), torch::kInt64);
   auto* b = bins.data_ptr<std::int64_t>();
@@ -1194,7 +1207,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
       for (int e = 0; e < s.n_env; ++e) s.open.open[e] = 0;  // decisions of the old phase are not learned from
       s.load_opponent();
       for (int e = 0; e < s.n_env; ++e)
-        if (s.opponent < 0) s.vs_pool[e] = 0;
+        if (s.opponent < 0 && s.vs_pool[e] == State::kVsPool) s.vs_pool[e] = State::kVsSelf;
     }
     std::vector<std::int64_t> stop_votes{stop != nullptr && stop->load() ? 1 : 0};
     s.group_sum(stop_votes);  // a stop seen by any rank stops the group after the same update

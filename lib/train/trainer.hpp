@@ -59,6 +59,7 @@ std::string checkpoint_error_reason(const std::exception& e);
 struct Matchup {
   int learner_side = 0;   // 0 blue, 1 red
   bool vs_pool = false;   // opponent is the current pool snapshot (else the current policy)
+  bool vs_center = false; // opponent is the learner's low level under a center-line high level
 };
 Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available);
 // Which pool snapshot the next phase plays: uniform over the n stored ones.

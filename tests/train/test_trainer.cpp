@@ -168,6 +168,27 @@ TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   EXPECT_EQ(lines, 1 + full.updates);
 }
 
+// Races against the center-line control (pool.p_center): the setting changes the run, and the
+// envs' opponent kind survives a checkpoint (a resumed run ends with the unbroken run's weights).
+TEST(Trainer, CenterControlOpponentsChangeTheRunAndResumeExactly) {
+  const std::string plain = fresh_dir("ctr_plain"), whole = fresh_dir("ctr_whole"), split = fresh_dir("ctr_split");
+  Trainer p(smoke(), plain);
+  p.run();
+  Trainer a(smoke("pool.p_center=0.6"), whole);
+  const TrainSummary full = a.run();
+  EXPECT_NE(a.hl_parameters(), p.hl_parameters());
+  EXPECT_NE(a.ll_parameters(), p.ll_parameters());
+  {
+    Trainer b(smoke("pool.p_center=0.6"), split);
+    b.run(nullptr, 5);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->updates(), full.updates);
+  EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+}
+
 // metrics.csv's airspeed column holds the learner's mean airspeed (an F-16 racing: hundreds of
 // ft/s); a run written by a build without that column, resumed, gets today's header with the
 // column empty in its old rows, so every row keeps the header's width.
@@ -424,6 +445,32 @@ TEST(SelfPlay, MatchupAndPoolDrawFrequencies) {
   int count[5] = {};
   for (int k = 0; k < 50000; ++k) ++count[draw_pool_entry(s, 5)];
   for (int c : count) EXPECT_NEAR(c / 50000.0, 0.2, 0.01);
+}
+
+TEST(SelfPlay, CenterControlShareComesFirstAndSplitsTheRest) {
+  PoolConfig p;
+  p.p_self_play = 0.5;
+  p.p_center = 0.3;
+  RandomStream s(9, 2);
+  const int n = 40000;
+  int center = 0, pool = 0, both = 0;
+  for (int k = 0; k < n; ++k) {
+    const Matchup m = draw_matchup(s, p, true);
+    center += m.vs_center;
+    pool += m.vs_pool;
+    both += m.vs_center && m.vs_pool;
+  }
+  EXPECT_EQ(both, 0);
+  EXPECT_NEAR(center / double(n), 0.3, 0.01);
+  EXPECT_NEAR(pool / double(n), 0.35, 0.01);  // half of the other 70 %
+  // Without the pool, the center share stays and the rest is self-play.
+  center = 0;
+  for (int k = 0; k < n; ++k) {
+    const Matchup m = draw_matchup(s, p, false);
+    EXPECT_FALSE(m.vs_pool);
+    center += m.vs_center;
+  }
+  EXPECT_NEAR(center / double(n), 0.3, 0.01);
 }
 
 }  // namespace
