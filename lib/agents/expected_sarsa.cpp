@@ -6,6 +6,7 @@
 
 #include "agents/checkpoint.hpp"
 #include "agents/concurrent_chunks.hpp"
+#include "agents/optimizer_step.hpp"
 
 namespace f16race::agents {
 
@@ -353,13 +354,9 @@ EsStats EsAgent::update(const EsBatch& batch) {
       stats.train_rows += m * n_a;
       for (const Chunk& k : chunks) stats.train_passes += k.grads.empty() ? 0 : 1;
       double loss = 0.0, q = 0.0, td = 0.0;
-      for (std::size_t p = 0; p < params.size(); ++p) {
-        torch::Tensor sum;
-        for (const Chunk& k : chunks)
-          if (!k.grads.empty() && k.grads[p].defined()) sum = sum.defined() ? sum + k.grads[p] : k.grads[p];
-        // Assigned, not accumulated (a gradient may be a view, which zero_grad() cannot clear).
-        params[p].mutable_grad() = sum.defined() ? sum : torch::zeros_like(params[p]);
-      }
+      std::vector<const std::vector<torch::Tensor>*> chunk_grads;
+      for (const Chunk& k : chunks) chunk_grads.push_back(&k.grads);
+      sum_chunk_gradients(params, chunk_grads, /*zero_unused=*/true);
       for (const Chunk& k : chunks) {
         const double w = n_chunks == 1 ? 1.0 : (units > 0.0 ? k.units / units : 0.0);
         loss += w * k.loss, q += w * k.q, td += w * k.td;
@@ -375,8 +372,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
         q = extra[2] / extra[0];
         td = extra[3] / extra[0];
       }
-      stats.grad_norm = torch::nn::utils::clip_grad_norm_(critic_->parameters(), cfg_.max_grad_norm);
-      optimizer_->step();
+      stats.grad_norm = clip_and_adam_step(*optimizer_, cfg_.max_grad_norm);
       loss_sum += loss;
       q_sum += q;
       td_sum += td;

@@ -10,6 +10,7 @@
 
 #include "agents/checkpoint.hpp"
 #include "agents/concurrent_chunks.hpp"
+#include "agents/optimizer_step.hpp"
 
 namespace f16race::agents {
 namespace {
@@ -216,12 +217,9 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
       std::array<double, 5> terms{};
       for (const auto& r : chunks)
         for (std::size_t q = 0; q < terms.size(); ++q) terms[q] += r.weight * r.terms[q];
-      for (std::size_t p = 0; p < params.size(); ++p) {
-        torch::Tensor sum;
-        for (const auto& r : chunks)
-          if (r.grads[p].defined()) sum = sum.defined() ? sum + r.grads[p] : r.grads[p];
-        params[p].mutable_grad() = sum;
-      }
+      std::vector<const std::vector<torch::Tensor>*> chunk_grads;
+      for (const auto& r : chunks) chunk_grads.push_back(&r.grads);
+      sum_chunk_gradients(params, chunk_grads, /*zero_unused=*/false);
       if (replicas_.active()) {
         // The union's gradient: each replica's weighted by its share of the union's rows.
         std::vector<double> extra(terms.size());
@@ -235,8 +233,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
       stats.approx_kl += terms[3];
       stats.clip_fraction += terms[4];
       stats.train_passes += n_chunks;
-      torch::nn::utils::clip_grad_norm_(net_->parameters(), cfg_.max_grad_norm);
-      optimizer_->step();
+      clip_and_adam_step(*optimizer_, cfg_.max_grad_norm);
       stats.train_rows += m;
       ++n_steps;
     }
