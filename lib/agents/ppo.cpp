@@ -11,6 +11,7 @@
 #include "agents/checkpoint.hpp"
 #include "agents/concurrent_chunks.hpp"
 #include "agents/optimizer_step.hpp"
+#include "agents/ppo_fused_loss.hpp"
 
 namespace f16race::agents {
 namespace {
@@ -200,18 +201,16 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
         const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
         const auto rows_c = mb.slice(0, lo, hi);
         const auto out = net_(models::index_rows(obs, rows_c));
-        const auto new_log_prob = models::gaussian_log_prob(out.mean, out.log_std, actions.index_select(0, rows_c));
-        const auto entropy = models::gaussian_entropy(out.log_std);
-        const auto loss = ppo_loss(new_log_prob, old_log_probs.index_select(0, rows_c), adv.slice(0, lo, hi),
-                                   out.value, old_values.index_select(0, rows_c), returns.index_select(0, rows_c),
-                                   entropy, chunk_cfg);
         ChunkResult& r = chunks[static_cast<std::size_t>(c)];
         r.weight = static_cast<double>(hi - lo) / static_cast<double>(m);
-        r.grads = torch::autograd::grad({n_chunks == 1 ? loss.total : loss.total * r.weight}, params,
-                                        /*grad_outputs=*/{}, /*retain_graph=*/false, /*create_graph=*/false,
-                                        /*allow_unused=*/true);
-        r.terms = {loss.policy_loss.item<double>(), loss.value_loss.item<double>(), loss.entropy.item<double>(),
-                   loss.approx_kl.item<double>(), loss.clip_fraction.item<double>()};
+        // The loss terms as one node (agents/ppo_fused_loss.hpp; ppo_loss is its oracle in the tests).
+        const auto loss = fused_ppo_loss(out.mean, out.log_std, out.value, actions.index_select(0, rows_c),
+                                         old_log_probs.index_select(0, rows_c), adv.slice(0, lo, hi),
+                                         old_values.index_select(0, rows_c), returns.index_select(0, rows_c),
+                                         chunk_cfg, n_chunks == 1 ? 1.0 : r.weight);
+        r.grads = torch::autograd::grad({loss.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
+                                        /*create_graph=*/false, /*allow_unused=*/true);
+        r.terms = {loss.policy_loss, loss.value_loss, loss.entropy, loss.approx_kl, loss.clip_fraction};
       };
       run_chunks(n_chunks, run_chunk);
       std::array<double, 5> terms{};
