@@ -6,6 +6,7 @@
 
 #include "agents/checkpoint.hpp"
 #include "agents/concurrent_chunks.hpp"
+#include "agents/es_d3_fused_loss.hpp"
 #include "agents/optimizer_step.hpp"
 
 namespace f16race::agents {
@@ -340,10 +341,20 @@ EsStats EsAgent::update(const EsBatch& batch) {
         const EsTarget target_c{target.value.index_select(0, k.teams),
                                 target.dist.defined() ? target.dist.index_select(0, k.teams) : torch::Tensor()};
         const auto out = critic_(models::index_rows(obs, rows_c));
+        const double weight = n_chunks == 1 ? 1.0 : k.units / units;
+        if (cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0) {
+          // The paper's ES+D3 loss as one node (agents/es_d3_fused_loss.hpp; es_loss is its oracle).
+          const auto f = fused_es_d3_loss(out.log_probs, batch.actions.index_select(0, k.teams),
+                                          active.index_select(0, k.teams), target_c.dist, target_c.value, support_,
+                                          weight);
+          k.grads = torch::autograd::grad({f.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
+                                          /*create_graph=*/false, /*allow_unused=*/true);
+          k.loss = f.loss, k.q = f.q, k.td = f.td;
+          return;
+        }
         const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, k.teams),
                                active.index_select(0, k.teams), target_c, cfg_.huber_delta, support_,
                                cfg_.component_ce_weight);
-        const double weight = n_chunks == 1 ? 1.0 : k.units / units;
         k.grads = torch::autograd::grad({n_chunks == 1 ? l.loss : l.loss * weight}, params, /*grad_outputs=*/{},
                                         /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
         torch::NoGradGuard no_grad;
