@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The main job on the default configuration: set up, build, and train a 4 vs 4 es_d3 agent
+# The main job on the default configuration: set up, build, and train a 4 vs 4 es_d2 agent
 # (about 10 minutes on 2 cores). Progress is shown live; results go to runs/default_<time>/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
