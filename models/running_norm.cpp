@@ -5,6 +5,8 @@
 #include <cmath>
 #include <vector>
 
+#include <omp.h>
+
 namespace f16race::models {
 
 RunningNormImpl::RunningNormImpl(int64_t dim, double clip, double eps) : dim_(dim), clip_(clip), eps_(eps) {
@@ -17,6 +19,26 @@ RunningNormImpl::RunningNormImpl(int64_t dim, double clip, double eps) : dim_(di
 
 // Statistics and normalisation in plain loops over the rows: a rollout step normalises ~100-300
 // rows of four fields, where a dozen LibTorch ops per field cost more than the arithmetic.
+// Big batches (256+ envs) share them over the OpenMP threads without changing a bit: the
+// normalisation row by row, the moments column by column (each column still summed over its rows
+// in order, whichever thread owns it).
+namespace {
+constexpr int64_t kParallelElements = 1 << 15;  // below this the threads' start-up costs more
+
+// Runs f(c0, c1) over a partition of the columns [0, d) into the threads' contiguous shares.
+template <class F>
+void over_column_shares(int64_t rows, int64_t d, const F& f) {
+  if (rows * d < kParallelElements || omp_get_max_threads() == 1 || omp_in_parallel()) {
+    f(int64_t{0}, d);
+    return;
+  }
+#pragma omp parallel
+  {
+    const int64_t t = omp_get_thread_num(), nt = omp_get_num_threads();
+    f(d * t / nt, d * (t + 1) / nt);
+  }
+}
+}  // namespace
 
 void RunningNormImpl::update(const torch::Tensor& x) { update_rows(x, torch::Tensor()); }
 
@@ -39,21 +61,23 @@ void RunningNormImpl::batch_moments(const torch::Tensor& x_in, const torch::Tens
   double* batch_mean = out->data() + at + 1;
   double* batch_m2 = batch_mean + d;
   int64_t n = 0;
-  for (int64_t i = 0; i < rows; ++i) {
-    if (kp != nullptr && !kp[i]) continue;
-    ++n;
-    for (int64_t c = 0; c < d; ++c) batch_mean[c] += xp[i * d + c];
-  }
+  for (int64_t i = 0; i < rows; ++i) n += (kp == nullptr || kp[i]) ? 1 : 0;
   (*out)[at] = static_cast<double>(n);
   if (n == 0) return;
-  for (int64_t c = 0; c < d; ++c) batch_mean[c] /= static_cast<double>(n);
-  for (int64_t i = 0; i < rows; ++i) {  // second pass: squared deviations about the batch mean
-    if (kp != nullptr && !kp[i]) continue;
-    for (int64_t c = 0; c < d; ++c) {
-      const double dev = xp[i * d + c] - batch_mean[c];
-      batch_m2[c] += dev * dev;
+  over_column_shares(rows, d, [&](int64_t c0, int64_t c1) {
+    for (int64_t i = 0; i < rows; ++i) {
+      if (kp != nullptr && !kp[i]) continue;
+      for (int64_t c = c0; c < c1; ++c) batch_mean[c] += xp[i * d + c];
     }
-  }
+    for (int64_t c = c0; c < c1; ++c) batch_mean[c] /= static_cast<double>(n);
+    for (int64_t i = 0; i < rows; ++i) {  // second pass: squared deviations about the batch mean
+      if (kp != nullptr && !kp[i]) continue;
+      for (int64_t c = c0; c < c1; ++c) {
+        const double dev = xp[i * d + c] - batch_mean[c];
+        batch_m2[c] += dev * dev;
+      }
+    }
+  });
 }
 
 void RunningNormImpl::merge_moments(const double* moments) {
@@ -166,12 +190,15 @@ torch::Tensor RunningNormImpl::normalize_rows(const torch::Tensor& x_in, const t
     s[c] = static_cast<float>(1.0 / std::sqrt(var[c] + eps_));
   }
   const float lo = static_cast<float>(-clip_), hi = static_cast<float>(clip_);
+  const float* mp = m.data();
+  const float* sp = s.data();
+#pragma omp parallel for schedule(static) if (rows * d >= kParallelElements && !omp_in_parallel())
   for (int64_t i = 0; i < rows; ++i) {
     if (kp != nullptr && !kp[i]) {
       for (int64_t c = 0; c < d; ++c) op[i * d + c] = 0.0f;
       continue;
     }
-    for (int64_t c = 0; c < d; ++c) op[i * d + c] = std::min(std::max((xp[i * d + c] - m[c]) * s[c], lo), hi);
+    for (int64_t c = 0; c < d; ++c) op[i * d + c] = std::min(std::max((xp[i * d + c] - mp[c]) * sp[c], lo), hi);
   }
   return out;
 }

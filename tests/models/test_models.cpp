@@ -1,6 +1,7 @@
 // Networks: shapes and shape checks, the attention encoder's permutation invariance and
 // masking, the distributional head, Gaussian helpers, running normalisation, save/load.
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <torch/torch.h>
 
 #include <cmath>
@@ -280,6 +281,33 @@ TEST(RunningNorm, MatchesStatisticsOfAllDataAndClips) {
   EXPECT_LT(z.mean(0).abs().max().item<double>(), 1e-4);
   EXPECT_LT((z.std(0, false) - 1.0).abs().max().item<double>(), 1e-4);
   EXPECT_FLOAT_EQ(norm->normalize(torch::full({1, 4}, 1e6f)).max().item<float>(), 5.0f);
+}
+
+TEST(RunningNorm, BigBatchesGiveTheSameBitsAtAnyThreadCount) {
+  // 5000 x 9 values: above the size at which statistics and normalisation use the OpenMP threads.
+  Rng r(12);
+  const auto x = 2.0 + 3.0 * r.normal({5000, 9});
+  const auto keep = torch::rand({5000}) > 0.2;
+  torch::Tensor mean[2], var[2], z[2];
+  const int threads = omp_get_max_threads();
+  for (int t : {1, 2}) {
+    omp_set_num_threads(t);
+    RunningNorm norm(9, /*clip=*/5.0);
+    norm->update_rows(x, keep);
+    norm->update_rows(x * 0.5, torch::Tensor());
+    mean[t - 1] = norm->mean().clone();
+    var[t - 1] = norm->var().clone();
+    z[t - 1] = norm->normalize_rows(x, keep);
+  }
+  omp_set_num_threads(threads);
+  EXPECT_TRUE(mean[0].equal(mean[1]));
+  EXPECT_TRUE(var[0].equal(var[1]));
+  EXPECT_TRUE(z[0].equal(z[1]));
+  // ...and they are the statistics of the kept rows and the halved batch.
+  const auto all = torch::cat({x.index({keep}), x * 0.5}).to(torch::kFloat64);
+  EXPECT_LT(max_abs_diff(mean[0], all.mean(0)), 1e-5);
+  EXPECT_LT(max_abs_diff(var[0], all.var(0, false)), 1e-4);
+  EXPECT_EQ(z[0].index({keep.logical_not()}).abs().max().item<float>(), 0.0f);
 }
 
 TEST(ObsNormalizer, AdoStatisticsUseAliveRowsOnly) {
