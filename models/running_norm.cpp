@@ -65,18 +65,23 @@ void RunningNormImpl::batch_moments(const torch::Tensor& x_in, const torch::Tens
   (*out)[at] = static_cast<double>(n);
   if (n == 0) return;
   over_column_shares(rows, d, [&](int64_t c0, int64_t c1) {
+    // Each thread sums into its own buffer (the shared arrays' neighbouring columns would sit in
+    // one cache line written by both threads), from 0 in row order as before: the same bits.
+    std::vector<double> sum(static_cast<std::size_t>(c1 - c0), 0.0), m2(sum.size(), 0.0);
     for (int64_t i = 0; i < rows; ++i) {
       if (kp != nullptr && !kp[i]) continue;
-      for (int64_t c = c0; c < c1; ++c) batch_mean[c] += xp[i * d + c];
+      for (int64_t c = c0; c < c1; ++c) sum[c - c0] += xp[i * d + c];
     }
-    for (int64_t c = c0; c < c1; ++c) batch_mean[c] /= static_cast<double>(n);
+    for (int64_t c = c0; c < c1; ++c) sum[c - c0] /= static_cast<double>(n);
     for (int64_t i = 0; i < rows; ++i) {  // second pass: squared deviations about the batch mean
       if (kp != nullptr && !kp[i]) continue;
       for (int64_t c = c0; c < c1; ++c) {
-        const double dev = xp[i * d + c] - batch_mean[c];
-        batch_m2[c] += dev * dev;
+        const double dev = xp[i * d + c] - sum[c - c0];
+        m2[c - c0] += dev * dev;
       }
     }
+    std::copy(sum.begin(), sum.end(), batch_mean + c0);
+    std::copy(m2.begin(), m2.end(), batch_m2 + c0);
   });
 }
 
