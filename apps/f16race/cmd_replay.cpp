@@ -38,10 +38,11 @@ void add_replay_command(CLI::App& app) {
   auto o = std::make_shared<ReplayCliOptions>();
   CLI::App* cmd = app.add_subcommand("replay", "Race a trained run once; write trajectories, a figure and a Tacview file");
   cmd->add_option("--run", o->replay.run,
-                  "Run folder (blue team); RUN@center or RUN@random flies its low level under a fixed high level")
+                  "Run folder (blue team); RUN@center or RUN@random flies its low level under a fixed high level, "
+                  "RUN@center_x/_y/_z its high level with that goal axis on the middle bin")
       ->required();
   cmd->add_option("--opponent", o->replay.opponent,
-                  "Red team: a run folder (@center / @random allowed), self (default), untrained, scripted or autopilot (AeroBench's waypoint autopilot)");
+                  "Red team: a run folder (@center, @random, @center_x/_y/_z allowed), self (default), untrained, scripted or autopilot (AeroBench's waypoint autopilot)");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--out", o->out, "Output folder");

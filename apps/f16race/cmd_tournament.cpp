@@ -31,6 +31,7 @@ std::string fingerprint(const eval::TournamentOptions& o) {
   f << "\n--races " << o.races_per_pair << "\n--seed " << o.seed << "\n--epsilon " << o.epsilon << "\n--batch "
     << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
+    << "\n--axis-controls " << o.axis_controls
     << "\n--out " << o.out_dir;
   return f.str();
 }
@@ -101,6 +102,9 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--controls", o->controls,
                 "Add RUN@center and RUN@random for every run: its low level under a fixed high level (middle bin, "
                 "or uniform random bins); listed, never in the variant statistics");
+  cmd->add_flag("--axis-controls", o->axis_controls,
+                "Add RUN@center_x, RUN@center_y and RUN@center_z for every run: its trained high level with one goal "
+                "axis (track frame: along, right, up) held on the middle bin; listed, never in the variant statistics");
   cmd->add_option("--out", o->out_dir, "Output folder");
   auto dist_flags = std::make_shared<DistFlags>();
   dist_flags->add_to(cmd);

@@ -139,10 +139,11 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
     char line[400];
     std::snprintf(line, sizeof line,
                   "%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | %3.0f ft/s | win %.2f | "
-                  "finish %.2f | LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, off-center %.2f",
+                  "finish %.2f | LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, middle bin x/y/z %.2f/%.2f/%.2f",
                   100.0 * frac, fmt_time(r.wall_s).c_str(), fmt_time(eta).c_str(), static_cast<long long>(r.update),
                   r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.airspeed_ftps, r.winrate, r.finish_rate,
-                  r.ll_return, r.hl_return, r.q_spread, r.off_center_share);
+                  r.ll_return, r.hl_return, r.q_spread, r.middle_share[0], r.middle_share[1],
+                  r.middle_share[2]);
     if (tty) {
       print_progress_bar(frac, 28, line);
     } else if (r.update % cfg.loop.log_every_updates == 0) {

@@ -256,6 +256,8 @@ void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stat
   const auto entropy = -(share * share.clamp_min(1e-300).log()).sum(1).mean();
   stats->greedy_entropy = n_bins > 1 ? entropy.item<double>() / std::log(static_cast<double>(n_bins)) : 0.0;
   stats->off_center_share = (greedy != n_bins / 2).any(1).to(torch::kFloat64).mean().item<double>();
+  const auto middle = (greedy == n_bins / 2).to(torch::kFloat64).mean(0).contiguous();  // [3]
+  for (int j = 0; j < 3; ++j) stats->middle_share[j] = middle.data_ptr<double>()[j];
 }
 
 EsStats EsAgent::update(const EsBatch& batch) {

@@ -29,6 +29,7 @@
 // n_PPO,step = 32 LL steps per env per PPO update.
 #include <torch/torch.h>
 
+#include <array>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -128,12 +129,15 @@ struct EsStats {
   double q_spread = 0.0;           // mean over rows (and dimensions) of max_b Q - min_b Q
   double greedy_entropy = 0.0;     // entropy of the greedy bins over the batch / log(n_bins), mean over dims
   double off_center_share = 0.0;   // rows whose greedy bins differ from the middle bin on some axis
+  // Per axis of the goal frame (track: along, right, up; world: north, east, up), the share of
+  // rows whose greedy bin is the middle one: does the high level ever choose the center lane?
+  std::array<double, 3> middle_share{std::nan(""), std::nan(""), std::nan("")};
   double end_atom_share = std::nan("");  // es_d3: mean target mass on the two end atoms
   double huber_share = std::nan("");     // es, es_d1, es_d2: share of |TD error| > huber_delta
 };
 
 // Diagnostics of q (decoupled [N, 3, n_bins] or joint [N, n_bins^3]) over rows: fills q_spread,
-// greedy_entropy and off_center_share of `stats`.
+// greedy_entropy, off_center_share and middle_share of `stats`.
 void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stats);
 
 // --- pure pieces of the update, exposed for tests -------------------------------------------

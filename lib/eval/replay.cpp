@@ -91,7 +91,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
     const int team = a < ts ? 0 : 1;
     const Side& s = team == 0 ? blue : red;
     ll_owner[a] = s.policy ? team : -1;
-    hl_owner[a] = s.policy && s.hl == HlOverride::none ? team : -1;
+    hl_owner[a] = s.policy && hl_override_uses_policy(s.hl) ? team : -1;
   }
   ll_rows.assign(ll_owner);
   hl_rows.assign(hl_owner);
@@ -105,13 +105,13 @@ RaceReplay run_replay(const ReplayOptions& o) {
       for (int team = 0; team < 2; ++team) {
         const Side& s = team == 0 ? blue : red;
         if (!s.policy) continue;  // the scripted pilot keeps the center-line goal
-        if (s.hl != HlOverride::none)
-          fixed_hl_bins(s.hl, rc.hl_bins, ts, control_rng,
-                        bins.data() + static_cast<std::size_t>(team * ts) * race::kHlDims);
-        else
+        if (hl_override_uses_policy(s.hl))
           train::scatter_rows(hl_rows.rows(team),
                               s.policy->hl->act(models::index_rows(obs, hl_rows.rows(team)), o.epsilon, gen).bins,
                               bins.data());
+        if (s.hl != HlOverride::none)  // after the policy: a one-axis rule fixes that axis of its bins
+          fixed_hl_bins(s.hl, rc.hl_bins, ts, control_rng,
+                        bins.data() + static_cast<std::size_t>(team * ts) * race::kHlDims);
       }
       env.set_hl_actions(bins.data());
       rec.record_goals(env, due.data(), learned.data());

@@ -12,9 +12,10 @@ namespace f16race::eval {
 
 struct ReplayOptions {
   // blue: a run folder written by `f16race train`; "RUN@center" / "RUN@random" flies the run's
-  // low level under the tournament's fixed HL rules (see eval/tournament.hpp)
+  // low level under the tournament's fixed HL rules, "RUN@center_x" / "_y" / "_z" its own high
+  // level with that axis on the middle bin (see eval/tournament.hpp)
   std::string run;
-  // red: a run folder (with an optional @center / @random), "self" (default: the same spec as
+  // red: a run folder (with an optional @rule as for blue), "self" (default: the same spec as
   // `run`), "untrained", "scripted" or "autopilot"
   std::string opponent;
   std::uint64_t seed = 1;  // track and starting positions

@@ -36,14 +36,23 @@ const char* hl_override_name(HlOverride rule) {
       return "center";
     case HlOverride::random:
       return "random";
+    case HlOverride::center_x:
+      return "center_x";
+    case HlOverride::center_y:
+      return "center_y";
+    case HlOverride::center_z:
+      return "center_z";
     case HlOverride::none:
       break;
   }
   return "policy";
 }
 
+bool hl_override_uses_policy(HlOverride rule) { return rule != HlOverride::center && rule != HlOverride::random; }
+
 std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec) {
-  for (HlOverride rule : {HlOverride::center, HlOverride::random}) {
+  for (HlOverride rule : {HlOverride::center, HlOverride::random, HlOverride::center_x, HlOverride::center_y,
+                          HlOverride::center_z}) {
     const std::string suffix = std::string("@") + hl_override_name(rule);
     if (spec.size() > suffix.size() && spec.compare(spec.size() - suffix.size(), suffix.size(), suffix) == 0)
       return {spec.substr(0, spec.size() - suffix.size()), rule};
@@ -52,7 +61,7 @@ std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec) {
   const auto at = spec.rfind('@');
   if (at != std::string::npos && at > 0 && spec.find('/', at) == std::string::npos && !std::filesystem::exists(spec))
     throw io::InputError(spec + ": unknown high-level rule '" + spec.substr(at) +
-                             "'; use RUN, RUN@center or RUN@random");
+                             "'; use RUN, RUN@center, RUN@random or RUN@center_x / _y / _z");
   return {spec, HlOverride::none};
 }
 
@@ -65,6 +74,13 @@ void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& r
     case HlOverride::random:
       for (std::size_t k = 0; k < n; ++k) out[k] = rng.below(hl_bins);
       return;
+    case HlOverride::center_x:
+    case HlOverride::center_y:
+    case HlOverride::center_z: {
+      const std::size_t axis = rule == HlOverride::center_x ? 0 : rule == HlOverride::center_y ? 1 : 2;
+      for (std::size_t k = axis; k < n; k += race::kHlDims) out[k] = race::center_hl_bin(hl_bins);
+      return;
+    }
     case HlOverride::none:
       break;
   }
@@ -155,14 +171,17 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   }
   if (o.include_autopilot) res.entries.push_back(Entry{"autopilot", "", "autopilot", o.seed, HlOverride::none, -1});
   // Controls: each run's own low level (same policy object) under a fixed high level.
-  if (o.controls)
-    for (std::size_t k = 0; k < o.runs.size(); ++k)
-      for (HlOverride rule : {HlOverride::center, HlOverride::random}) {
-        Entry c = res.entries[k];
-        c.name += std::string("@") + hl_override_name(rule);
-        c.hl = rule;
-        res.entries.push_back(c);
-      }
+  std::vector<HlOverride> control_rules;
+  if (o.controls) control_rules.insert(control_rules.end(), {HlOverride::center, HlOverride::random});
+  if (o.axis_controls)
+    control_rules.insert(control_rules.end(), {HlOverride::center_x, HlOverride::center_y, HlOverride::center_z});
+  for (std::size_t k = 0; k < o.runs.size(); ++k)
+    for (HlOverride rule : control_rules) {
+      Entry c = res.entries[k];
+      c.name += std::string("@") + hl_override_name(rule);
+      c.hl = rule;
+      res.entries.push_back(c);
+    }
   const int n_entries = static_cast<int>(res.entries.size());
   if (n_entries < 2)
     throw io::InputError("tournament: " + res.entries.front().name +
@@ -230,7 +249,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     std::vector<int> hl_owner(owner);
     for (std::size_t i = 0; i < hl_owner.size(); ++i) {
       const int e = static_cast<int>(i) / n_agent;
-      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || is_control(res.entries[hl_owner[i]]) ||
+      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || !hl_override_uses_policy(res.entries[hl_owner[i]].hl) ||
                                is_autopilot(res.entries[hl_owner[i]])))
         hl_owner[i] = -1;
     }

@@ -21,19 +21,28 @@ enum class HlOverride {
   none,    // the run's HL policy (greedy unless --epsilon)
   center,  // the middle bin (hl_bins / 2) on every axis: goals on the center-line
   random,  // uniform random bins per aircraft and axis at each HL decision
+  // The run's HL policy with one goal axis (x, y, z of race.goal_frame; track: along, right, up)
+  // held on the middle bin: is the critic right to avoid the middle there?
+  center_x,
+  center_y,
+  center_z,
 };
 
-// "policy", "center", "random"; the suffix of a control entry's name is "@" + this name.
+// "policy", "center", "random", "center_x", "center_y", "center_z"; the suffix of a control
+// entry's name is "@" + this name.
 const char* hl_override_name(HlOverride rule);
+// Whether the rule keeps the run's HL policy (none and the one-axis rules) before fixing bins.
+bool hl_override_uses_policy(HlOverride rule);
 
-// Splits an entry spec "RUN@center" / "RUN@random" into the run folder and the rule; any other
+// Splits an entry spec "RUN@<rule>" (a name above) into the run folder and the rule; any other
 // spec (including one with another "@...") is a plain run folder with HlOverride::none.
 std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec);
 
 // The one place fixed HL rules are applied: writes the bins of `n_aircraft` aircraft (3 axes
 // each, aircraft-major) into `out`. center: hl_bins / 2 everywhere, `rng` untouched; random:
-// uniform in [0, hl_bins), three draws per aircraft from `rng` in aircraft order. `rule` must not
-// be none (that is the run's policy).
+// uniform in [0, hl_bins), three draws per aircraft from `rng` in aircraft order; center_x/y/z:
+// hl_bins / 2 on that axis only, the other axes (the policy's, written before) untouched. `rule`
+// must not be none (that is the run's policy).
 void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& rng, std::int64_t* out);
 
 // The random stream of the @random rule in env `env` of a tournament (or replay) seeded `seed`:
@@ -45,6 +54,7 @@ struct TournamentOptions {
   bool include_untrained = true;  // adds the entry "untrained": the networks before any update
   bool untrained_in_statistics = false;  // counts "untrained" in the per-variant statistics
   bool controls = false;          // adds RUN@center and RUN@random for every run
+  bool axis_controls = false;     // adds RUN@center_x, @center_y, @center_z for every run
   bool include_autopilot = false;  // adds "autopilot": AeroBench's waypoint autopilot, no learning
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams

@@ -73,6 +73,12 @@ std::string hl_description(const Entry& e) {
       return "fixed: middle bin";
     case HlOverride::random:
       return "fixed: uniform random bins";
+    case HlOverride::center_x:
+      return "policy, x on the middle bin";
+    case HlOverride::center_y:
+      return "policy, y on the middle bin";
+    case HlOverride::center_z:
+      return "policy, z on the middle bin";
     case HlOverride::none:
       break;
   }
@@ -320,7 +326,8 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
          << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at the race's start speed.";
     if (has_control)
       md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "
-            "(the middle bin on every axis, or uniform random bins at every HL decision).";
+            "(the middle bin on every axis, or uniform random bins at every HL decision); `RUN@center_x`, `_y`, `_z` "
+            "fly the run's own high level with that goal axis held on the middle bin.";
     md << "\n\n";
   }
   md << "Variant vs variant: mean winrate of the row variant's entries against the column variant's over all "
@@ -350,23 +357,40 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   bool any_control = false;
   for (int i = 0; i < n; ++i) any_control = any_control || is_control(r.entries[i]);
   if (any_control) {
-    md << "\nTrained high level vs its own controls (same low level), head to head [95% Wilson CI]:\n\n"
-          "| run | races | vs RUN@center | vs RUN@random |\n|---|---|---|---|\n";
+    // One column per rule that some entry has, in the order of the enum.
+    const HlOverride all_rules[] = {HlOverride::center, HlOverride::random, HlOverride::center_x, HlOverride::center_y,
+                                    HlOverride::center_z};
+    std::vector<HlOverride> rules;
+    for (HlOverride rule : all_rules)
+      for (int i = 0; i < n; ++i)
+        if (r.entries[i].hl == rule) {
+          rules.push_back(rule);
+          break;
+        }
+    md << "\nTrained high level vs its own controls (same low level), head to head [95% Wilson CI]:\n\n| run | races |";
+    for (HlOverride rule : rules) md << " vs RUN@" << hl_override_name(rule) << " |";
+    md << "\n|---|---|";
+    for (std::size_t k = 0; k < rules.size(); ++k) md << "---|";
+    md << "\n";
     for (int i = 0; i < n; ++i) {
       if (is_control(r.entries[i])) continue;
-      std::string cells[2];
+      std::vector<std::string> cells(rules.size());
       double races = 0.0;
+      bool any = false;
       for (int j = 0; j < n; ++j) {
         if (!is_control(r.entries[j]) || r.entries[j].policy != r.entries[i].policy || r.games[i][j] == 0) continue;
         const Interval ci = wilson_interval(r.wins[i][j], r.games[i][j]);
         std::snprintf(buf, sizeof buf, "%.3f [%.3f, %.3f]", ci.point, ci.lo, ci.hi);
-        cells[r.entries[j].hl == HlOverride::center ? 0 : 1] = buf;
+        const auto at = std::find(rules.begin(), rules.end(), r.entries[j].hl) - rules.begin();
+        cells[static_cast<std::size_t>(at)] = buf;
         races = r.games[i][j];
+        any = true;
       }
-      if (cells[0].empty() && cells[1].empty()) continue;
-      std::snprintf(buf, sizeof buf, "| %s | %.0f | %s | %s |\n", r.entries[i].name.c_str(), races,
-                    cells[0].empty() ? "-" : cells[0].c_str(), cells[1].empty() ? "-" : cells[1].c_str());
+      if (!any) continue;
+      std::snprintf(buf, sizeof buf, "| %s | %.0f |", r.entries[i].name.c_str(), races);
       md << buf;
+      for (const std::string& c : cells) md << " " << (c.empty() ? "-" : c) << " |";
+      md << "\n";
     }
   }
   return md.str();

@@ -9,8 +9,9 @@
 //                    rows where NAME itself is not valid, so the line runs across them)
 //   curves.gp        the gnuplot script (kept so the figure can be restyled: `gnuplot curves.gp`)
 //   curves.png       1600x1000, six panels against env steps: finish rate and winrate; LL return;
-//                    HL return; HL diagnostics (q_spread left axis, greedy_entropy and
-//                    off_center_share right axis 0..1); ES end-atom and Huber shares (HL-phase rows
+//                    HL return; HL diagnostics (q_spread left axis, greedy_entropy,
+//                    off_center_share and middle_share_x/y/z right axis 0..1); ES end-atom and
+//                    Huber shares (HL-phase rows
 //                    only, or every row when there is no phase_hl column; y from 0 up to the
 //                    data); goal distance. Raw points faint, running mean as a line; the metrics
 //                    of a panel with no data are named in an empty frame.

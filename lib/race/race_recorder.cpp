@@ -47,7 +47,8 @@ void RaceRecorder::record_goals(const RaceEnv& env, const std::uint8_t* due, con
       if (!env.alive(i) || (agents && !agents[a])) continue;
       const Vec3 p = env.goal_point(i);
       const TrackQuery q = t.track.project(p, -1);
-      t.goals[a].push_back(GoalMark{env.race_time_s(e), q.s_ft, q.lateral_ft, q.vertical_ft, p});
+      const std::int64_t* b = env.goal_bins(i);
+      t.goals[a].push_back(GoalMark{env.race_time_s(e), q.s_ft, q.lateral_ft, q.vertical_ft, p, {b[0], b[1], b[2]}});
     }
   }
 }
@@ -111,15 +112,18 @@ void write_trace_csv(const RaceTrace& t, const std::string& dir, const std::stri
     }
     io::write_csv(dir + "/" + agent_file(prefix, static_cast<int>(a)), header, cols);
   }
-  std::vector<std::vector<double>> g(9);
+  std::vector<std::vector<double>> g(12);
   for (std::size_t a = 0; a < t.goals.size(); ++a)
     for (const GoalMark& m : t.goals[a]) {
       const double v[] = {static_cast<double>(a), static_cast<double>(RaceEnv::team_of(static_cast<int>(a), t.team_size)),
-                          m.t_s, m.s_ft, m.lateral_ft, m.vertical_ft, m.point.n, m.point.e, m.point.u};
-      for (int c = 0; c < 9; ++c) g[c].push_back(v[c]);
+                          m.t_s, m.s_ft, m.lateral_ft, m.vertical_ft, m.point.n, m.point.e, m.point.u,
+                          static_cast<double>(m.bins[0]), static_cast<double>(m.bins[1]), static_cast<double>(m.bins[2])};
+      for (int c = 0; c < 12; ++c) g[c].push_back(v[c]);
     }
   io::write_csv(dir + "/" + prefix + "_goals.csv",
-                {"agent", "team", "t_s", "s_ft", "lateral_ft", "vertical_ft", "pn_ft", "pe_ft", "alt_ft"}, g);
+                {"agent", "team", "t_s", "s_ft", "lateral_ft", "vertical_ft", "pn_ft", "pe_ft", "alt_ft", "bin_x", "bin_y",
+                 "bin_z"},
+                g);
   t.track.save_csv(dir + "/" + prefix + "_track.csv");
   // Tube boundary: +-radius every 200 ft along the part of the track the race covered.
   double s_max = 0.0;

@@ -28,6 +28,7 @@ struct GoalMark {
   double t_s;                            // decision time
   double s_ft, lateral_ft, vertical_ft;  // the goal point in track coordinates
   Vec3 point;                            // and in the world
+  std::int64_t bins[kHlDims];            // the HL bins it was placed with (x, y, z of goal_frame)
 };
 
 struct RaceTrace {

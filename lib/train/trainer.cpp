@@ -90,6 +90,10 @@ struct CheckpointWriter {
   void integer_list(const char* key, std::vector<T>& v, bool /*fixed_size*/) {
     a.write(key, torch::tensor(std::vector<std::int64_t>(v.begin(), v.end()), torch::kInt64));
   }
+  template <class... T>
+  void optional_reals(const char* key, T&... x) {
+    reals(key, x...);
+  }
   void real_list(const char* key, std::vector<double>& v) { a.write(key, torch::tensor(v, torch::kFloat64)); }
   void bytes(const char* key, const std::function<void(std::ostream&)>& save, const std::function<void(std::istream&)>&) {
     std::ostringstream out;
@@ -119,6 +123,18 @@ struct CheckpointReader {
   template <class... T>
   void reals(const char* key, T&... x) {
     const torch::Tensor t = get(key, sizeof...(T)).to(torch::kFloat64).contiguous();
+    const double* p = t.data_ptr<double>();
+    std::size_t k = 0;
+    ((x = p[k++]), ...);
+  }
+  // A key newer than some checkpoints: absent, the values are left as they are.
+  template <class... T>
+  void optional_reals(const char* key, T&... x) {
+    torch::Tensor t;
+    if (!a.try_read(key, t)) return;
+    TORCH_CHECK(t.numel() == static_cast<std::int64_t>(sizeof...(T)), "'", key, "' holds ", t.numel(),
+                " values, expected ", sizeof...(T));
+    t = t.to(torch::kFloat64).contiguous();
     const double* p = t.data_ptr<double>();
     std::size_t k = 0;
     ((x = p[k++]), ...);
@@ -295,6 +311,8 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
   v.reals("last_stats", last_ppo.policy_loss, last_ppo.value_loss, last_ppo.entropy, last_ppo.approx_kl,
           last_ppo.learning_rate, last_es.loss, last_es.q_mean, last_es.end_atom_share, last_es.huber_share,
           last_es.q_spread, last_es.greedy_entropy, last_es.off_center_share, last_es.loss_before);
+  // Added after the key above was fixed: checkpoints written before it resume with nan here.
+  v.optional_reals("last_middle_share", last_es.middle_share[0], last_es.middle_share[1], last_es.middle_share[2]);
   v.reals("wall", wall_s);
 }
 
@@ -796,6 +814,7 @@ MetricsRow Trainer::State::make_row(const char* phase_name) {
     r.q_spread = last_es.q_spread;
     r.greedy_entropy = last_es.greedy_entropy;
     r.off_center_share = last_es.off_center_share;
+    r.middle_share = last_es.middle_share;
   }
   sum_ll_ret = sum_hl_ret = n_ret = n_hl_ret = sum_goal = n_goal = sum_vt = n_vt = races = wins = finishes = 0;
   std::fill(std::begin(term), std::end(term), 0.0);
@@ -811,7 +830,7 @@ const std::vector<std::string>& metrics_header() {
       "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
       "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
       "q_mean", "epsilon", "hl_grad_steps", "es_loss_heldout", "es_end_atom_share", "es_huber_share", "q_spread", "greedy_entropy",
-      "off_center_share", "airspeed_ftps"};
+      "off_center_share", "airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z"};
   return h;
 }
 // The header as metrics.csv's first line holds it (no newline).
@@ -826,7 +845,8 @@ std::vector<double> metrics_values(const MetricsRow& r) {
           r.samples_per_s, r.ll_return, r.hl_return, r.goal_dist_ft, r.winrate, r.finish_rate, r.races, r.term[1],
           r.term[2], r.term[3], r.term[4], r.term[5], r.term[6], r.policy_loss, r.value_loss, r.entropy, r.approx_kl,
           r.lr, r.es_loss, r.q_mean, r.epsilon, static_cast<double>(r.hl_grad_steps), r.es_loss_heldout, r.es_end_atom_share,
-          r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share, r.airspeed_ftps};
+          r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share, r.airspeed_ftps,
+          r.middle_share[0], r.middle_share[1], r.middle_share[2]};
 }
 }  // namespace
 

@@ -15,6 +15,7 @@
 // observation statistics are agreed across ranks (agents/replicas.hpp), and rank 0 alone writes
 // the run folder; a checkpoint holds every rank's trainer state (trainer.pt for rank 0,
 // trainer_rankN.pt for the others), gathered to rank 0.
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <cstdint>
@@ -87,6 +88,8 @@ struct MetricsRow {
   double es_loss_heldout = std::nan("");  // the ES loss on its batch before the update's steps
   double es_end_atom_share = std::nan(""), es_huber_share = std::nan("");
   double q_spread = std::nan(""), greedy_entropy = std::nan(""), off_center_share = std::nan("");
+  // Per goal axis x, y, z (track frame: along, right, up): greedy decisions on the middle bin.
+  std::array<double, 3> middle_share{std::nan(""), std::nan(""), std::nan("")};
 };
 
 // Where the wall time of run() went [s].

@@ -198,7 +198,7 @@ TEST(EsLoss, DistributionalTeamMixtureCrossEntropy) {
 }  // namespace
 }  // namespace f16race::agents
 
-// --- diagnostics of the high level (metrics.csv: q_spread, greedy_entropy, off_center_share,
+// --- diagnostics of the high level (metrics.csv: q_spread, greedy_entropy, off_center_share, middle_share_*,
 // es_end_atom_share, es_huber_share) ------------------------------------------------------------
 namespace f16race::agents {
 namespace {
@@ -215,6 +215,10 @@ TEST(EsDiagnostics, SpreadEntropyAndOffCenterShareOfHandMadeUtilities) {
   // Greedy bins per dim over the 2 rows: {2, 1}, {1, 1}, {0, 1} -> ln2, 0, ln2, / ln3, mean.
   EXPECT_NEAR(s.greedy_entropy, (2.0 * std::log(2.0) / std::log(3.0)) / 3.0, 1e-9);
   EXPECT_NEAR(s.off_center_share, 0.5, 1e-12);
+  // Middle bin per dim: {no, yes}, {yes, yes}, {no, yes}.
+  EXPECT_NEAR(s.middle_share[0], 0.5, 1e-12);
+  EXPECT_NEAR(s.middle_share[1], 1.0, 1e-12);
+  EXPECT_NEAR(s.middle_share[2], 0.5, 1e-12);
   // Joint utilities: greedy decoded from the argmax over n_bins^3.
   auto joint = torch::zeros({2, 27});
   joint[0][1 * 9 + 1 * 3 + 1] = 1.0;  // (1, 1, 1): the middle
@@ -223,6 +227,9 @@ TEST(EsDiagnostics, SpreadEntropyAndOffCenterShareOfHandMadeUtilities) {
   EXPECT_NEAR(s.q_spread, 2.0, 1e-6);
   EXPECT_NEAR(s.off_center_share, 0.5, 1e-12);
   EXPECT_NEAR(s.greedy_entropy, (std::log(2.0) / std::log(3.0)) / 3.0, 1e-9);
+  EXPECT_NEAR(s.middle_share[0], 0.5, 1e-12);
+  EXPECT_NEAR(s.middle_share[1], 1.0, 1e-12);
+  EXPECT_NEAR(s.middle_share[2], 1.0, 1e-12);
 }
 
 // Terminal single-decision teams with known team rewards {-2, -0.5, 0, 0.5, 2}: with the

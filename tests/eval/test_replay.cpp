@@ -134,6 +134,35 @@ TEST(Replay, FixedHighLevelControls) {
   EXPECT_THROW(run_replay(o), std::runtime_error);
 }
 
+// RUN@center_y flies the run's own high level with the lateral goal axis on the middle bin: its
+// goals sit on the center-line laterally, and at the race's first decision (the same state as
+// the run's own replay) the other axes are the run's own choice.
+TEST(Replay, OneAxisRuleKeepsThePolicyOnTheOtherAxes) {
+  const std::string run = tiny_run("axis");
+  ReplayOptions o;
+  o.run = run;
+  o.opponent = run;
+  o.seed = 5;
+  const RaceReplay own = run_replay(o);
+  o.run = run + "@center_y";
+  const RaceReplay fixed = run_replay(o);
+  EXPECT_EQ(fixed.blue, "f16race_replay_axis@center_y");
+  bool own_off_middle = false;
+  for (int a = 0; a < 2; ++a) {
+    ASSERT_FALSE(fixed.trace.goals[a].empty()) << a;
+    for (const race::GoalMark& g : fixed.trace.goals[a]) EXPECT_EQ(g.bins[1], 3) << a;
+    for (const race::GoalMark& g : own.trace.goals[a]) own_off_middle = own_off_middle || g.bins[1] != 3;
+    const race::GoalMark &f0 = fixed.trace.goals[a].front(), &o0 = own.trace.goals[a].front();
+    EXPECT_EQ(f0.t_s, o0.t_s);
+    EXPECT_EQ(f0.bins[0], o0.bins[0]) << a;
+    EXPECT_EQ(f0.bins[2], o0.bins[2]) << a;
+  }
+  EXPECT_TRUE(own_off_middle);  // the run's own high level does choose other lateral bins
+  // Red (the run itself) decides its first goals from the same state in both replays.
+  for (int a = 2; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(fixed.trace.goals[a].front().bins[k], own.trace.goals[a].front().bins[k]);
+}
+
 TEST(Replay, RefusesMissingRuns) {
   ReplayOptions o;
   o.run = "/nonexistent/run";

@@ -102,6 +102,25 @@ TEST(TournamentControls, CenterRuleIsTheMiddleBinEverywhere) {
   EXPECT_THROW(fixed_hl_bins(HlOverride::none, 7, 1, rng, b), std::invalid_argument);
 }
 
+TEST(TournamentControls, OneAxisRulesFixThatAxisOnly) {
+  const HlOverride rules[] = {HlOverride::center_x, HlOverride::center_y, HlOverride::center_z};
+  for (int axis = 0; axis < 3; ++axis) {
+    RandomStream rng = control_stream(3, 0);
+    const std::uint64_t before = rng.state();
+    std::vector<std::int64_t> bins(5 * 3);
+    for (std::size_t k = 0; k < bins.size(); ++k) bins[k] = static_cast<std::int64_t>(k % 7 == 3 ? 0 : k % 7);
+    const std::vector<std::int64_t> policy = bins;
+    fixed_hl_bins(rules[axis], 7, 5, rng, bins.data());
+    for (std::size_t k = 0; k < bins.size(); ++k)
+      EXPECT_EQ(bins[k], static_cast<int>(k % 3) == axis ? 3 : policy[k]) << "axis " << axis << ", k " << k;
+    EXPECT_EQ(rng.state(), before);  // no draws
+    EXPECT_TRUE(hl_override_uses_policy(rules[axis]));
+  }
+  EXPECT_TRUE(hl_override_uses_policy(HlOverride::none));
+  EXPECT_FALSE(hl_override_uses_policy(HlOverride::center));
+  EXPECT_FALSE(hl_override_uses_policy(HlOverride::random));
+}
+
 TEST(TournamentControls, RandomRuleIsUniformAndDeterministic) {
   // 20 000 aircraft x 3 axes over 7 bins: chi-square with 6 degrees of freedom below its 0.999
   // quantile (22.46), every bin drawn, every axis and aircraft position alike.
@@ -138,12 +157,16 @@ TEST(TournamentControls, EntrySpecs) {
   EXPECT_EQ(parse_entry_spec("runs/a@center"), std::make_pair(std::string("runs/a"), HlOverride::center));
   EXPECT_EQ(parse_entry_spec("runs/a@random"), std::make_pair(std::string("runs/a"), HlOverride::random));
   EXPECT_EQ(parse_entry_spec("runs/a"), std::make_pair(std::string("runs/a"), HlOverride::none));
+  EXPECT_EQ(parse_entry_spec("runs/a@center_x"), std::make_pair(std::string("runs/a"), HlOverride::center_x));
+  EXPECT_EQ(parse_entry_spec("runs/a@center_y"), std::make_pair(std::string("runs/a"), HlOverride::center_y));
+  EXPECT_EQ(parse_entry_spec("runs/a@center_z"), std::make_pair(std::string("runs/a"), HlOverride::center_z));
   // A typo of a rule is named as one; a real folder with '@' in its name stays a folder.
   try {
     parse_entry_spec("runs/a@centre");
     FAIL() << "an unknown rule was taken for a folder";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown high-level rule '@centre'; use RUN, RUN@center or RUN@random"),
+    EXPECT_NE(std::string(e.what()).find("unknown high-level rule '@centre'; use RUN, RUN@center, RUN@random or "
+                                         "RUN@center_x / _y / _z"),
               std::string::npos)
         << e.what();
   }
@@ -265,6 +288,39 @@ TEST(TournamentControls, ListedButKeptOutOfVariantStatistics) {
     EXPECT_EQ(again.races[k].winner, r.races[k].winner) << k;
     EXPECT_EQ(again.races[k].duration_s, r.races[k].duration_s) << k;
   }
+}
+
+// --axis-controls: each run's own high level with one goal axis on the middle bin, listed after
+// the untrained entry, kept out of the variant statistics and in the head-to-head table.
+TEST(TournamentControls, AxisControlsAreListedAndKeptOutOfStatistics) {
+  TournamentOptions o;
+  o.runs = {trained_run("axis_a", 1, 2, "es_d2")};
+  o.axis_controls = true;
+  o.races_per_pair = 2;
+  o.batch_envs = 16;
+  o.bootstrap_replicates = 100;
+  o.out_dir = (fs::temp_directory_path() / "f16race_tour_axis_out").string();
+  fs::remove_all(o.out_dir);
+  const TournamentResult r = run_tournament(o);
+  const std::vector<std::string> names = {"f16race_tour_axis_a", "untrained", "f16race_tour_axis_a@center_x",
+                                          "f16race_tour_axis_a@center_y", "f16race_tour_axis_a@center_z"};
+  const HlOverride rules[] = {HlOverride::none, HlOverride::none, HlOverride::center_x, HlOverride::center_y,
+                              HlOverride::center_z};
+  ASSERT_EQ(r.entries.size(), names.size());
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    EXPECT_EQ(r.entries[i].name, names[i]);
+    EXPECT_EQ(r.entries[i].hl, rules[i]) << i;
+    EXPECT_EQ(r.entries[i].policy, i == 1 ? 1 : 0) << i;
+    EXPECT_EQ(in_variant_statistics(r.entries[i], o), i == 0) << i;
+  }
+  EXPECT_EQ(r.races.size(), 10u * 2u);
+  write_tournament_report(r, o);
+  std::ifstream md(o.out_dir + "/summary.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), {});
+  EXPECT_NE(text.find("| run | races | vs RUN@center_x | vs RUN@center_y | vs RUN@center_z |\n|---|---|---|---|---|"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("| f16race_tour_axis_a@center_y | es_d2 | 1 | 8 |"), std::string::npos) << text;
 }
 
 // The classic-control baseline entry: AeroBench's waypoint autopilot, no networks. Listed after

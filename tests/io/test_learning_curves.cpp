@@ -32,7 +32,7 @@ const std::vector<std::string> kAllColumns = {
     "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
     "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
     "q_mean", "epsilon", "hl_grad_steps", "es_end_atom_share", "es_huber_share", "q_spread", "greedy_entropy",
-    "off_center_share"};
+    "off_center_share", "airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z"};
 
 // Cell text of column `name` in row r; columns not given here are 0.
 using CellFn = std::function<std::string(const std::string& name, int r)>;
@@ -190,14 +190,15 @@ TEST_F(LearningCurvesTest, MissingOptionalColumnsAreSkipped) {
   const CsvTable data = CsvTable::read((dir_ / "curves_data.csv").string());
   EXPECT_TRUE(data.has_column("finish_rate_smooth"));
   EXPECT_TRUE(data.has_column("ll_return_smooth"));
-  for (const char* gone : {"q_spread", "greedy_entropy", "off_center_share", "es_end_atom_share", "es_huber_share",
+  for (const char* gone : {"q_spread", "greedy_entropy", "off_center_share", "middle_share_y", "es_end_atom_share", "es_huber_share",
                            "hl_return"}) {
     EXPECT_FALSE(data.has_column(gone)) << gone;
     EXPECT_FALSE(data.has_column(std::string(gone) + "_smooth")) << gone;
   }
   // Their panels stay, empty and saying so.
   const std::string gp = slurp(dir_ / "curves.gp");
-  EXPECT_NE(gp.find("'(q_spread, greedy_entropy, off_center_share)'"), std::string::npos);
+  EXPECT_NE(gp.find("'(q_spread, greedy_entropy, off_center_share, middle_share_x, middle_share_y, middle_share_z)'"),
+            std::string::npos);
   EXPECT_NE(gp.find("'(hl_return)'"), std::string::npos);
   if (gnuplot_available()) {
     EXPECT_TRUE(fs::exists(dir_ / "curves.png")) << msg;
@@ -244,7 +245,8 @@ TEST_F(LearningCurvesTest, WritesPngWhenGnuplotIsAvailable) {
   if (!gnuplot_available()) GTEST_SKIP() << "gnuplot not on the PATH (apt-get install gnuplot-nox)";
   write_metrics(metrics_text(kAllColumns, 60, [](const std::string& name, int r) {
     if (name == "ll_return" || name == "hl_return") return std::to_string(std::sin(r * 0.3) + r * 0.05);
-    if (name == "greedy_entropy" || name == "off_center_share") return std::string("0.4");
+    if (name == "greedy_entropy" || name == "off_center_share" || name.rfind("middle_share", 0) == 0)
+      return std::string("0.4");
     return synthetic_cell(name, r);
   }));
   std::string msg;

@@ -58,6 +58,7 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
       EXPECT_NEAR(g.lateral_ft, 0.0, 1.0);
       EXPECT_NEAR(g.vertical_ft, 0.0, 1.0);
       EXPECT_NEAR(g.s_ft, rows.front().s_ft + c.goal_ahead(), 5.0);
+      for (int k = 0; k < kHlDims; ++k) EXPECT_EQ(g.bins[k], c.hl_center_bin()) << k;
     }
   }
   const std::string dir = (fs::temp_directory_path() / "f16race_recorder").string();

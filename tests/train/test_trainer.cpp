@@ -2,13 +2,18 @@
 // corrupt or mismatched), exact resume, determinism, and the self-play pool draws.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <torch/serialize/input-archive.h>
+#include <torch/serialize/output-archive.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "io/atomic_file.hpp"
 #include "io/yaml_config.hpp"
@@ -190,42 +195,98 @@ TEST(Trainer, CenterControlOpponentsChangeTheRunAndResumeExactly) {
 }
 
 // metrics.csv's airspeed column holds the learner's mean airspeed (an F-16 racing: hundreds of
-// ft/s); a run written by a build without that column, resumed, gets today's header with the
-// column empty in its old rows, so every row keeps the header's width.
-TEST(Trainer, MetricsAirspeedAndAnOlderHeaderUpgradedOnResume) {
+// ft/s) and the middle-bin shares are shares; a run written by a build without these columns and
+// without the checkpoint key that carries the shares, resumed, gets today's header with the
+// columns empty in its old rows (every row keeps the header's width) and resumes.
+TEST(Trainer, MetricsNewColumnsAndAnOlderRunUpgradedOnResume) {
   const std::string dir = fresh_dir("metrics_upgrade");
   {
     Trainer t(smoke(), dir);
-    t.run(nullptr, 3);
+    t.run(nullptr, 3);  // LL, LL, HL: the last row follows an ES update
   }
   const std::string path = dir + "/metrics.csv";
-  std::vector<std::string> lines;
-  {
+  const auto read_lines = [&] {
+    std::vector<std::string> out;
     std::ifstream in(path);
-    for (std::string l; std::getline(in, l);) lines.push_back(l);
-  }
+    for (std::string l; std::getline(in, l);) out.push_back(l);
+    return out;
+  };
+  const auto cells = [](const std::string& l) {
+    std::vector<std::string> out;
+    std::string c;
+    std::istringstream in(l);
+    while (std::getline(in, c, ',')) out.push_back(c);
+    if (!l.empty() && l.back() == ',') out.push_back("");
+    return out;
+  };
+  // An empty cell is a value the row does not have (the trainer writes nan as nothing).
+  const auto number = [](const std::string& c) { return c.empty() ? std::nan("") : std::stod(c); };
+  const std::vector<std::string> lines = read_lines();
   ASSERT_EQ(lines.size(), 4u);
   const std::string header = lines[0];
-  ASSERT_EQ(header.substr(header.rfind(',') + 1), "airspeed_ftps");
+  const std::vector<std::string> names = cells(header);
+  const std::vector<std::string> added = {"airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z"};
+  ASSERT_GE(names.size(), added.size());
+  ASSERT_TRUE(std::equal(added.begin(), added.end(), names.end() - 4)) << header;
+  const std::size_t first_added = names.size() - added.size();
   for (std::size_t k = 1; k < lines.size(); ++k) {
-    const double v = std::stod(lines[k].substr(lines[k].rfind(',') + 1));
+    const std::vector<std::string> row = cells(lines[k]);
+    ASSERT_EQ(row.size(), names.size()) << lines[k];
+    const double v = std::stod(row[first_added]);
     EXPECT_GT(v, 300.0);
     EXPECT_LT(v, 1500.0);
+    for (std::size_t j = first_added + 1; j < names.size(); ++j) {
+      const double share = number(row[j]);
+      if (k < 3) {
+        EXPECT_TRUE(std::isnan(share)) << "no ES update yet, row " << k;
+      } else {
+        EXPECT_GE(share, 0.0);
+        EXPECT_LE(share, 1.0);
+        // At most 3 teams x 2 aircraft took the decision: a share is k / n with n <= 6.
+        EXPECT_NEAR(share * 60.0, std::round(share * 60.0), 1e-9) << names[j] << " = " << share;
+      }
+    }
   }
-  {  // as the previous build wrote it: no airspeed column
+  {  // as the previous build wrote it: no added columns ...
     std::ofstream out(path, std::ios::trunc);
-    for (const std::string& l : lines) out << l.substr(0, l.rfind(',')) << "\n";
+    for (const std::string& l : lines) {
+      std::size_t cut = l.size();
+      for (std::size_t k = 0; k < added.size(); ++k) cut = l.rfind(',', cut - 1);
+      out << l.substr(0, cut) << "\n";
+    }
+  }
+  {  // ... and no checkpoint key for the shares
+    std::ifstream latest(dir + "/checkpoint/LATEST");
+    std::string name;
+    latest >> name;
+    const std::string ck = dir + "/checkpoint/" + name + "/trainer.pt";
+    torch::serialize::InputArchive in;
+    in.load_from(ck);
+    torch::serialize::OutputArchive out;
+    bool had_key = false;
+    for (const std::string& key : in.keys()) {
+      if (key == "last_middle_share") {
+        had_key = true;
+        continue;
+      }
+      torch::Tensor t;
+      in.read(key, t);
+      out.write(key, t);
+    }
+    ASSERT_TRUE(had_key);
+    out.save_to(ck);
   }
   Trainer::resume(dir)->run(nullptr, 2);
-  std::ifstream in(path);
-  std::vector<std::string> now;
-  for (std::string l; std::getline(in, l);) now.push_back(l);
+  const std::vector<std::string> now = read_lines();
   ASSERT_EQ(now.size(), 6u);
   EXPECT_EQ(now[0], header);
   const auto commas = [](const std::string& l) { return std::count(l.begin(), l.end(), ','); };
   for (const std::string& l : now) EXPECT_EQ(commas(l), commas(header)) << l;
-  EXPECT_EQ(now[1].back(), ',');  // an old row: the new column empty
-  EXPECT_NE(now[5].back(), ',');
+  EXPECT_EQ(now[1].substr(now[1].size() - 4), ",,,,");  // an old row: the new columns empty
+  const std::vector<std::string> last = cells(now[5]);
+  EXPECT_GT(std::stod(last[first_added]), 300.0);
+  // The last ES update's shares came from a checkpoint without them: unknown, not made up.
+  for (std::size_t j = first_added + 1; j < names.size(); ++j) EXPECT_TRUE(std::isnan(number(last[j]))) << names[j];
 }
 
 TEST(Trainer, RefusesToOverwriteARunAndRefusesACorruptCheckpoint) {
