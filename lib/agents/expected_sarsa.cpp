@@ -228,7 +228,7 @@ models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats)
   return cfg_.normalize_obs ? normalizer_->normalize(flat_obs, update_stats) : flat_obs;
 }
 
-EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& generator) {
+EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& generator, const torch::Tensor& group) {
   torch::NoGradGuard no_grad;
   const int64_t b = models::check_obs(obs, cfg_.dims);
   const auto out = critic_(prepare(obs, false));
@@ -237,8 +237,27 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
   a.greedy_bins = es_is_decoupled(cfg_.variant) ? out.q.argmax(2) : decode_joint_index(out.q.argmax(1), cfg_.n_bins);
   // One coin per action dimension (see the header: keeps the other dimensions greedy while one
   // explores, so a dimension's value is not confounded by the others' exploration).
-  const auto explore = torch::rand({b, 3}, generator) < epsilon;
-  const auto random_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
+  if (!group.defined()) {
+    const auto explore = torch::rand({b, 3}, generator) < epsilon;
+    const auto random_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
+    a.bins = torch::where(explore, random_bins, a.greedy_bins);
+    return a;
+  }
+  check_tensor(group, "group", {b}, torch::kInt64);
+  // Index of each row's group among the groups present, in row order: 0, 0, 1, 1, 1, 2, ...
+  const auto g = group.contiguous();
+  const std::int64_t* gp = g.data_ptr<std::int64_t>();
+  auto slot = torch::empty({b}, torch::kInt64);
+  std::int64_t* sp = slot.data_ptr<std::int64_t>();
+  std::int64_t n_groups = 0;
+  for (std::int64_t k = 0; k < b; ++k) {
+    TORCH_CHECK(k == 0 || gp[k] >= gp[k - 1], "EsAgent::act: group ids must be non-decreasing");
+    if (k > 0 && gp[k] != gp[k - 1]) ++n_groups;
+    sp[k] = n_groups;
+  }
+  n_groups += b > 0 ? 1 : 0;
+  const auto explore = (torch::rand({n_groups, 3}, generator) < epsilon).index_select(0, slot);
+  const auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
   a.bins = torch::where(explore, random_bins, a.greedy_bins);
   return a;
 }

@@ -69,6 +69,9 @@ void bind_hl(R& r, agents::EsConfig* c) {
   r.read("reward_scale", &c->reward_scale, 0.0, 1e6);
   r.read("gamma", &c->gamma, 0.0, 1.0);
   r.read("epsilon", &c->epsilon, 0.0, 1.0);
+  std::string explore = c->explore_per_team ? "team" : "aircraft";
+  r.read("explore", &explore, {"aircraft", "team"});
+  c->explore_per_team = explore == "team";
   read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
   read_i64(r, "target_update_interval", &c->target_update_interval, 1, 1000000);
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);

@@ -533,7 +533,9 @@ void Trainer::State::hl_decisions() {
     if (rows.numel() == 0) continue;
     agents::EsAgent& critic = p == 0 ? *es : *opp_es;
     const double eps = p == 0 ? cfg.hl.epsilon : cfg.loop.hl_epsilon_eval;
-    scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen).bins, b);
+    // Aircraft i = (env * 2 + team) * ts + j: i / ts names its team, rows are in aircraft order.
+    const torch::Tensor team = p == 0 && cfg.hl.explore_per_team ? rows.div(ts, "floor") : torch::Tensor();
+    scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen, team).bins, b);
     work.hl_forward_rows += rows.numel();
     work.hl_forward_calls += 1;
   }

@@ -279,5 +279,51 @@ TEST(EsDiagnostics, HuberShareCountsTdErrorsBeyondDelta) {
   }
 }
 
+// hl.explore: team. Rows of one group (a team's aircraft) share the exploration coin and the
+// random bin per axis; each row's marginal policy stays eps-greedy with the same eps, which the
+// ES targets assume.
+TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
+  torch::manual_seed(3);
+  EsConfig cfg;
+  cfg.variant = EsVariant::kEsD2;
+  cfg.dims = models::ObsDims{4, 2, 2, 1};
+  cfg.d_model = 8;
+  cfg.n_heads = 2;
+  cfg.hidden = {16, 16};
+  EsAgent agent(cfg);
+  const int64_t b = 6000, team = 3;
+  auto input_gen = models::make_generator(9);
+  const models::HlObs obs{torch::randn({b, 4}, input_gen), torch::zeros({b, 3}), torch::randn({b, 1, 2}, input_gen),
+                          torch::ones({b, 1}, torch::kBool), torch::randn({b, 2}, input_gen)};
+  // Group ids as the trainer makes them (aircraft / team size), with gaps: ids 0, 0, 0, 2, 2, 2, ...
+  const auto group = torch::arange(b, torch::kInt64).div(team, "floor") * 2;
+  auto gen = models::make_generator(4);
+  const EsAction greedy = agent.act(obs, 0.0, gen, group);
+  EXPECT_TRUE(greedy.bins.equal(greedy.greedy_bins));
+  const auto by_team = [&](const torch::Tensor& bins) { return bins.view({b / team, team, 3}); };
+  {  // eps 1: every axis explores, one bin per team and axis
+    const auto bins = by_team(agent.act(obs, 1.0, gen, group).bins);
+    EXPECT_TRUE(bins.eq(bins.select(1, 0).unsqueeze(1)).all().item<bool>());
+    const auto count = torch::bincount(bins.select(1, 0).reshape({-1}), {}, 7).to(torch::kFloat64);
+    const double expected = static_cast<double>(b / team * 3) / 7.0;
+    EXPECT_LT(((count - expected).pow(2) / expected).sum().item<double>(), 22.46);  // chi2, 6 dof, 0.999
+  }
+  {  // eps 0.3: off the greedy bin with probability 0.3 * 6/7 per row and axis; within a team an
+     // axis either explores for all (one shared bin) or for none (each row greedy)
+    const EsAction a = agent.act(obs, 0.3, gen, group);
+    const auto off = a.bins.ne(a.greedy_bins);
+    EXPECT_NEAR(off.to(torch::kFloat64).mean().item<double>(), 0.3 * 6.0 / 7.0, 0.03);
+    const auto bins = by_team(a.bins), any_off = by_team(off).any(1);  // [teams, 3]
+    const auto shared = bins.eq(bins.select(1, 0).unsqueeze(1)).all(1);
+    EXPECT_TRUE(shared.logical_or(any_off.logical_not()).all().item<bool>());
+    // Without groups the rows of a team explore apart: shared bins on exploring axes are rare.
+    const EsAction solo = agent.act(obs, 1.0, gen);
+    EXPECT_LT(by_team(solo.bins).eq(by_team(solo.bins).select(1, 0).unsqueeze(1)).all(1).to(torch::kFloat64)
+                  .mean().item<double>(),
+              0.1);
+  }
+  EXPECT_THROW(agent.act(obs, 0.1, gen, group.flip(0)), c10::Error);  // ids must not decrease
+}
+
 }  // namespace
 }  // namespace f16race::agents

@@ -63,6 +63,10 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
   EXPECT_NE(error_of("race: {goal_origin: lane, goal_frame: world}").find("goal_origin: lane needs goal_frame: track"),
             std::string::npos);
+  EXPECT_NE(error_of("hl: {explore: teams}").find("hl.explore: 'teams' is not one of: aircraft, team"),
+            std::string::npos);
+  EXPECT_TRUE(read_train_config(YAML::Load("hl: {explore: team}"), "cfg.yaml").hl.explore_per_team);
+  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.explore_per_team);  // the paper's
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
@@ -192,6 +196,20 @@ TEST(Trainer, CenterControlOpponentsChangeTheRunAndResumeExactly) {
   EXPECT_EQ(resumed->updates(), full.updates);
   EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
   EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+}
+
+// hl.explore: team draws the learner's HL exploration per team: another run than per aircraft,
+// the same one twice.
+TEST(Trainer, TeamExplorationChangesTheRunDeterministically) {
+  Trainer a(smoke(), fresh_dir("explore_aircraft"));
+  a.run();
+  Trainer b(smoke("hl.explore=team"), fresh_dir("explore_team"));
+  b.run();
+  Trainer c(smoke("hl.explore=team"), fresh_dir("explore_team2"));
+  c.run();
+  EXPECT_NE(b.hl_parameters(), a.hl_parameters());
+  EXPECT_EQ(b.hl_parameters(), c.hl_parameters());
+  EXPECT_EQ(b.ll_parameters(), c.ll_parameters());
 }
 
 // metrics.csv's airspeed column holds the learner's mean airspeed (an F-16 racing: hundreds of
