@@ -256,8 +256,16 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
     sp[k] = n_groups;
   }
   n_groups += b > 0 ? 1 : 0;
-  const auto explore = (torch::rand({n_groups, 3}, generator) < epsilon).index_select(0, slot);
-  const auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
+  auto explore = (torch::rand({n_groups, 3}, generator) < epsilon).index_select(0, slot);
+  auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
+  const auto& per_team = cfg_.explore_per_team;
+  if (!(per_team[0] && per_team[1] && per_team[2])) {  // the other axes: a draw per row
+    const auto team_axis = torch::tensor({per_team[0], per_team[1], per_team[2]}, torch::kBool);
+    const auto row_explore = torch::rand({b, 3}, generator) < epsilon;
+    const auto row_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
+    explore = torch::where(team_axis, explore, row_explore);
+    random_bins = torch::where(team_axis, random_bins, row_bins);
+  }
   a.bins = torch::where(explore, random_bins, a.greedy_bins);
   return a;
 }

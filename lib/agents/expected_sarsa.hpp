@@ -66,11 +66,12 @@ struct EsConfig {
   double reward_scale = 1.0;
   double gamma = 0.99;    // per HL decision
   double epsilon = 0.1;   // paper Table I eps_ES
-  // Exploration draws (read by the trainer): per aircraft and axis (false, the paper's), or per
-  // team and axis (true): an exploring team-axis puts all of the team's aircraft on one random bin
-  // there, so joint moves of the team are sampled. Each aircraft's marginal policy is the same
-  // eps-greedy one either way, so the ES targets (expectations per aircraft and axis) hold as they are.
-  bool explore_per_team = false;
+  // Exploration draws per goal axis x, y, z: per aircraft (false, the paper's), or per team
+  // (true): an exploring team-axis puts all of the team's aircraft on one random bin there, so
+  // joint moves of the team are sampled. Each aircraft's marginal policy is the same eps-greedy
+  // one either way, so the ES targets (expectations per aircraft and axis) hold as they are. The
+  // trainer passes the teams to act() when any axis is per team.
+  std::array<bool, 3> explore_per_team{false, false, false};
   int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
   int64_t target_update_interval = 10;  // updates between hard target-network syncs
   int64_t n_epochs = 1;       // passes over each batch
@@ -183,8 +184,9 @@ class EsAgent {
  public:
   explicit EsAgent(const EsConfig& cfg);
   // Decentralised eps-greedy action of each aircraft; obs fields have batch B. No gradients.
-  // `group` (optional, [B] int64, non-decreasing): rows with the same value share one exploration
-  // coin and one random bin per axis (a team's aircraft); undefined: every row draws its own.
+  // `group` (optional, [B] int64, non-decreasing): on the axes of cfg.explore_per_team, rows with
+  // the same value share one exploration coin and one random bin (a team's aircraft); undefined,
+  // or on the other axes: every row draws its own.
   EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator,
                const torch::Tensor& group = torch::Tensor());
   // With replicas set (issue 18), every rank calls update() at the same point with its own batch

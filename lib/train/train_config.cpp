@@ -69,9 +69,17 @@ void bind_hl(R& r, agents::EsConfig* c) {
   r.read("reward_scale", &c->reward_scale, 0.0, 1e6);
   r.read("gamma", &c->gamma, 0.0, 1.0);
   r.read("epsilon", &c->epsilon, 0.0, 1.0);
-  std::string explore = c->explore_per_team ? "team" : "aircraft";
-  r.read("explore", &explore, {"aircraft", "team"});
-  c->explore_per_team = explore == "team";
+  // aircraft: every axis per aircraft (paper); team: every axis per team; team_x/_y/_z: that
+  // axis per team, the others per aircraft.
+  const auto& t = c->explore_per_team;
+  std::string explore = t[0] && t[1] && t[2] ? "team"
+                        : t[0] && !t[1] && !t[2] ? "team_x"
+                        : !t[0] && t[1] && !t[2] ? "team_y"
+                        : !t[0] && !t[1] && t[2] ? "team_z"
+                                                 : "aircraft";
+  r.read("explore", &explore, {"aircraft", "team", "team_x", "team_y", "team_z"});
+  c->explore_per_team = {explore == "team" || explore == "team_x", explore == "team" || explore == "team_y",
+                         explore == "team" || explore == "team_z"};
   read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
   read_i64(r, "target_update_interval", &c->target_update_interval, 1, 1000000);
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);

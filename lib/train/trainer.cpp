@@ -534,7 +534,9 @@ void Trainer::State::hl_decisions() {
     agents::EsAgent& critic = p == 0 ? *es : *opp_es;
     const double eps = p == 0 ? cfg.hl.epsilon : cfg.loop.hl_epsilon_eval;
     // Aircraft i = (env * 2 + team) * ts + j: i / ts names its team, rows are in aircraft order.
-    const torch::Tensor team = p == 0 && cfg.hl.explore_per_team ? rows.div(ts, "floor") : torch::Tensor();
+    const auto& per_team = cfg.hl.explore_per_team;
+    const bool any_team = per_team[0] || per_team[1] || per_team[2];
+    const torch::Tensor team = p == 0 && any_team ? rows.div(ts, "floor") : torch::Tensor();
     scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen, team).bins, b);
     work.hl_forward_rows += rows.numel();
     work.hl_forward_calls += 1;

@@ -290,6 +290,7 @@ TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
   cfg.d_model = 8;
   cfg.n_heads = 2;
   cfg.hidden = {16, 16};
+  cfg.explore_per_team = {true, true, true};
   EsAgent agent(cfg);
   const int64_t b = 6000, team = 3;
   auto input_gen = models::make_generator(9);
@@ -323,6 +324,17 @@ TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
               0.1);
   }
   EXPECT_THROW(agent.act(obs, 0.1, gen, group.flip(0)), c10::Error);  // ids must not decrease
+  // team_y: only the second axis is drawn per team; the others per aircraft.
+  cfg.explore_per_team = {false, true, false};
+  torch::manual_seed(3);
+  EsAgent lateral(cfg);
+  const auto bins = by_team(lateral.act(obs, 1.0, gen, group).bins);
+  const auto shared = bins.eq(bins.select(1, 0).unsqueeze(1)).all(1).to(torch::kFloat64).mean(0);  // [3]
+  EXPECT_EQ(shared[1].item<double>(), 1.0);
+  EXPECT_LT(shared[0].item<double>(), 0.1);  // three independent uniform bins agree 1 / 49 of the time
+  EXPECT_LT(shared[2].item<double>(), 0.1);
+  const EsAction some = lateral.act(obs, 0.3, gen, group);
+  EXPECT_NEAR(some.bins.ne(some.greedy_bins).to(torch::kFloat64).mean().item<double>(), 0.3 * 6.0 / 7.0, 0.03);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <csignal>
 #include <filesystem>
@@ -63,10 +64,14 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
   EXPECT_NE(error_of("race: {goal_origin: lane, goal_frame: world}").find("goal_origin: lane needs goal_frame: track"),
             std::string::npos);
-  EXPECT_NE(error_of("hl: {explore: teams}").find("hl.explore: 'teams' is not one of: aircraft, team"),
+  EXPECT_NE(error_of("hl: {explore: teams}")
+                .find("hl.explore: 'teams' is not one of: aircraft, team, team_x, team_y, team_z"),
             std::string::npos);
-  EXPECT_TRUE(read_train_config(YAML::Load("hl: {explore: team}"), "cfg.yaml").hl.explore_per_team);
-  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.explore_per_team);  // the paper's
+  using Axes = std::array<bool, 3>;
+  EXPECT_EQ(read_train_config(YAML::Load("hl: {explore: team}"), "cfg.yaml").hl.explore_per_team, (Axes{true, true, true}));
+  EXPECT_EQ(read_train_config(YAML::Load("hl: {explore: team_y}"), "cfg.yaml").hl.explore_per_team,
+            (Axes{false, true, false}));
+  EXPECT_EQ(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.explore_per_team, (Axes{false, false, false}));  // paper's
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
