@@ -30,29 +30,45 @@ namespace fs = std::filesystem;
 using models::HlObs;
 using models::LlObs;
 
-const char* hl_override_name(HlOverride rule) {
-  switch (rule) {
-    case HlOverride::center:
-      return "center";
-    case HlOverride::random:
-      return "random";
-    case HlOverride::center_x:
-      return "center_x";
-    case HlOverride::center_y:
-      return "center_y";
-    case HlOverride::center_z:
-      return "center_z";
-    case HlOverride::none:
-      break;
-  }
-  return "policy";
+namespace {
+// Every HL rule in one place: its name (an entry's "@" suffix), how reports describe it, and
+// whether the run's own HL policy chooses the bins it does not fix.
+struct RuleInfo {
+  HlOverride rule;
+  const char* name;
+  const char* description;
+  bool uses_policy;
+};
+constexpr RuleInfo kRules[] = {
+    {HlOverride::none, "policy", "policy", true},
+    {HlOverride::center, "center", "fixed: middle bin", false},
+    {HlOverride::random, "random", "fixed: uniform random bins", false},
+    {HlOverride::center_x, "center_x", "policy, x on the middle bin", true},
+    {HlOverride::center_y, "center_y", "policy, y on the middle bin", true},
+    {HlOverride::center_z, "center_z", "policy, z on the middle bin", true},
+};
+const RuleInfo& rule_info(HlOverride rule) {
+  for (const RuleInfo& r : kRules)
+    if (r.rule == rule) return r;
+  return kRules[0];
+}
+}  // namespace
+
+const char* hl_override_name(HlOverride rule) { return rule_info(rule).name; }
+const char* hl_override_description(HlOverride rule) { return rule_info(rule).description; }
+bool hl_override_uses_policy(HlOverride rule) { return rule_info(rule).uses_policy; }
+const std::vector<HlOverride>& hl_override_rules() {
+  static const std::vector<HlOverride> rules = [] {
+    std::vector<HlOverride> v;
+    for (const RuleInfo& r : kRules)
+      if (r.rule != HlOverride::none) v.push_back(r.rule);
+    return v;
+  }();
+  return rules;
 }
 
-bool hl_override_uses_policy(HlOverride rule) { return rule != HlOverride::center && rule != HlOverride::random; }
-
 std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec) {
-  for (HlOverride rule : {HlOverride::center, HlOverride::random, HlOverride::center_x, HlOverride::center_y,
-                          HlOverride::center_z}) {
+  for (HlOverride rule : hl_override_rules()) {
     const std::string suffix = std::string("@") + hl_override_name(rule);
     if (spec.size() > suffix.size() && spec.compare(spec.size() - suffix.size(), suffix.size(), suffix) == 0)
       return {spec.substr(0, spec.size() - suffix.size()), rule};

@@ -31,8 +31,12 @@ enum class HlOverride {
 // "policy", "center", "random", "center_x", "center_y", "center_z"; the suffix of a control
 // entry's name is "@" + this name.
 const char* hl_override_name(HlOverride rule);
+// How reports describe the rule ("policy", "fixed: middle bin", ...).
+const char* hl_override_description(HlOverride rule);
 // Whether the rule keeps the run's HL policy (none and the one-axis rules) before fixing bins.
 bool hl_override_uses_policy(HlOverride rule);
+// Every rule but none, in the order of the enum (entry specs, report columns).
+const std::vector<HlOverride>& hl_override_rules();
 
 // Splits an entry spec "RUN@<rule>" (a name above) into the run folder and the rule; any other
 // spec (including one with another "@...") is a plain run folder with HlOverride::none.

@@ -68,21 +68,7 @@ void write_matrix_csv(const std::string& path, const std::vector<std::vector<dou
 
 std::string hl_description(const Entry& e) {
   if (is_autopilot(e)) return "none: AeroBench's waypoint autopilot";
-  switch (e.hl) {
-    case HlOverride::center:
-      return "fixed: middle bin";
-    case HlOverride::random:
-      return "fixed: uniform random bins";
-    case HlOverride::center_x:
-      return "policy, x on the middle bin";
-    case HlOverride::center_y:
-      return "policy, y on the middle bin";
-    case HlOverride::center_z:
-      return "policy, z on the middle bin";
-    case HlOverride::none:
-      break;
-  }
-  return "policy";
+  return hl_override_description(e.hl);
 }
 
 }  // namespace
@@ -358,10 +344,8 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   for (int i = 0; i < n; ++i) any_control = any_control || is_control(r.entries[i]);
   if (any_control) {
     // One column per rule that some entry has, in the order of the enum.
-    const HlOverride all_rules[] = {HlOverride::center, HlOverride::random, HlOverride::center_x, HlOverride::center_y,
-                                    HlOverride::center_z};
     std::vector<HlOverride> rules;
-    for (HlOverride rule : all_rules)
+    for (HlOverride rule : hl_override_rules())
       for (int i = 0; i < n; ++i)
         if (r.entries[i].hl == rule) {
           rules.push_back(rule);
