@@ -38,6 +38,7 @@ models::HlCriticConfig es_critic_config(const EsConfig& cfg) {
   c.n_heads = cfg.n_heads;
   c.hidden = cfg.hidden;
   c.decoupled = es_is_decoupled(cfg.variant);
+  c.per_axis = cfg.per_axis_critic;
   c.n_bins = cfg.n_bins;
   c.n_atoms = cfg.variant == EsVariant::kEsD3 ? cfg.n_atoms : 1;
   c.v_min = cfg.v_min;

@@ -72,6 +72,9 @@ struct EsConfig {
   // one either way, so the ES targets (expectations per aircraft and axis) hold as they are. The
   // trainer passes the teams to act() when any axis is per team.
   std::array<bool, 3> explore_per_team{false, false, false};
+  // Decoupled variants: the axes' utilities on one shared encoder and trunk (false, the paper's)
+  // or on one critic per goal axis, no parameter shared (models::HlCriticConfig::per_axis).
+  bool per_axis_critic = false;
   int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
   int64_t target_update_interval = 10;  // updates between hard target-network syncs
   int64_t n_epochs = 1;       // passes over each batch

@@ -1,6 +1,6 @@
 // TorchScript export: the saved modules, loaded back with torch::jit::load, answer exactly like
-// the in-process networks (all HL heads: joint, decoupled, distributional; normalisation on and
-// off); bad inputs are refused by name; a missing or mismatched run is refused.
+// the in-process networks (all HL heads: joint, decoupled, distributional, on one critic or one per
+// goal axis; normalisation on and off); bad inputs are refused by name; a missing or mismatched run is refused.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
@@ -24,7 +24,11 @@ ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8, 8], d_model: 8, n
 hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}
 train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
 )");
-  io::apply_override(root, "hl.agent=" + agent);
+  // "<agent>_per_axis": that agent on one critic per goal axis (hl.critic: per_axis).
+  const std::string suffix = "_per_axis";
+  const bool per_axis = agent.size() > suffix.size() && agent.compare(agent.size() - suffix.size(), suffix.size(), suffix) == 0;
+  io::apply_override(root, "hl.agent=" + agent.substr(0, per_axis ? agent.size() - suffix.size() : agent.size()));
+  if (per_axis) io::apply_override(root, "hl.critic=per_axis");
   train::TrainConfig cfg = train::read_train_config(root, "test");
   cfg.hl.normalize_obs = normalize;  // not a YAML key: the library default is always on
   cfg.ll.normalize_obs = normalize;
@@ -68,8 +72,9 @@ TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
     EXPECT_TRUE(bins.bins_equal) << agent;  // every differing decision is a tie of two bins' Q
     EXPECT_LE(bins.bin_ties, bins.bin_decisions / 10) << agent;
     EXPECT_LT(diff(ho.at("q").toTensor(), hr.q), 1e-5) << agent;
-    EXPECT_EQ(ho.contains("probs"), agent == "es_d3");
-    if (agent == "es_d3") {
+    const bool d3 = agent.rfind("es_d3", 0) == 0;
+    EXPECT_EQ(ho.contains("probs"), d3);
+    if (d3) {
       EXPECT_LT(diff(ho.at("probs").toTensor(), hr.probs), 1e-5);
       EXPECT_NEAR(ho.at("probs").toTensor().sum(-1).min().item<double>(), 1.0, 1e-5);
     }
@@ -95,7 +100,8 @@ TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
 INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
                          ::testing::Values(std::make_tuple("es", true), std::make_tuple("es_d1", true),
                                            std::make_tuple("es_d2", true), std::make_tuple("es_d3", true),
-                                           std::make_tuple("es_d3", false)),
+                                           std::make_tuple("es_d3", false), std::make_tuple("es_d2_per_axis", true),
+                                           std::make_tuple("es_d3_per_axis", true)),
                          [](const ::testing::TestParamInfo<std::tuple<std::string, bool>>& param_info) {
                            return std::get<0>(param_info.param) + (std::get<1>(param_info.param) ? "" : "_unnormalised");
                          });

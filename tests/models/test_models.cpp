@@ -206,6 +206,57 @@ TEST(HlCritic, ShapesOfEveryHead) {
   EXPECT_THROW(HlCritic(HlCriticConfig{d})(bad), c10::Error);
 }
 
+// hl.critic: per_axis. Three critics, no parameter shared: an axis's utilities depend on its own
+// branch only (a gradient from one axis's Q reaches no other branch), and the shared critic keeps
+// the module names every earlier checkpoint was written with.
+TEST(HlCritic, PerAxisBranchesShareNoParameter) {
+  const auto d = stand_in_dims();
+  Rng r(18);
+  const int64_t b = 12;
+  const auto obs = random_hl_obs(r, d, b);
+  HlCriticConfig cfg;
+  cfg.dims = d;
+  HlCritic shared(cfg);
+  for (const auto& kv : shared->named_parameters()) {
+    const std::string top = kv.key().substr(0, kv.key().find('.'));
+    EXPECT_TRUE(top == "encoder" || top == "trunk" || top == "head") << kv.key();
+  }
+  cfg.per_axis = true;
+  for (int64_t atoms : {1, 11}) {
+    cfg.n_atoms = atoms;
+    HlCritic net(cfg);
+    const auto out = net(obs);
+    EXPECT_EQ(out.q.sizes(), (std::vector<int64_t>{b, 3, 7}));
+    EXPECT_EQ(out.log_probs.defined(), atoms > 1);
+    HlCriticConfig shared_cfg = cfg;
+    shared_cfg.per_axis = false;
+    HlCritic one(shared_cfg);
+    int64_t n_shared = 0, n_per_axis = 0;
+    for (const auto& p : one->parameters()) n_shared += p.numel();
+    for (const auto& p : net->parameters()) n_per_axis += p.numel();
+    // three encoders and trunks; the three heads together as wide as the shared one
+    const int64_t head = (64 + 1) * 3 * 7 * atoms;
+    EXPECT_EQ(n_per_axis, 3 * (n_shared - head) + head);
+    EXPECT_EQ(net->flops_per_sample(), 3 * one->flops_per_sample() - 2 * 64 * 2 * 3 * 7 * atoms);
+    for (int64_t axis = 0; axis < 3; ++axis) {
+      net->zero_grad();
+      out.q.select(1, axis).sum().backward({}, /*retain_graph=*/true);
+      for (const auto& kv : net->named_parameters()) {
+        const std::string top = kv.key().substr(0, kv.key().find('.'));
+        const bool own = top.back() == "xyz"[axis];
+        const bool reached = kv.value().grad().defined() && kv.value().grad().abs().sum().item<double>() > 0.0;
+        if (!own) {
+          EXPECT_FALSE(reached) << "axis " << axis << " reached " << kv.key();
+        } else if (top.rfind("head", 0) == 0 && kv.key().find("bias") != std::string::npos) {
+          EXPECT_TRUE(reached) << kv.key();
+        }
+      }
+    }
+  }
+  cfg.decoupled = false;
+  EXPECT_THROW(HlCritic{cfg}, c10::Error);
+}
+
 TEST(LlActorCritic, ShapesAndGaussianHelpers) {
   const auto d = stand_in_dims();
   Rng r(9);
