@@ -72,6 +72,12 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_EQ(read_train_config(YAML::Load("hl: {explore: team_y}"), "cfg.yaml").hl.explore_per_team,
             (Axes{false, true, false}));
   EXPECT_EQ(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.explore_per_team, (Axes{false, false, false}));  // paper's
+  EXPECT_NE(error_of("hl: {critic: separate}").find("hl.critic: 'separate' is not one of: shared, per_axis"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {agent: es, critic: per_axis}").find("cfg.yaml: hl.critic: per_axis needs decoupled utilities"),
+            std::string::npos);
+  EXPECT_TRUE(read_train_config(YAML::Load("hl: {critic: per_axis}"), "cfg.yaml").hl.per_axis_critic);
+  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.per_axis_critic);  // the paper's shared trunk
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
