@@ -33,6 +33,7 @@ struct TrainBenchOptions {
   std::vector<std::string> configs{"configs/default.yaml"};
   std::vector<std::string> overrides;
   long long updates = 20;
+  int repeat = 4;  // runs, alternating with the floor's timings; the first is dropped when > 1
   bool json = false;
   int nproc = 1;  // >1: as a group of ranks on this host (issue 18)
 };
@@ -46,38 +47,55 @@ struct NetworkFloor {
   std::int64_t ll_forward_batch = 0, ll_train_batch = 0, hl_forward_batch = 0, hl_train_batch = 0;
 };
 
-NetworkFloor network_floor(const train::TrainConfig& cfg, const train::TrainSummary& s) {
+// Seconds per row of each network part at the run's mean batches (medians of 5 timings).
+struct FloorCosts {
+  double ll_forward = 0, ll_train = 0, hl_forward = 0, hl_train = 0;
+};
+
+std::int64_t mean_batch(std::int64_t rows, std::int64_t calls) {
+  return calls > 0 ? std::max<std::int64_t>(1, (rows + calls / 2) / calls) : 0;
+}
+
+FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::NetworkWork& w) {
   constexpr int kRepeats = 5;
-  const auto mean_batch = [](std::int64_t rows, std::int64_t calls) {
-    return calls > 0 ? std::max<std::int64_t>(1, (rows + calls / 2) / calls) : 0;
-  };
-  const train::NetworkWork& w = s.work;
-  NetworkFloor f;
-  f.ll_forward_batch = mean_batch(w.ll_forward_rows, w.ll_forward_calls);
-  f.ll_train_batch = mean_batch(w.ll_train_rows, w.ll_train_calls);
-  f.hl_forward_batch = mean_batch(w.hl_forward_rows, w.hl_forward_calls);
-  f.hl_train_batch = mean_batch(w.hl_train_rows, w.hl_train_calls);
   models::LlActorCriticConfig lc = cfg.ll.net;
   lc.dims = train::obs_dims(cfg.race);
   agents::EsConfig ec = cfg.hl;
   ec.dims = lc.dims;
   if (ec.n_atoms > 1 && !(ec.v_max > ec.v_min)) ec.v_max = ec.v_min + 1.0;  // the support does not change the cost
   const models::HlCriticConfig hc = agents::es_critic_config(ec);
-  if (f.ll_forward_batch > 0)
-    f.ll_forward_s = w.ll_forward_rows * measure_ll_cost(lc, f.ll_forward_batch, kRepeats, cfg.ll.eigen_inference).forward_s;
+  FloorCosts c;
+  if (const std::int64_t b = mean_batch(w.ll_forward_rows, w.ll_forward_calls); b > 0)
+    c.ll_forward = measure_ll_cost(lc, b, kRepeats, cfg.ll.eigen_inference).forward_s;
   // A minibatch's chunks run concurrently on the OpenMP threads (PpoAgent::update): priced so.
   const std::int64_t chunks_per_step = w.ll_train_steps > 0 ? std::max<std::int64_t>(1, w.ll_train_calls / w.ll_train_steps) : 1;
   const int concurrent = static_cast<int>(std::min<std::int64_t>(omp_get_max_threads(), chunks_per_step));
-  if (f.ll_train_batch > 0)
-    f.ll_train_s = w.ll_train_rows * measure_ll_cost(lc, f.ll_train_batch, kRepeats, false, concurrent).forward_backward_s;
-  if (f.hl_forward_batch > 0) f.hl_forward_s = w.hl_forward_rows * measure_hl_cost(hc, f.hl_forward_batch, kRepeats).forward_s;
+  if (const std::int64_t b = mean_batch(w.ll_train_rows, w.ll_train_calls); b > 0)
+    c.ll_train = measure_ll_cost(lc, b, kRepeats, false, concurrent).forward_backward_s;
+  if (const std::int64_t b = mean_batch(w.hl_forward_rows, w.hl_forward_calls); b > 0)
+    c.hl_forward = measure_hl_cost(hc, b, kRepeats).forward_s;
   // ES steps' chunks (hl.minibatch_chunks) run concurrently too.
   const std::int64_t hl_chunks_per_step =
       w.hl_train_steps > 0 ? std::max<std::int64_t>(1, w.hl_train_calls / w.hl_train_steps) : 1;
   const int hl_concurrent = static_cast<int>(std::min<std::int64_t>(omp_get_max_threads(), hl_chunks_per_step));
-  if (f.hl_train_batch > 0)
-    f.hl_train_s =
-        w.hl_train_rows * measure_hl_cost(hc, f.hl_train_batch, kRepeats, hl_concurrent).forward_backward_s;
+  if (const std::int64_t b = mean_batch(w.hl_train_rows, w.hl_train_calls); b > 0)
+    c.hl_train = measure_hl_cost(hc, b, kRepeats, hl_concurrent).forward_backward_s;
+  return c;
+}
+
+// The run's work priced at the mean of two cost measurements, one before and one after it: the
+// VM's speed drifts by tens of percent within minutes, so both sides of end to end / floor must
+// see the same stretch of time.
+NetworkFloor price_floor(const train::NetworkWork& w, const FloorCosts& before, const FloorCosts& after) {
+  NetworkFloor f;
+  f.ll_forward_batch = mean_batch(w.ll_forward_rows, w.ll_forward_calls);
+  f.ll_train_batch = mean_batch(w.ll_train_rows, w.ll_train_calls);
+  f.hl_forward_batch = mean_batch(w.hl_forward_rows, w.hl_forward_calls);
+  f.hl_train_batch = mean_batch(w.hl_train_rows, w.hl_train_calls);
+  f.ll_forward_s = w.ll_forward_rows * 0.5 * (before.ll_forward + after.ll_forward);
+  f.ll_train_s = w.ll_train_rows * 0.5 * (before.ll_train + after.ll_train);
+  f.hl_forward_s = w.hl_forward_rows * 0.5 * (before.hl_forward + after.hl_forward);
+  f.hl_train_s = w.hl_train_rows * 0.5 * (before.hl_train + after.hl_train);
   f.total_s = f.ll_forward_s + f.ll_train_s + f.hl_forward_s + f.hl_train_s;
   return f;
 }
@@ -155,45 +173,98 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
   }
   torch::set_num_threads(omp_get_max_threads());
   if (!o.json)
-    std::printf("f16race bench train: %lld updates per config (LL and HL phases as configured), %d threads\n",
-                o.updates, omp_get_max_threads());
+    std::printf("f16race bench train: %d runs of %lld updates per config (LL and HL phases as configured), %d "
+                "threads\n",
+                o.repeat, o.updates, omp_get_max_threads());
   for (const std::string& path : o.configs) {
     const train::TrainConfig cfg = train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path);
     // Per process, so two benches at once do not meet in one run folder.
     const std::string dir =
         (std::filesystem::temp_directory_path() / ("f16race_bench_train." + std::to_string(::getpid()))).string();
-    std::filesystem::remove_all(dir);
-    train::Trainer trainer(cfg, dir);
-    const train::TrainSummary s = trainer.run(nullptr, o.updates);
-    std::filesystem::remove_all(dir);
     const int n_agent = 2 * cfg.race.team_size;
-    const double rate = static_cast<double>(s.env_steps) * n_agent / s.time.total;
+    // Runs and floor timings alternate: run 1, costs 1, run 2, costs 2, ... Run k > 1 is priced
+    // at the mean of costs k-1 and k (measured just before and just after it) and is warm; run 1
+    // (cold start, one-sided floor) counts only when it is the only one.
+    struct Measured {
+      train::TrainSummary s;
+      NetworkFloor floor;
+      double rate = 0, floor_rate = 0;
+    };
+    std::vector<Measured> runs;
+    FloorCosts previous;
+    for (int k = 0; k < o.repeat; ++k) {
+      std::filesystem::remove_all(dir);
+      Measured m;
+      {
+        train::Trainer trainer(cfg, dir);
+        m.s = trainer.run(nullptr, o.updates);
+      }
+      std::filesystem::remove_all(dir);
+      const FloorCosts costs = measure_floor_costs(cfg, m.s.work);
+      m.floor = price_floor(m.s.work, k == 0 ? costs : previous, costs);
+      previous = costs;
+      m.rate = static_cast<double>(m.s.env_steps) * n_agent / m.s.time.total;
+      m.floor_rate = static_cast<double>(m.s.env_steps) * n_agent / m.floor.total_s;
+      runs.push_back(std::move(m));
+    }
+    if (runs.size() > 1) runs.erase(runs.begin());
+    std::vector<double> rates, floor_rates, ratios;
+    for (const Measured& m : runs) {
+      rates.push_back(m.rate);
+      floor_rates.push_back(m.floor_rate);
+      ratios.push_back(m.rate / m.floor_rate);
+    }
+    // The breakdown is the median run's (by end-to-end rate).
+    std::vector<std::size_t> order(runs.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return rates[a] < rates[b]; });
+    const Measured& mid = runs[order[order.size() / 2]];
+    const train::TrainSummary& s = mid.s;
+    const NetworkFloor& floor = mid.floor;
+    const double rate = median_of(rates);
+    const double floor_rate = median_of(floor_rates);
+    const double ratio = median_of(ratios);
     const auto& t = s.time;
-    const NetworkFloor floor = network_floor(cfg, s);
-    const double floor_rate = static_cast<double>(s.env_steps) * n_agent / floor.total_s;
+    const auto list = [](const std::vector<double>& v, const char* fmt) {
+      std::string out;
+      char buf[64];
+      for (std::size_t k = 0; k < v.size(); ++k) {
+        std::snprintf(buf, sizeof buf, fmt, v[k]);
+        out += (k ? ", " : "") + std::string(buf);
+      }
+      return out;
+    };
     if (o.json) {
       std::printf("{\"bench\": \"train\", \"config\": \"%s\", \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
                   "\"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
                   "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"total_s\": %.4g, "
                   "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
                   "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
-                  "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld}\n",
+                  "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld, "
+                  "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
+                  "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s]}\n",
                   path.c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
                   t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s, floor.ll_train_s,
                   floor.hl_forward_s, floor.hl_train_s, static_cast<long long>(floor.ll_forward_batch),
                   static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
-                  static_cast<long long>(floor.hl_train_batch));
+                  static_cast<long long>(floor.hl_train_batch), ratio, runs.size(), list(rates, "%.6g").c_str(),
+                  list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str());
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
-      std::printf("%s: %d envs x %d aircraft, %lld env steps in %.1f s -> %.0f aircraft-steps/s end to end\n",
-                  path.c_str(), cfg.race.n_env, n_agent, static_cast<long long>(s.env_steps), t.total, rate);
+      std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "
+                  "%zu: %s)\n",
+                  path.c_str(), cfg.race.n_env, n_agent, static_cast<long long>(s.env_steps), rate, runs.size(),
+                  list(rates, "%.0f").c_str());
       std::printf("  env (sim + race + obs) %.0f%%, inference %.0f%%, PPO updates %.0f%%, ES updates %.0f%%, "
                   "I/O %.0f%%, other %.0f%%\n",
                   pct(t.env), pct(t.inference), pct(t.ppo), pct(t.es), pct(t.io), pct(t.other));
-      std::printf("  network floor %.0f aircraft-steps/s (end to end = %.2f x floor): %.1f s of network time at "
+      std::printf("  network floor %.0f aircraft-steps/s (end to end / floor: median %.2f, per run %s; each run priced "
+                  "at costs timed just before and after it)\n",
+                  floor_rate, ratio, list(ratios, "%.2f").c_str());
+      std::printf("  median run (%.1f s): %.0f aircraft-steps/s against its floor %.0f: %.1f s of network time at "
                   "mean batches LL %lld / PPO %lld / HL %lld / ES %lld -- LL forward %.1f s, PPO %.1f s, HL forward "
                   "%.1f s, ES %.1f s\n",
-                  floor_rate, rate / floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
+                  t.total, mid.rate, mid.floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
                   static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
                   static_cast<long long>(floor.hl_train_batch), floor.ll_forward_s, floor.ll_train_s,
                   floor.hl_forward_s, floor.hl_train_s);
@@ -210,6 +281,10 @@ void add_bench_train_command(CLI::App& bench, const int& threads_option) {
   cmd->add_option("--config", o->configs, "Configs to measure (default: configs/default.yaml; paper.yaml takes tens of minutes on 2 cores)");
   cmd->add_option("--updates", o->updates, "Updates per config")->check(CLI::Range(1, 100000));
   cmd->add_option("--set", o->overrides, "Override a key of every config, e.g. --set race.n_env=256 (repeatable)");
+  cmd->add_option("--repeat", o->repeat,
+                  "Runs per config, alternating with the floor's timings; the first (cold) is dropped when > 1 and "
+                  "medians are reported")
+      ->check(CLI::Range(1, 100));
   cmd->add_flag("--json", o->json, "One JSON object per config, one per line");
   cmd->add_option("--nproc", o->nproc,
                   "Train as a group of this many ranks on this host (each --threads, default the cores' share): "
