@@ -208,11 +208,16 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       runs.push_back(std::move(m));
     }
     if (runs.size() > 1) runs.erase(runs.begin());
-    std::vector<double> rates, floor_rates, ratios;
+    std::vector<double> rates, floor_rates, ratios, run_env, run_inference, run_ppo, run_es, run_io;
     for (const Measured& m : runs) {
       rates.push_back(m.rate);
       floor_rates.push_back(m.floor_rate);
       ratios.push_back(m.rate / m.floor_rate);
+      run_env.push_back(m.s.time.env);
+      run_inference.push_back(m.s.time.inference);
+      run_ppo.push_back(m.s.time.ppo);
+      run_es.push_back(m.s.time.es);
+      run_io.push_back(m.s.time.io);
     }
     // The breakdown is the median run's (by end-to-end rate).
     std::vector<std::size_t> order(runs.size());
@@ -242,13 +247,16 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
                   "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld, "
                   "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
-                  "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s]}\n",
+                  "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
+                  "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s]}\n",
                   path.c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
                   t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s, floor.ll_train_s,
                   floor.hl_forward_s, floor.hl_train_s, static_cast<long long>(floor.ll_forward_batch),
                   static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
                   static_cast<long long>(floor.hl_train_batch), ratio, runs.size(), list(rates, "%.6g").c_str(),
-                  list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str());
+                  list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
+                  list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
+                  list(run_io, "%.4g").c_str());
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
       std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "
