@@ -57,9 +57,13 @@ torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps) {
   return torch::einsum("nabc,na,nb,nc->n", {q.view({n, nb, nb, nb}), pi.select(1, 0), pi.select(1, 1), pi.select(1, 2)});
 }
 
-torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps) {
+torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps) {
   check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
-  return ((1.0 - eps) * std::get<0>(q.max(2)) + eps * q.mean(2)).mean(1);
+  return (1.0 - eps) * std::get<0>(q.max(2)) + eps * q.mean(2);
+}
+
+torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps) {
+  return egreedy_value_per_axis(q, eps).mean(1);
 }
 
 torch::Tensor egreedy_mixture_decoupled(const torch::Tensor& log_probs, const torch::Tensor& q, double eps) {
@@ -106,8 +110,9 @@ torch::Tensor masked_mean(const torch::Tensor& x, const torch::Tensor& mask) {
 
 EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
                    const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
-                   double next_epsilon, double gamma, const C51Support& support) {
+                   double next_epsilon, double gamma, const C51Support& support, bool per_axis_target) {
   check_tensor(reward, "reward", {-1, -1}, torch::kFloat32);
+  TORCH_CHECK(!per_axis_target || v == EsVariant::kEsD2, "es_target: a per-axis team target is es_d2's only");
   const int64_t t = reward.size(0), n_a = reward.size(1);
   check_tensor(done, "done", {t}, torch::kBool);
   check_tensor(active, "active", {t, n_a}, torch::kBool);
@@ -126,6 +131,13 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
   }
   const auto team_reward = masked_team_mean(reward, active).first;
   const auto team_live = done.logical_not().logical_and(next_active.any(1)).to(torch::kFloat32);
+  if (v == EsVariant::kEsD2 && per_axis_target) {
+    // Per axis j: the eps-greedy value of Q^{i,j}, averaged over the members alive next.
+    const auto next_value = egreedy_value_per_axis(next_out.q, next_epsilon).view({t, n_a, 3});
+    const auto team_next = masked_team_mean(next_value, next_active).first;  // [T, 3]
+    target.value = team_reward.unsqueeze(1) + gamma * team_live.unsqueeze(1) * team_next;
+    return target;
+  }
   if (v == EsVariant::kEsD2) {
     const auto next_value = egreedy_value_decoupled(next_out.q, next_epsilon).view({t, n_a});
     const auto team_next = masked_team_mean(next_value, next_active).first;
@@ -145,9 +157,11 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
 }
 
 EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
-               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight) {
+               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight,
+               bool per_axis_target) {
   check_tensor(actions, "actions", {-1, -1, 3}, torch::kInt64);
   const int64_t t = actions.size(0), n_a = actions.size(1);
+  TORCH_CHECK(!per_axis_target || v == EsVariant::kEsD2, "es_loss: a per-axis team target is es_d2's only");
   check_tensor(active, "active", {t, n_a}, torch::kBool);
   EsLoss result;
   const auto huber = [&](const torch::Tensor& pred, const torch::Tensor& y, const torch::Tensor& valid) {
@@ -163,6 +177,13 @@ EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& ac
     return result;
   }
   const auto idx = actions.reshape({t * n_a, 3, 1});
+  if (per_axis_target) {
+    const auto q_axes = out.q.gather(2, idx).squeeze(2).view({t, n_a, 3});  // Q^{i,j}(a^{i,j})
+    result.prediction = masked_team_mean(q_axes, active).first;            // [T, 3]
+    result.valid = active.any(1).unsqueeze(1).expand({t, 3});
+    result.loss = huber(result.prediction, target.value, result.valid);
+    return result;
+  }
   const auto q_taken = out.q.gather(2, idx).squeeze(2).mean(1).view({t, n_a});  // mean_j Q^j(a^j)
   if (v == EsVariant::kEsD1) {
     result.prediction = q_taken;
@@ -205,6 +226,7 @@ EsAgent::EsAgent(const EsConfig& cfg)
       support_{cfg.v_min, cfg.v_max, cfg.n_atoms},
       generator_(models::make_generator(cfg.seed)) {
   TORCH_CHECK(cfg.epsilon >= 0.0 && cfg.epsilon <= 1.0, "EsConfig.epsilon must be in [0, 1]");
+  TORCH_CHECK(!cfg.per_axis_target || cfg.variant == EsVariant::kEsD2, "EsConfig.per_axis_target is es_d2's only");
   TORCH_CHECK(cfg.target_update_interval > 0 && cfg.n_epochs > 0 && cfg.n_minibatches > 0,
               "EsConfig: target_update_interval, n_epochs, n_minibatches must be > 0");
   const auto critic_cfg = es_critic_config(cfg);
@@ -317,7 +339,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     torch::NoGradGuard no_grad;
     const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
     target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
-                       cfg_.gamma, support_);
+                       cfg_.gamma, support_, cfg_.per_axis_target);
   }
   if (t > 0) {
     torch::NoGradGuard no_grad;
@@ -325,7 +347,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     const auto out = critic_(obs);
     es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, &stats);
     const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
-                           cfg_.component_ce_weight);
+                           cfg_.component_ce_weight, cfg_.per_axis_target);
     stats.loss_before = l.loss.item<double>();
     if (cfg_.variant == EsVariant::kEsD3) {
       const auto k = target.dist.size(1);
@@ -384,7 +406,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
         }
         const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, k.teams),
                                active.index_select(0, k.teams), target_c, cfg_.huber_delta, support_,
-                               cfg_.component_ce_weight);
+                               cfg_.component_ce_weight, cfg_.per_axis_target);
         k.grads = torch::autograd::grad({n_chunks == 1 ? l.loss : l.loss * weight}, params, /*grad_outputs=*/{},
                                         /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
         torch::NoGradGuard no_grad;
@@ -432,7 +454,8 @@ EsStats EsAgent::update(const EsBatch& batch) {
   stats.loss = loss_sum / n;
   stats.q_mean = q_sum / n;
   stats.td_abs_mean = td_sum / n;
-  const auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
+  auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
+  if (t > 0 && target.value.dim() == 2 && valid.dim() == 1) valid = valid.unsqueeze(1).expand_as(target.value);
   stats.target_mean = t > 0 ? masked_mean(target.value, valid).item<double>() : std::nan("");
   return stats;
 }

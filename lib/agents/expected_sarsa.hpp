@@ -75,6 +75,10 @@ struct EsConfig {
   // Decoupled variants: the axes' utilities on one shared encoder and trunk (false, the paper's)
   // or on one critic per goal axis, no parameter shared (models::HlCriticConfig::per_axis).
   bool per_axis_critic = false;
+  // es_d2: one TD error per team on the mean of every member's and axis's utilities (false, the
+  // paper's Eq. 1), or one per team and goal axis (true): each axis's utilities then fit the team's
+  // return on their own instead of whatever part of it the other axes' utilities leave over.
+  bool per_axis_target = false;
   int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
   int64_t target_update_interval = 10;  // updates between hard target-network syncs
   int64_t n_epochs = 1;       // passes over each batch
@@ -152,7 +156,9 @@ void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stat
 // --- pure pieces of the update, exposed for tests -------------------------------------------
 // Expectation of q [N, n_bins^3] under the per-dimension eps-greedy policy of its joint argmax -> [N].
 torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps);
-// mean_j [(1 - eps) max_b + eps mean_b]: q [N, 3, n_bins] -> [N].
+// (1 - eps) max_b + eps mean_b per axis j: q [N, 3, n_bins] -> [N, 3].
+torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps);
+// Its mean over the axes: q [N, 3, n_bins] -> [N].
 torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps);
 // mean_j [(1 - eps) p_j(argmax_b q_j) + eps mean_b p_j(b)]: log_probs [N, 3, n_bins, K],
 // q [N, 3, n_bins] -> [N, K] probabilities.
@@ -162,15 +168,19 @@ torch::Tensor joint_index(const torch::Tensor& bins, int64_t n_bins);
 torch::Tensor decode_joint_index(const torch::Tensor& index, int64_t n_bins);
 
 struct EsTarget {
-  torch::Tensor value;  // es, es_d1: [T, n_a]; es_d2: [T]; es_d3: [T] expected value of `dist`
+  // es, es_d1: [T, n_a]; es_d2: [T] ([T, 3] with a per-axis team target); es_d3: [T] expected
+  // value of `dist`
+  torch::Tensor value;
   torch::Tensor dist;   // es_d3: [T, K] projected target distribution
 };
 
 // Targets from the target network's output on the next observations (fields over T*n_a rows,
 // aircraft-major within a team). reward [T, n_a]; done [T]; active, next_active [T, n_a] bool.
+// per_axis_target (es_d2 only, EsConfig::per_axis_target): one team target per goal axis j,
+// r + gamma mean_i V^{i,j}(o'^i), instead of one on the mean over every member and axis.
 EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
                    const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
-                   double next_epsilon, double gamma, const C51Support& support);
+                   double next_epsilon, double gamma, const C51Support& support, bool per_axis_target = false);
 
 struct EsLoss {
   torch::Tensor loss;        // scalar
@@ -178,10 +188,12 @@ struct EsLoss {
   torch::Tensor valid;       // bool, same shape: samples that count in the loss
 };
 
-// Loss of the online output (over T*n_a rows) for the taken actions [T, n_a, 3].
+// Loss of the online output (over T*n_a rows) for the taken actions [T, n_a, 3]. With a per-axis
+// team target (es_d2) the prediction is [T, 3], mean_i Q^{i,j}(o^i, a^{i,j}) per axis j, and the
+// loss the mean of the three axes' Huber losses.
 EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
                const EsTarget& target, double huber_delta, const C51Support& support,
-               double component_ce_weight = 0.0);
+               double component_ce_weight = 0.0, bool per_axis_target = false);
 
 class EsAgent {
  public:

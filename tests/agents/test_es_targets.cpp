@@ -161,6 +161,57 @@ TEST(EsLoss, DecoupledMeanAndTeamValue) {
   EXPECT_FLOAT_EQ(l0.prediction[1][2].item<float>(), joint.q[1 * n_a + 2][idx].item<float>());
 }
 
+// hl.team_target: per_axis (es_d2). One target per team and axis, r + gamma mean_i V^{i,j}, whose
+// mean over the axes is the paper's single target; the loss fits each axis's team mean of the
+// taken utilities to its own target, so axes that err in opposite directions no longer cancel.
+TEST(EsTarget, PerAxisTeamTargetAndLoss) {
+  auto gen = models::make_generator(12);
+  const int64_t t = 3, n_a = 2, bins = 5;
+  models::HlOutput next;
+  next.q = torch::randn({t * n_a, 3, bins}, gen, torch::kFloat32);
+  const auto reward = torch::randn({t, n_a}, gen, torch::kFloat32);
+  const auto done = torch::tensor({false, true, false});
+  auto next_active = all_true(t, n_a);
+  next_active[2][1] = false;
+  const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused,
+                           /*per_axis_target=*/true);
+  ASSERT_EQ(y.value.sizes(), (std::vector<int64_t>{t, 3}));
+  for (int64_t s = 0; s < t; ++s)
+    for (int64_t j = 0; j < 3; ++j) {
+      double v = 0.0;
+      int64_t n = 0;
+      for (int64_t i = 0; i < n_a; ++i) {
+        if (!next_active[s][i].item<bool>()) continue;
+        const auto qj = next.q[s * n_a + i][j];
+        v += (1.0 - kEps) * qj.max().item<double>() + kEps * qj.mean().item<double>();
+        ++n;
+      }
+      const double live = done[s].item<bool>() ? 0.0 : 1.0;
+      EXPECT_NEAR(y.value[s][j].item<double>(), reward[s].mean().item<double>() + kGamma * live * v / n, 1e-5)
+          << "team " << s << " axis " << j;
+    }
+  // The paper's target is the mean of the three.
+  const auto y_sum = es_target(EsVariant::kEsD2, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused);
+  EXPECT_LT((y.value.mean(1) - y_sum.value).abs().max().item<double>(), 1e-5);
+
+  // One team of one aircraft: utilities 1 (x), -1 (y), 0 (z) on the taken bins, targets 0: the
+  // mean over the axes fits exactly, the axes do not.
+  models::HlOutput out;
+  out.q = torch::zeros({1, 3, bins});
+  out.q[0][0][2] = 1.0;
+  out.q[0][1][2] = -1.0;
+  const auto actions = torch::full({1, 1, 3}, int64_t{2});
+  const auto l_sum = es_loss(EsVariant::kEsD2, out, actions, all_true(1, 1), EsTarget{torch::zeros({1}), {}}, 1.0, kUnused);
+  const auto l_axes = es_loss(EsVariant::kEsD2, out, actions, all_true(1, 1), EsTarget{torch::zeros({1, 3}), {}}, 1.0,
+                              kUnused, 0.0, /*per_axis_target=*/true);
+  EXPECT_NEAR(l_sum.loss.item<double>(), 0.0, 1e-7);
+  EXPECT_NEAR(l_axes.loss.item<double>(), (0.5 + 0.5 + 0.0) / 3.0, 1e-6);  // Huber(1) = Huber(-1) = 0.5
+  ASSERT_EQ(l_axes.prediction.sizes(), (std::vector<int64_t>{1, 3}));
+  EXPECT_EQ(l_axes.valid.sizes(), l_axes.prediction.sizes());
+  EXPECT_THROW(es_target(EsVariant::kEsD1, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused, true),
+               c10::Error);
+}
+
 TEST(EsLoss, DistributionalTeamMixtureCrossEntropy) {
   auto gen = models::make_generator(6);
   const int64_t t = 3, n_a = 2, bins = 7, k = 11;

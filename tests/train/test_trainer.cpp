@@ -78,6 +78,13 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
   EXPECT_TRUE(read_train_config(YAML::Load("hl: {critic: per_axis}"), "cfg.yaml").hl.per_axis_critic);
   EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.per_axis_critic);  // the paper's shared trunk
+  EXPECT_NE(error_of("hl: {agent: es_d3, team_target: per_axis}")
+                .find("cfg.yaml: hl.team_target: per_axis is defined for hl.agent es_d2 only"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {team_target: axes}").find("hl.team_target: 'axes' is not one of: sum, per_axis"),
+            std::string::npos);
+  EXPECT_TRUE(read_train_config(YAML::Load("hl: {agent: es_d2, team_target: per_axis}"), "cfg.yaml").hl.per_axis_target);
+  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.per_axis_target);  // the paper's Eq. 1
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
