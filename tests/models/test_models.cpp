@@ -169,13 +169,23 @@ TEST(AttentionEncoder, FusedAttentionEqualsTheComposedOps) {
   }
 }
 
-TEST(HlCritic, ShapesOfEveryHead) {
-  const auto d = stand_in_dims();
-  Rng r(8);
-  const int64_t b = 16;
-  const auto obs = random_hl_obs(r, d, b);
+// A critic config with the library's defaults on the stand-in dims, and b random observations.
+struct HlCriticCase {
   HlCriticConfig cfg;
-  cfg.dims = d;
+  HlObs obs;
+};
+HlCriticCase hl_critic_case(std::uint64_t seed, int64_t b) {
+  Rng r(seed);
+  HlCriticCase c;
+  c.cfg.dims = stand_in_dims();
+  c.obs = random_hl_obs(r, c.cfg.dims, b);
+  return c;
+}
+
+TEST(HlCritic, ShapesOfEveryHead) {
+  const int64_t b = 16;
+  auto [cfg, obs] = hl_critic_case(8, b);
+  const auto d = cfg.dims;
   {
     HlCritic net(cfg);  // es_d1 / es_d2: decoupled utilities
     const auto out = net(obs);
@@ -210,12 +220,8 @@ TEST(HlCritic, ShapesOfEveryHead) {
 // branch only (a gradient from one axis's Q reaches no other branch), and the shared critic keeps
 // the module names every earlier checkpoint was written with.
 TEST(HlCritic, PerAxisBranchesShareNoParameter) {
-  const auto d = stand_in_dims();
-  Rng r(18);
   const int64_t b = 12;
-  const auto obs = random_hl_obs(r, d, b);
-  HlCriticConfig cfg;
-  cfg.dims = d;
+  auto [cfg, obs] = hl_critic_case(18, b);
   HlCritic shared(cfg);
   for (const auto& kv : shared->named_parameters()) {
     const std::string top = kv.key().substr(0, kv.key().find('.'));
