@@ -110,9 +110,10 @@ torch::Tensor masked_mean(const torch::Tensor& x, const torch::Tensor& mask) {
 
 EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
                    const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
-                   double next_epsilon, double gamma, const C51Support& support, bool per_axis_target) {
+                   double next_epsilon, double gamma, const C51Support& support, const EsTargetRule& rule) {
   check_tensor(reward, "reward", {-1, -1}, torch::kFloat32);
-  TORCH_CHECK(!per_axis_target || v == EsVariant::kEsD2, "es_target: a per-axis team target is es_d2's only");
+  TORCH_CHECK(!rule.per_axis_target || v == EsVariant::kEsD2, "es_target: a per-axis team target is es_d2's only");
+  TORCH_CHECK(!rule.team_lateral || v == EsVariant::kEsD2, "es_target: a team lateral lane is es_d2's only");
   const int64_t t = reward.size(0), n_a = reward.size(1);
   check_tensor(done, "done", {t}, torch::kBool);
   check_tensor(active, "active", {t, n_a}, torch::kBool);
@@ -131,11 +132,19 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
   }
   const auto team_reward = masked_team_mean(reward, active).first;
   const auto team_live = done.logical_not().logical_and(next_active.any(1)).to(torch::kFloat32);
-  if (v == EsVariant::kEsD2 && per_axis_target) {
+  if (v == EsVariant::kEsD2 && (rule.per_axis_target || rule.team_lateral)) {
     // Per axis j: the eps-greedy value of Q^{i,j}, averaged over the members alive next.
     const auto next_value = egreedy_value_per_axis(next_out.q, next_epsilon).view({t, n_a, 3});
-    const auto team_next = masked_team_mean(next_value, next_active).first;  // [T, 3]
-    target.value = team_reward.unsqueeze(1) + gamma * team_live.unsqueeze(1) * team_next;
+    auto team_next = masked_team_mean(next_value, next_active).first;  // [T, 3]
+    if (rule.team_lateral) {
+      // The lane is the team's: eps-greedy over the members' mean lateral utilities.
+      const auto q_y = next_out.q.select(1, 1).reshape({t, n_a, -1});              // [T, n_a, bins]
+      const auto team_q_y = masked_team_mean(q_y, next_active).first.unsqueeze(1);  // [T, 1, bins]
+      const auto lane = (1.0 - next_epsilon) * std::get<0>(team_q_y.max(2)) + next_epsilon * team_q_y.mean(2);  // [T, 1]
+      team_next = torch::cat({team_next.narrow(1, 0, 1), lane, team_next.narrow(1, 2, 1)}, 1);
+    }
+    target.value = rule.per_axis_target ? team_reward.unsqueeze(1) + gamma * team_live.unsqueeze(1) * team_next
+                                        : team_reward + gamma * team_live * team_next.mean(1);
     return target;
   }
   if (v == EsVariant::kEsD2) {
@@ -227,6 +236,7 @@ EsAgent::EsAgent(const EsConfig& cfg)
       generator_(models::make_generator(cfg.seed)) {
   TORCH_CHECK(cfg.epsilon >= 0.0 && cfg.epsilon <= 1.0, "EsConfig.epsilon must be in [0, 1]");
   TORCH_CHECK(!cfg.per_axis_target || cfg.variant == EsVariant::kEsD2, "EsConfig.per_axis_target is es_d2's only");
+  TORCH_CHECK(!cfg.team_lateral || cfg.variant == EsVariant::kEsD2, "EsConfig.team_lateral is es_d2's only");
   TORCH_CHECK(cfg.target_update_interval > 0 && cfg.n_epochs > 0 && cfg.n_minibatches > 0,
               "EsConfig: target_update_interval, n_epochs, n_minibatches must be > 0");
   const auto critic_cfg = es_critic_config(cfg);
@@ -260,6 +270,7 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
   a.greedy_bins = es_is_decoupled(cfg_.variant) ? out.q.argmax(2) : decode_joint_index(out.q.argmax(1), cfg_.n_bins);
   // One coin per action dimension (see the header: keeps the other dimensions greedy while one
   // explores, so a dimension's value is not confounded by the others' exploration).
+  TORCH_CHECK(group.defined() || !cfg_.team_lateral, "EsAgent::act: a team lateral lane needs the teams (group)");
   if (!group.defined()) {
     const auto explore = torch::rand({b, 3}, generator) < epsilon;
     const auto random_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
@@ -279,9 +290,15 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
     sp[k] = n_groups;
   }
   n_groups += b > 0 ? 1 : 0;
+  if (cfg_.team_lateral) {
+    // One lane per team: the argmax of the members' summed lateral utilities (first maximum).
+    const auto team_q_y = torch::zeros({n_groups, cfg_.n_bins}, out.q.options()).index_add_(0, slot, out.q.select(1, 1));
+    a.greedy_bins.select(1, 1).copy_(team_q_y.argmax(1).index_select(0, slot));
+  }
   auto explore = (torch::rand({n_groups, 3}, generator) < epsilon).index_select(0, slot);
   auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
-  const auto& per_team = cfg_.explore_per_team;
+  auto per_team = cfg_.explore_per_team;
+  per_team[1] = per_team[1] || cfg_.team_lateral;  // the lane is the team's, so is its exploration
   if (!(per_team[0] && per_team[1] && per_team[2])) {  // the other axes: a draw per row
     const auto team_axis = torch::tensor({per_team[0], per_team[1], per_team[2]}, torch::kBool);
     const auto row_explore = torch::rand({b, 3}, generator) < epsilon;
@@ -339,7 +356,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     torch::NoGradGuard no_grad;
     const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
     target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
-                       cfg_.gamma, support_, cfg_.per_axis_target);
+                       cfg_.gamma, support_, EsTargetRule{cfg_.per_axis_target, cfg_.team_lateral});
   }
   if (t > 0) {
     torch::NoGradGuard no_grad;

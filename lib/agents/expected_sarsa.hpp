@@ -79,6 +79,13 @@ struct EsConfig {
   // paper's Eq. 1), or one per team and goal axis (true): each axis's utilities then fit the team's
   // return on their own instead of whatever part of it the other axes' utilities leave over.
   bool per_axis_target = false;
+  // es_d2: a lateral goal bin per aircraft (false, the paper's) or one lane per team (true): every
+  // member of a team takes argmax_b sum_i Q^{i,y}(o^i, b) over the members deciding, the team
+  // draws the lateral exploration, and the target values that team policy, (1 - eps) max_b
+  // mean_i Q^{i,y}(b) + eps mean_b mean_i Q^{i,y}(b), instead of mean_i of each member's own.
+  // Coordinating the lane is then an action the critic values, not a pattern of four argmaxes.
+  // act() needs the teams (`group`) then.
+  bool team_lateral = false;
   int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
   int64_t target_update_interval = 10;  // updates between hard target-network syncs
   int64_t n_epochs = 1;       // passes over each batch
@@ -167,6 +174,12 @@ torch::Tensor egreedy_mixture_decoupled(const torch::Tensor& log_probs, const to
 torch::Tensor joint_index(const torch::Tensor& bins, int64_t n_bins);
 torch::Tensor decode_joint_index(const torch::Tensor& index, int64_t n_bins);
 
+// How es_d2's team target is formed (EsConfig::per_axis_target, EsConfig::team_lateral).
+struct EsTargetRule {
+  bool per_axis_target = false;
+  bool team_lateral = false;
+};
+
 struct EsTarget {
   // es, es_d1: [T, n_a]; es_d2: [T] ([T, 3] with a per-axis team target); es_d3: [T] expected
   // value of `dist`
@@ -176,11 +189,14 @@ struct EsTarget {
 
 // Targets from the target network's output on the next observations (fields over T*n_a rows,
 // aircraft-major within a team). reward [T, n_a]; done [T]; active, next_active [T, n_a] bool.
-// per_axis_target (es_d2 only, EsConfig::per_axis_target): one team target per goal axis j,
+// rule.per_axis_target (es_d2 only, EsConfig::per_axis_target): one team target per goal axis j,
 // r + gamma mean_i V^{i,j}(o'^i), instead of one on the mean over every member and axis.
+// rule.team_lateral (es_d2 only, EsConfig::team_lateral): the lateral axis's next value is the
+// team lane's, (1 - eps) max_b mean_i Q^{i,y}(b) + eps mean_b mean_i Q^{i,y}(b) over the members
+// alive next, in place of mean_i V^{i,y}.
 EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
                    const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
-                   double next_epsilon, double gamma, const C51Support& support, bool per_axis_target = false);
+                   double next_epsilon, double gamma, const C51Support& support, const EsTargetRule& rule = {});
 
 struct EsLoss {
   torch::Tensor loss;        // scalar
@@ -201,7 +217,8 @@ class EsAgent {
   // Decentralised eps-greedy action of each aircraft; obs fields have batch B. No gradients.
   // `group` (optional, [B] int64, non-decreasing): on the axes of cfg.explore_per_team, rows with
   // the same value share one exploration coin and one random bin (a team's aircraft); undefined,
-  // or on the other axes: every row draws its own.
+  // or on the other axes: every row draws its own. With cfg.team_lateral the group is required,
+  // and its rows share the lateral bin, greedy and explored (a per-team draw on that axis).
   EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator,
                const torch::Tensor& group = torch::Tensor());
   // With replicas set (issue 18), every rank calls update() at the same point with its own batch

@@ -106,9 +106,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
         const Side& s = team == 0 ? blue : red;
         if (!s.policy) continue;  // the scripted pilot keeps the center-line goal
         if (hl_override_uses_policy(s.hl))
-          train::scatter_rows(hl_rows.rows(team),
-                              s.policy->hl->act(models::index_rows(obs, hl_rows.rows(team)), o.epsilon, gen).bins,
-                              bins.data());
+          train::policy_hl_bins(*s.policy, obs, hl_rows.rows(team), o.epsilon, gen, bins.data());
         if (s.hl != HlOverride::none)  // after the policy: a one-axis rule fixes that axis of its bins
           fixed_hl_bins(s.hl, rc.hl_bins, ts, control_rng,
                         bins.data() + static_cast<std::size_t>(team * ts) * race::kHlDims);

@@ -271,11 +271,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     }
     hl_rows.assign(hl_owner);
     for (int id = 0; id < n_entries; ++id)
-      if (hl_rows.rows(id).numel() > 0)
-        train::scatter_rows(
-            hl_rows.rows(id),
-            pol[res.entries[id].policy].hl->act(models::index_rows(obs, hl_rows.rows(id)), o.epsilon, gen).bins,
-            bins.data());
+      train::policy_hl_bins(pol[res.entries[id].policy], obs, hl_rows.rows(id), o.epsilon, gen, bins.data());
     for (int e = 0; e < nl; ++e) {
       if (env_game[lo + e] < 0 || !env.hl_due()[e]) continue;
       for (int team = 0; team < 2; ++team) {

@@ -245,6 +245,10 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   if (d3)
     o << "| probs | [B, 3, " << nb << ", " << hl.n_atoms << "] | C51 return distribution per axis and bin over "
       << hl.n_atoms << " atoms evenly spaced in [" << hl.v_min << ", " << hl.v_max << "] |\n";
+  if (hl.team_lateral)
+    o << "\nTrained with `hl.lateral: team`: the lateral bin is the team's, argmax over b of the sum of its "
+         "deciding members' q[:, 1, b] (first maximum); `bins[:, 1]` is each aircraft's own argmax and not "
+         "what the trained policy flies.\n";
   const double half = 0.5 * (nb - 1);
   o << "\nThe goal point is the center-line point " << rc.goal_ahead() << " ft ahead of the aircraft, offset along world\n"
     << "north, east and up by (b − " << half << ") · " << rc.goal_bin_scale << " R / " << half

@@ -90,6 +90,13 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
   scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, actions);  // the Gaussian's mean
 }
 
+void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,
+                    at::Generator& gen, std::int64_t* bins) {
+  if (rows.numel() == 0) return;
+  const torch::Tensor team = p.hl->config().team_lateral ? rows.div(p.config.race.team_size, "floor") : torch::Tensor();
+  scatter_rows(rows, p.hl->act(models::index_rows(obs, rows), epsilon, gen, team).bins, bins);
+}
+
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed) {
   torch::manual_seed(seed);  // the initial weights
   RunPolicy p = make_policy(config);

@@ -86,6 +86,9 @@ void bind_hl(R& r, agents::EsConfig* c) {
   std::string team_target = c->per_axis_target ? "per_axis" : "sum";
   r.read("team_target", &team_target, {"sum", "per_axis"});
   c->per_axis_target = team_target == "per_axis";
+  std::string lateral = c->team_lateral ? "team" : "aircraft";
+  r.read("lateral", &lateral, {"aircraft", "team"});
+  c->team_lateral = lateral == "team";
   read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
   read_i64(r, "target_update_interval", &c->target_update_interval, 1, 1000000);
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
@@ -166,6 +169,9 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   if (c.hl.per_axis_target && c.hl.variant != agents::EsVariant::kEsD2)
     throw io::ConfigError(source + ": hl.team_target: per_axis is defined for hl.agent es_d2 only (its value "
                           "target; es_d3's is a distribution), not " + agents::es_variant_name(c.hl.variant));
+  if (c.hl.team_lateral && c.hl.variant != agents::EsVariant::kEsD2)
+    throw io::ConfigError(source + ": hl.lateral: team is defined for hl.agent es_d2 only (its value target), not " +
+                          agents::es_variant_name(c.hl.variant));
   if (c.ll.n_steps * c.race.n_env * c.race.team_size % c.ll.n_minibatches != 0)
     throw io::ConfigError(source + ": ll.n_minibatches must divide ll.n_steps x race.n_env x race.team_size");
   // One seed drives everything; the race and both learners get their own streams from it.

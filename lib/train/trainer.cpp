@@ -536,7 +536,9 @@ void Trainer::State::hl_decisions() {
     // Aircraft i = (env * 2 + team) * ts + j: i / ts names its team, rows are in aircraft order.
     const auto& per_team = cfg.hl.explore_per_team;
     const bool any_team = per_team[0] || per_team[1] || per_team[2];
-    const torch::Tensor team = p == 0 && any_team ? rows.div(ts, "floor") : torch::Tensor();
+    // The pool's snapshots explore per aircraft as before; a team lane is their policy too.
+    const bool groups = critic.config().team_lateral || (p == 0 && any_team);
+    const torch::Tensor team = groups ? rows.div(ts, "floor") : torch::Tensor();
     scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen, team).bins, b);
     work.hl_forward_rows += rows.numel();
     work.hl_forward_calls += 1;

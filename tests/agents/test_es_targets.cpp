@@ -174,7 +174,7 @@ TEST(EsTarget, PerAxisTeamTargetAndLoss) {
   auto next_active = all_true(t, n_a);
   next_active[2][1] = false;
   const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused,
-                           /*per_axis_target=*/true);
+                           EsTargetRule{/*per_axis_target=*/true});
   ASSERT_EQ(y.value.sizes(), (std::vector<int64_t>{t, 3}));
   for (int64_t s = 0; s < t; ++s)
     for (int64_t j = 0; j < 3; ++j) {
@@ -208,7 +208,51 @@ TEST(EsTarget, PerAxisTeamTargetAndLoss) {
   EXPECT_NEAR(l_axes.loss.item<double>(), (0.5 + 0.5 + 0.0) / 3.0, 1e-6);  // Huber(1) = Huber(-1) = 0.5
   ASSERT_EQ(l_axes.prediction.sizes(), (std::vector<int64_t>{1, 3}));
   EXPECT_EQ(l_axes.valid.sizes(), l_axes.prediction.sizes());
-  EXPECT_THROW(es_target(EsVariant::kEsD1, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused, true),
+  EXPECT_THROW(es_target(EsVariant::kEsD1, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused,
+                         EsTargetRule{true}),
+               c10::Error);
+}
+
+// hl.lateral: team (es_d2). The lateral axis's next value is the team lane's: eps-greedy over the
+// mean of the members' lateral utilities (members alive next), not the mean of each member's own
+// eps-greedy value; the other axes keep theirs.
+TEST(EsTarget, TeamLateralLaneValue) {
+  // decoupled_next_q's lateral utilities: aircraft 0 [1, 1], aircraft 1 [0, 0] -> team mean
+  // [0.5, 0.5], lane value 0.5 (as the mean of their own, 1.0 and 0). Put the members at odds:
+  // aircraft 0 [3, 0], aircraft 1 [0, 2] -> own values 2.85 and 1.9 (mean 2.375), team mean
+  // [1.5, 1] -> 0.9 * 1.5 + 0.1 * 1.25 = 1.475.
+  auto q = decoupled_next_q();
+  q[0][1] = torch::tensor({3.f, 0.f});
+  q[1][1] = torch::tensor({0.f, 2.f});
+  models::HlOutput next;
+  next.q = q;
+  const auto reward = torch::tensor({{1.f, 2.f}});
+  const auto done = torch::tensor({false});
+  const EsTargetRule lane{false, true}, lane_axes{true, true};
+  const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, lane);
+  // x: (1.9 + 0.95) / 2, y: 1.475, z: (3.8 + 2.85) / 2
+  const double x = 1.425, lateral = 1.475, z = 3.325;
+  EXPECT_NEAR(y.value[0].item<double>(), 1.5 + kGamma * (x + lateral + z) / 3.0, 1e-5);
+  const auto own = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused);
+  EXPECT_NEAR(own.value[0].item<double>(), 1.5 + kGamma * (x + 2.375 + z) / 3.0, 1e-5);  // the paper's: lower by 0.15
+  const auto ya = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused,
+                            lane_axes);
+  ASSERT_EQ(ya.value.sizes(), (std::vector<int64_t>{1, 3}));
+  EXPECT_NEAR(ya.value[0][1].item<double>(), 1.5 + kGamma * lateral, 1e-5);
+  EXPECT_NEAR(ya.value[0][0].item<double>(), 1.5 + kGamma * x, 1e-5);
+  // A member dead next leaves the lane to the other: aircraft 0 alone, 0.9 * 3 + 0.1 * 1.5.
+  const auto solo = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), torch::tensor({{true, false}}), kEps,
+                              kGamma, kUnused, lane_axes);
+  EXPECT_NEAR(solo.value[0][1].item<double>(), 1.5 + kGamma * 2.85, 1e-5);
+  // A team of one has no one to agree with: the lane is its own value.
+  models::HlOutput one;
+  one.q = q.narrow(0, 0, 1);
+  const auto y1 = es_target(EsVariant::kEsD2, one, torch::tensor({{1.f}}), done, all_true(1, 1), all_true(1, 1), kEps,
+                            kGamma, kUnused, lane);
+  const auto y1_own = es_target(EsVariant::kEsD2, one, torch::tensor({{1.f}}), done, all_true(1, 1), all_true(1, 1),
+                                kEps, kGamma, kUnused);
+  EXPECT_NEAR(y1.value[0].item<double>(), y1_own.value[0].item<double>(), 1e-6);
+  EXPECT_THROW(es_target(EsVariant::kEsD3, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, lane),
                c10::Error);
 }
 
@@ -386,6 +430,26 @@ TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
   EXPECT_LT(shared[2].item<double>(), 0.1);
   const EsAction some = lateral.act(obs, 0.3, gen, group);
   EXPECT_NEAR(some.bins.ne(some.greedy_bins).to(torch::kFloat64).mean().item<double>(), 0.3 * 6.0 / 7.0, 0.03);
+
+  // hl.lateral: team: one lane per team, the argmax of the members' summed lateral utilities,
+  // explored per team; the other axes stay each aircraft's own.
+  cfg.explore_per_team = {false, false, false};
+  cfg.team_lateral = true;
+  torch::manual_seed(3);
+  EsAgent lane(cfg);
+  const EsAction g = lane.act(obs, 0.0, gen, group);
+  const auto team_sum = g.q.select(1, 1).view({b / team, team, 7}).sum(1);  // [teams, 7]
+  EXPECT_TRUE(by_team(g.greedy_bins).select(2, 1).eq(team_sum.argmax(1).unsqueeze(1)).all().item<bool>());
+  EXPECT_TRUE(g.greedy_bins.select(1, 0).equal(g.q.select(1, 0).argmax(1)));
+  EXPECT_TRUE(g.greedy_bins.select(1, 2).equal(g.q.select(1, 2).argmax(1)));
+  // Members disagree on their own argmax often enough for the lane to matter in this check.
+  const auto own_y = by_team(g.q.argmax(2)).select(2, 1);
+  EXPECT_GT(own_y.ne(own_y.select(1, 0).unsqueeze(1)).any(1).to(torch::kFloat64).mean().item<double>(), 0.1);
+  const auto explored = by_team(lane.act(obs, 1.0, gen, group).bins);
+  EXPECT_TRUE(explored.select(2, 1).eq(explored.select(2, 1).select(1, 0).unsqueeze(1)).all().item<bool>());
+  EXPECT_THROW(lane.act(obs, 0.0, gen), c10::Error);  // the lane needs the teams
+  cfg.variant = EsVariant::kEsD3;
+  EXPECT_THROW(EsAgent{cfg}, c10::Error);
 }
 
 }  // namespace

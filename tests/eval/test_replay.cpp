@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "eval/replay.hpp"
 #include "io/yaml_config.hpp"
@@ -17,7 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // Each test its own folder: ctest runs tests in parallel.
-std::string tiny_run(const std::string& name) {
+std::string tiny_run(const std::string& name, const std::vector<std::string>& overrides = {}) {
   const fs::path dir = fs::temp_directory_path() / ("f16race_replay_" + name);
   fs::remove_all(dir);
   YAML::Node root = YAML::Load(R"(
@@ -26,6 +28,7 @@ ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8], d_model: 8, n_he
 hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}
 train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
 )");
+  for (const std::string& kv : overrides) io::apply_override(root, kv);
   train::Trainer t(train::read_train_config(root, "test"), dir.string());
   t.run(nullptr, 2);
   return dir.string();
@@ -161,6 +164,29 @@ TEST(Replay, OneAxisRuleKeepsThePolicyOnTheOtherAxes) {
   // Red (the run itself) decides its first goals from the same state in both replays.
   for (int a = 2; a < 4; ++a)
     for (int k = 0; k < 3; ++k) EXPECT_EQ(fixed.trace.goals[a].front().bins[k], own.trace.goals[a].front().bins[k]);
+}
+
+// A run trained with hl.lateral: team flies one lane per team in replays too: at every decision
+// the members of a team share their lateral bin (through the same act as the tournament's).
+TEST(Replay, TeamLateralLaneIsSharedByEveryMember) {
+  const std::string run = tiny_run("lane", {"hl.agent=es_d2", "hl.lateral=team"});
+  ReplayOptions o;
+  o.run = run;
+  o.opponent = run;
+  for (std::uint64_t seed : {5u, 6u}) {
+    o.seed = seed;
+    const RaceReplay r = run_replay(o);
+    for (int team = 0; team < 2; ++team) {
+      const auto& first = r.trace.goals[team * 2];
+      const auto& second = r.trace.goals[team * 2 + 1];
+      ASSERT_FALSE(first.empty());
+      const std::size_t n = std::min(first.size(), second.size());
+      for (std::size_t k = 0; k < n; ++k) {
+        ASSERT_EQ(first[k].t_s, second[k].t_s) << team << " " << k;
+        EXPECT_EQ(first[k].bins[1], second[k].bins[1]) << "team " << team << " decision " << k;
+      }
+    }
+  }
 }
 
 TEST(Replay, RefusesMissingRuns) {

@@ -85,6 +85,11 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
   EXPECT_TRUE(read_train_config(YAML::Load("hl: {agent: es_d2, team_target: per_axis}"), "cfg.yaml").hl.per_axis_target);
   EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.per_axis_target);  // the paper's Eq. 1
+  EXPECT_NE(error_of("hl: {agent: es_d3, lateral: team}").find("cfg.yaml: hl.lateral: team is defined for hl.agent es_d2 only"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {lateral: lane}").find("hl.lateral: 'lane' is not one of: aircraft, team"), std::string::npos);
+  EXPECT_TRUE(read_train_config(YAML::Load("hl: {agent: es_d2, lateral: team}"), "cfg.yaml").hl.team_lateral);
+  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.team_lateral);  // the paper's, per aircraft
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
