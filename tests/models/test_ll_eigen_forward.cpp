@@ -56,30 +56,17 @@ TEST(LlEigenForward, EqualsTheLibTorchForwardToFloatRounding) {
   }
 }
 
-// A random LL actor-critic of the default shape, its Eigen copy, and 777 observations (12 full
-// 32-row blocks and a partial one).
-struct RandomNetAndObs {
-  explicit RandomNetAndObs(uint64_t seed) : g(make_generator(seed)) {
-    cfg.dims = ObsDims{22, 8, 24, 7};
-    net = LlActorCritic(cfg);
-    randomize(*net, g);
-    fast.set_weights(net->eigen_weights());
-    obs = random_obs(g, cfg.dims, b);
-  }
-  at::Generator g;
-  LlActorCriticConfig cfg;
-  LlActorCritic net{nullptr};
-  LlEigenForward fast;
-  const int64_t b = 777;
-  LlObs obs;
-};
-
 // Rows go in fixed blocks over the OpenMP threads: the same bits at 1 and 2 threads.
 TEST(LlEigenForward, SameBitsAtAnyThreadCount) {
-  RandomNetAndObs r(12);
-  LlEigenForward& fast = r.fast;
-  const LlObs& obs = r.obs;
-  const int64_t b = r.b;
+  at::Generator g = make_generator(12);
+  LlActorCriticConfig cfg;
+  cfg.dims = ObsDims{22, 8, 24, 7};
+  LlActorCritic net(cfg);
+  randomize(*net, g);
+  LlEigenForward fast;
+  fast.set_weights(net->eigen_weights());
+  const int64_t b = 777;  // 12 full blocks and a partial one
+  const LlObs obs = random_obs(g, cfg.dims, b);
   torch::Tensor means[2], values[2];
   const int threads = omp_get_max_threads();
   for (int t : {1, 2}) {
@@ -110,11 +97,15 @@ TEST(LlEigenForward, RefusesWeightsThatDoNotChain) {
 // A rollout's env slices run their rows on their own threads (forward_on_thread): a row's bits
 // must not depend on which rows share its 32-row block, or the slices would change the run.
 TEST(LlEigenForward, SlicesOnTheirOwnThreadsGiveTheBitsOfOneCall) {
-  RandomNetAndObs r(13);
-  LlEigenForward& fast = r.fast;
-  const LlObs& obs = r.obs;
-  const int64_t b = r.b;
-  const LlActorCriticConfig& cfg = r.cfg;
+  at::Generator g = make_generator(13);
+  LlActorCriticConfig cfg;
+  cfg.dims = ObsDims{22, 8, 24, 7};
+  LlActorCritic net(cfg);
+  randomize(*net, g);
+  LlEigenForward fast;
+  fast.set_weights(net->eigen_weights());
+  const int64_t b = 777;
+  const LlObs obs = random_obs(g, cfg.dims, b);
   auto mean = torch::empty({b, 3}), value = torch::empty({b});
   fast.forward(b, obs.ego.data_ptr<float>(), obs.goal.data_ptr<float>(), obs.ado.data_ptr<float>(),
                obs.ado_alive.data_ptr<bool>(), obs.task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>());
