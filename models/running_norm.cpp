@@ -255,17 +255,4 @@ LlObs ObsNormalizerImpl::normalize(const LlObs& obs, bool update_stats) {
           obs.ado_alive, task_->normalize(obs.task)};
 }
 
-void ObsNormalizerImpl::update(const LlObs& obs) {
-  check_obs(obs, dims_);
-  torch::NoGradGuard no_grad;
-  if (gather_) {
-    hold_back(obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task);
-    return;
-  }
-  ego_->update(obs.ego);
-  extra_->update(obs.goal);
-  task_->update(obs.task);
-  ado_norm_->update_rows(obs.ado.reshape({-1, dims_.d_ado}), obs.ado_alive.reshape({-1}));
-}
-
 }  // namespace f16race::models

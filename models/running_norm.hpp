@@ -65,9 +65,6 @@ class ObsNormalizerImpl : public torch::nn::Module {
   // Normalised copy of `obs`; with update_stats the statistics first absorb this batch.
   HlObs normalize(const HlObs& obs, bool update_stats);
   LlObs normalize(const LlObs& obs, bool update_stats);
-  // The statistics absorb `obs` (held back with replicas) as normalize(obs, true) does, without
-  // normalising it: then normalize(rows, false) on any rows gives normalize(obs, true)'s values.
-  void update(const LlObs& obs);
   // Per field: ego, extra (prev_action for the HL, goal for the LL), ado, task.
   const RunningNorm& ego() const { return ego_; }
   const RunningNorm& extra() const { return extra_; }

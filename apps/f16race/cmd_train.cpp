@@ -120,9 +120,9 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
     }
     trainer = std::make_unique<train::Trainer>(cfg, run, group.get());
     if (lead)
-      spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads ({} env slices){}", run,
-                   cfg.race.n_env, cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
-                   cfg.loop.total_env_steps, threads, trainer->rollout_slices(),
+      spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads{}", run, cfg.race.n_env,
+                   cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
+                   cfg.loop.total_env_steps, threads,
                    dc.world_size > 1 ? fmt::format(" per rank, {} ranks of {} envs", dc.world_size,
                                                    cfg.race.n_env / dc.world_size)
                                      : std::string());

@@ -112,63 +112,6 @@ PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool
   return a;
 }
 
-PpoAction PpoAgent::begin_act(const models::LlObs& raw, at::Generator& generator, bool update_stats, int n_slots,
-                               torch::Tensor* noise) {
-  torch::NoGradGuard no_grad;
-  const int64_t b = models::check_obs(raw, cfg_.net.dims);
-  if (update_stats && cfg_.normalize_obs) normalizer_->update(raw);
-  *noise = torch::randn({b, cfg_.net.action_dim}, generator, torch::kFloat32);
-  if (cfg_.eigen_inference) {
-    if (eigen_stale_) {
-      eigen_.set_weights(net_->eigen_weights());
-      eigen_stale_ = false;
-    }
-    eigen_.reserve_slots(n_slots);
-  }
-  PpoAction a;
-  const auto& d = cfg_.net.dims;
-  // Copies of every field, the alive mask too: `raw` may be a view of the env's buffers, which
-  // the slices' env steps overwrite before the trainer takes its samples.
-  a.obs = models::LlObs{torch::empty({b, d.d_ego}), torch::empty({b, d.d_goal}), torch::empty({b, d.n_other, d.d_ado}),
-                        torch::empty({b, d.n_other}, torch::kBool), torch::empty({b, d.d_task})};
-  a.action = torch::empty({b, cfg_.net.action_dim});
-  a.mean = torch::empty({b, cfg_.net.action_dim});
-  a.log_prob = torch::empty({b});
-  a.value = torch::empty({b});
-  return a;
-}
-
-void PpoAgent::act_rows(const models::LlObs& raw, int64_t r0, int64_t r1, const torch::Tensor& noise, int slot,
-                        PpoAction* out) {
-  torch::NoGradGuard no_grad;
-  const int64_t n = r1 - r0;
-  if (n <= 0) return;
-  const models::LlObs rows{raw.ego.narrow(0, r0, n), raw.goal.narrow(0, r0, n), raw.ado.narrow(0, r0, n),
-                           raw.ado_alive.narrow(0, r0, n), raw.task.narrow(0, r0, n)};
-  const models::LlObs norm = normalize(rows, false);
-  models::LlObs dst{out->obs.ego.narrow(0, r0, n), out->obs.goal.narrow(0, r0, n), out->obs.ado.narrow(0, r0, n),
-                    out->obs.ado_alive.narrow(0, r0, n), out->obs.task.narrow(0, r0, n)};
-  dst.ado_alive.copy_(rows.ado_alive);
-  dst.ego.copy_(norm.ego);
-  dst.goal.copy_(norm.goal);
-  dst.ado.copy_(norm.ado);
-  dst.task.copy_(norm.task);
-  auto mean = out->mean.narrow(0, r0, n), value = out->value.narrow(0, r0, n);
-  if (cfg_.eigen_inference) {
-    eigen_.forward_on_thread(slot, n, dst.ego.data_ptr<float>(), dst.goal.data_ptr<float>(), dst.ado.data_ptr<float>(),
-                             dst.ado_alive.data_ptr<bool>(), dst.task.data_ptr<float>(), mean.data_ptr<float>(),
-                             value.data_ptr<float>());
-  } else {
-    const auto o = net_(dst);
-    mean.copy_(o.mean);
-    value.copy_(o.value);
-  }
-  const auto log_std = net_->log_std().expand_as(mean);
-  auto action = out->action.narrow(0, r0, n);
-  action.copy_(mean + noise.narrow(0, r0, n) * log_std.exp());
-  out->log_prob.narrow(0, r0, n).copy_(models::gaussian_log_prob(mean, log_std, action));
-}
-
 torch::Tensor PpoAgent::value(const models::LlObs& raw) {
   torch::NoGradGuard no_grad;
   return infer(normalize(raw, false)).second;

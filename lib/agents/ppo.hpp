@@ -103,16 +103,6 @@ class PpoAgent {
   models::LlObs normalize(const models::LlObs& raw, bool update_stats);
   // Samples a ~ N(mean, exp(log_std)) with `generator`. No gradients.
   PpoAction act(const models::LlObs& raw, at::Generator& generator, bool update_stats = true);
-  // act() in two parts, for a rollout whose threads each act for their own rows (Trainer's env
-  // slices). begin_act does the serial part: the statistics absorb all of `raw` (update_stats),
-  // the Gaussian noise for all its rows is drawn from `generator` (act()'s one draw, in `noise`),
-  // and the result's tensors are allocated. act_rows then acts for rows [r0, r1) of `raw` on the
-  // calling thread, with scratch `slot` (< n_slots of begin_act), into `out`. Slices covering the
-  // rows give act()'s outputs bit for bit (tests/agents/test_ppo.cpp).
-  PpoAction begin_act(const models::LlObs& raw, at::Generator& generator, bool update_stats, int n_slots,
-                      torch::Tensor* noise);
-  void act_rows(const models::LlObs& raw, int64_t r0, int64_t r1, const torch::Tensor& noise, int slot,
-                PpoAction* out);
   // V(raw obs) with the current statistics, not updating them: last_value and bootstrap values.
   torch::Tensor value(const models::LlObs& raw);
   // With replicas set (issue 18), every rank calls update() at the same point with its own

@@ -1,6 +1,5 @@
 #include "dynamics/f16_batch.hpp"
 
-#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <istream>
@@ -167,11 +166,11 @@ __attribute__((noinline)) void step_block(double* __restrict data, int stride, s
     step_lane<MODEL, INTEGRATOR, LAW>(data, stride, status, law, i, dt, lim);
 }
 
-// Blocks [b0, b1): over the OpenMP threads (`parallel`) or on the calling thread.
 template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
-void step_kernel(const BatchView& v, int b0, int b1, bool parallel, double dt, int substeps, const EnvelopeLimits& lim) {
-#pragma omp parallel for schedule(static) if (parallel)
-  for (int b = b0; b < b1; ++b) {
+void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimits& lim) {
+  const int n_blocks = v.stride / F16Batch::kBlock;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < n_blocks; ++b) {
     // Substeps inside the block loop: the block's state stays in L1 for the whole call.
     for (int k = 0; k < substeps; ++k)
       step_block<MODEL, INTEGRATOR, LAW>(v.data, v.stride, v.status, v.law, b * F16Batch::kBlock, dt, lim);
@@ -213,21 +212,19 @@ __attribute__((noinline)) void outputs_block(double* __restrict data, int stride
 }
 
 template <AeroModel MODEL, StageLaw LAW>
-void outputs_kernel(const BatchView& v, int b0, int b1, bool parallel) {
-#pragma omp parallel for schedule(static) if (parallel)
-  for (int b = b0; b < b1; ++b) outputs_block<MODEL, LAW>(v.data, v.stride, v.law, b * F16Batch::kBlock);
+void outputs_kernel(const BatchView& v) {
+  const int n_blocks = v.stride / F16Batch::kBlock;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < n_blocks; ++b) outputs_block<MODEL, LAW>(v.data, v.stride, v.law, b * F16Batch::kBlock);
 }
 
 // The kernels of one model and integrator for the batch's stage law.
 template <AeroModel MODEL, Integrator INTEGRATOR>
-void step_for_law(StageLaw law, const BatchView& v, int b0, int b1, bool parallel, double dt, int substeps,
-                  const EnvelopeLimits& lim) {
+void step_for_law(StageLaw law, const BatchView& v, double dt, int substeps, const EnvelopeLimits& lim) {
   switch (law) {
-    case StageLaw::kHeld: step_kernel<MODEL, INTEGRATOR, StageLaw::kHeld>(v, b0, b1, parallel, dt, substeps, lim); break;
-    case StageLaw::kGcas: step_kernel<MODEL, INTEGRATOR, StageLaw::kGcas>(v, b0, b1, parallel, dt, substeps, lim); break;
-    case StageLaw::kWaypoint:
-      step_kernel<MODEL, INTEGRATOR, StageLaw::kWaypoint>(v, b0, b1, parallel, dt, substeps, lim);
-      break;
+    case StageLaw::kHeld: step_kernel<MODEL, INTEGRATOR, StageLaw::kHeld>(v, dt, substeps, lim); break;
+    case StageLaw::kGcas: step_kernel<MODEL, INTEGRATOR, StageLaw::kGcas>(v, dt, substeps, lim); break;
+    case StageLaw::kWaypoint: step_kernel<MODEL, INTEGRATOR, StageLaw::kWaypoint>(v, dt, substeps, lim); break;
   }
 }
 
@@ -246,11 +243,11 @@ void outputs_range_for_law(StageLaw law, const BatchView& v, int first, int coun
 }
 
 template <AeroModel MODEL>
-void outputs_for_law(StageLaw law, const BatchView& v, int b0, int b1, bool parallel) {
+void outputs_for_law(StageLaw law, const BatchView& v) {
   switch (law) {
-    case StageLaw::kHeld: outputs_kernel<MODEL, StageLaw::kHeld>(v, b0, b1, parallel); break;
-    case StageLaw::kGcas: outputs_kernel<MODEL, StageLaw::kGcas>(v, b0, b1, parallel); break;
-    case StageLaw::kWaypoint: outputs_kernel<MODEL, StageLaw::kWaypoint>(v, b0, b1, parallel); break;
+    case StageLaw::kHeld: outputs_kernel<MODEL, StageLaw::kHeld>(v); break;
+    case StageLaw::kGcas: outputs_kernel<MODEL, StageLaw::kGcas>(v); break;
+    case StageLaw::kWaypoint: outputs_kernel<MODEL, StageLaw::kWaypoint>(v); break;
   }
 }
 
@@ -319,52 +316,28 @@ BatchView make_view(F16Batch& b, double* data, int padded, const double* law) {
 }
 }  // namespace
 
-int F16Batch::step(double dt_s, int substeps) { return step_range(0, n_blocks(), true, dt_s, substeps); }
-
-int F16Batch::step_blocks(int block0, int block1, double dt_s, int substeps) {
-  check_blocks(block0, block1, "step_blocks");
-  return step_range(block0, block1, false, dt_s, substeps);
-}
-
-void F16Batch::check_blocks(int block0, int block1, const char* what) const {
-  if (block0 < 0 || block1 < block0 || block1 > n_blocks())
-    throw std::out_of_range("F16Batch::" + std::string(what) + ": blocks [" + std::to_string(block0) + ", " +
-                            std::to_string(block1) + ") outside [0, " + std::to_string(n_blocks()) + ")");
-}
-
-int F16Batch::step_range(int block0, int block1, bool parallel, double dt_s, int substeps) {
+int F16Batch::step(double dt_s, int substeps) {
   const BatchView v = make_view(*this, data_.get(), padded_, law_.get());
-  const int i0 = block0 * kBlock, i1 = std::min(block1 * kBlock, size_);
   int ok_before = 0;
-  for (int i = i0; i < i1; ++i) ok_before += status_[i] == kStatusOk;
+  for (int i = 0; i < size_; ++i) ok_before += status_[i] == kStatusOk;
   const EnvelopeLimits& lim = config_.limits;
   const StageLaw law = config_.stage_law;
   if (config_.model == AeroModel::kMorelli) {
-    if (config_.integrator == Integrator::kRk4)
-      step_for_law<AeroModel::kMorelli, Integrator::kRk4>(law, v, block0, block1, parallel, dt_s, substeps, lim);
-    else step_for_law<AeroModel::kMorelli, Integrator::kEuler>(law, v, block0, block1, parallel, dt_s, substeps, lim);
+    if (config_.integrator == Integrator::kRk4) step_for_law<AeroModel::kMorelli, Integrator::kRk4>(law, v, dt_s, substeps, lim);
+    else step_for_law<AeroModel::kMorelli, Integrator::kEuler>(law, v, dt_s, substeps, lim);
   } else {
-    if (config_.integrator == Integrator::kRk4)
-      step_for_law<AeroModel::kStevens, Integrator::kRk4>(law, v, block0, block1, parallel, dt_s, substeps, lim);
-    else step_for_law<AeroModel::kStevens, Integrator::kEuler>(law, v, block0, block1, parallel, dt_s, substeps, lim);
+    if (config_.integrator == Integrator::kRk4) step_for_law<AeroModel::kStevens, Integrator::kRk4>(law, v, dt_s, substeps, lim);
+    else step_for_law<AeroModel::kStevens, Integrator::kEuler>(law, v, dt_s, substeps, lim);
   }
   int ok_after = 0;
-  for (int i = i0; i < i1; ++i) ok_after += status_[i] == kStatusOk;
+  for (int i = 0; i < size_; ++i) ok_after += status_[i] == kStatusOk;
   return ok_before - ok_after;
 }
 
-void F16Batch::evaluate_outputs() { outputs_range_blocks(0, n_blocks(), true); }
-
-void F16Batch::evaluate_outputs_blocks(int block0, int block1) {
-  check_blocks(block0, block1, "evaluate_outputs_blocks");
-  outputs_range_blocks(block0, block1, false);
-}
-
-void F16Batch::outputs_range_blocks(int block0, int block1, bool parallel) {
+void F16Batch::evaluate_outputs() {
   const BatchView v = make_view(*this, data_.get(), padded_, law_.get());
-  if (config_.model == AeroModel::kMorelli)
-    outputs_for_law<AeroModel::kMorelli>(config_.stage_law, v, block0, block1, parallel);
-  else outputs_for_law<AeroModel::kStevens>(config_.stage_law, v, block0, block1, parallel);
+  if (config_.model == AeroModel::kMorelli) outputs_for_law<AeroModel::kMorelli>(config_.stage_law, v);
+  else outputs_for_law<AeroModel::kStevens>(config_.stage_law, v);
 }
 
 void F16Batch::evaluate_outputs(int first, int count) {

@@ -78,7 +78,6 @@ class F16Batch {
   int n_agent() const { return config_.n_agent; }
   int size() const { return size_; }                // n_env * n_agent
   int padded_size() const { return padded_; }       // size rounded up to kBlock
-  int n_blocks() const { return padded_ / kBlock; }
   const F16BatchConfig& config() const { return config_; }
 
   // State row s (StateIndex): [n_env * n_agent], contiguous, 64-byte aligned.
@@ -107,17 +106,9 @@ class F16Batch {
   // were frozen by this call; their status says why and their state is the last valid one.
   int step(double dt_s, int substeps = 1);
 
-  // step() for blocks [block0, block1) only (aircraft [block0 * kBlock, block1 * kBlock)), on the
-  // calling thread: for a caller that runs its own threads over disjoint ranges (a training
-  // rollout's env slices). A lane's arithmetic does not depend on who steps its block, so the
-  // states are step()'s bit for bit. Throws std::out_of_range for blocks outside the batch.
-  int step_blocks(int block0, int block1, double dt_s, int substeps = 1);
-
   // Fills output() rows from the current states and references (with a stage law, the ref()
   // rows first, from the law at the current states and modes).
   void evaluate_outputs();
-  // The same for blocks [block0, block1), on the calling thread (as step_blocks).
-  void evaluate_outputs_blocks(int block0, int block1);
   // The same for aircraft [first, first + count) only, one lane at a time on the calling thread
   // (for a caller that resets some aircraft inside its own parallel loop).
   void evaluate_outputs(int first, int count);
@@ -128,9 +119,6 @@ class F16Batch {
   void load_state(std::istream& in);
 
  private:
-  int step_range(int block0, int block1, bool parallel, double dt_s, int substeps);
-  void outputs_range_blocks(int block0, int block1, bool parallel);
-  void check_blocks(int block0, int block1, const char* what) const;
   F16BatchConfig config_;
   int size_ = 0;
   int padded_ = 0;

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <istream>
 #include <ostream>
 #include <stdexcept>
@@ -365,38 +364,8 @@ StepStats RaceEnv::step(const float* actions) {
       step_env(e);
     }
   }
-  return sum_step_stats(0, n_envs);
-}
-
-int RaceEnv::slice_envs() const {
-  const int block = dynamics::F16Batch::kBlock;
-  return block / std::gcd(block, n_agent_);
-}
-
-StepStats RaceEnv::step_envs(int e0, int e1, const float* actions) {
-  const RaceConfig& c = config_;
-  const int n_envs = n_env();
-  const int q = slice_envs();
-  if (e0 < 0 || e1 < e0 || e1 > n_envs || e0 % q != 0 || (e1 % q != 0 && e1 != n_envs))
-    throw std::out_of_range("RaceEnv::step_envs: envs [" + std::to_string(e0) + ", " + std::to_string(e1) +
-                            ") are not a slice of [0, " + std::to_string(n_envs) + ") on multiples of " +
-                            std::to_string(q));
-  apply_actions(e0 * n_agent_, e1 * n_agent_, actions);
-  const int block = dynamics::F16Batch::kBlock;
-  const int b0 = e0 * n_agent_ / block, b1 = e1 == n_envs ? sim_.n_blocks() : e1 * n_agent_ / block;
-  sim_.step_blocks(b0, b1, c.dt_ll_s / c.substeps, c.substeps);
-  sim_.evaluate_outputs_blocks(b0, b1);
-  for (int e = e0; e < e1; ++e) {
-    if (e + 1 < e1) prefetch_track(e + 1);
-    step_env(e);
-  }
-  return sum_step_stats(e0, e1);
-}
-
-StepStats RaceEnv::sum_step_stats(int e0, int e1) const {
   StepStats total;
-  for (int e = e0; e < e1; ++e) {
-    const StepStats& s = step_stats_[e];
+  for (const StepStats& s : step_stats_) {
     for (int k = 0; k < kNumCauses; ++k) total.terminations[k] += s.terminations[k];
     total.races_finished += s.races_finished;
     total.races_won[0] += s.races_won[0];

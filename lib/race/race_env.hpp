@@ -72,13 +72,6 @@ class RaceEnv {
   void reset();
   // Advances every env by one LL step. actions: [n_env, n_agent, 3] in [-1, 1] (clamped).
   StepStats step(const float* actions);
-  // step() for envs [e0, e1) only, on the calling thread, for a caller that runs its own threads
-  // over disjoint slices (a training rollout: each thread steps its envs and acts for their
-  // aircraft). Every env ends exactly as under step(). A slice starts and ends on a multiple of
-  // slice_envs() (the simulator's blocks hold whole slices) or at n_env; throws
-  // std::out_of_range otherwise. actions: the whole batch's array; only the slice's rows are read.
-  StepStats step_envs(int e0, int e1, const float* actions);
-  int slice_envs() const;
   // Sets HL goals for the envs whose hl_due() flag is up; others are ignored. bins: [n_env,
   // n_agent, 3] in [0, hl_bins). Rewrites those envs' goal observations.
   void set_hl_actions(const std::int64_t* bins);
@@ -209,7 +202,6 @@ class RaceEnv {
   void compute_ranks(int env);
   void write_observations(int env);
   void write_goal_observation(int i);
-  StepStats sum_step_stats(int e0, int e1) const;
   void write_lane_observations(int env);
   double goal_lane_error_ft(int i) const;
   // refresh: the same decision placed again at the horizon (keeps a goal_origin lane's lane).

@@ -1,6 +1,5 @@
 #include "train/trainer.hpp"
 
-#include <omp.h>
 #include <torch/torch.h>
 #include <yaml-cpp/yaml.h>
 
@@ -10,9 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <exception>
 #include <functional>
-#include <numeric>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -184,9 +181,6 @@ struct Trainer::State {
   at::Generator gen;
   RandomStream stream{1, 0xC0FFEE};
   int n_env = 0, n_agent = 0, ts = 0;  // n_env: this rank's envs
-  // Env slices of the rollout, one per OpenMP thread (fewer for few envs): [bounds[k], bounds[k+1]),
-  // on multiples of RaceEnv::slice_envs.
-  std::vector<int> slice_bounds;
   int n_env_global = 0;                // race.n_env: the group's
   models::ObsDims dims;
 
@@ -276,11 +270,6 @@ struct Trainer::State {
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
   void ll_step(bool learn);
-  // The rollout's parallel part (ll_step): each env slice on its own thread acts for its rows of
-  // both policies (begin_act done) and steps its envs.
-  void act_and_step_slices(agents::PpoAction& act, const torch::Tensor& noise, const LlObs& mine_obs,
-                           agents::PpoAction& opp_act, const torch::Tensor& opp_noise, const LlObs& opp_obs,
-                           float* actions);
   void ppo_update();
   void es_update();
   MetricsRow make_row(const char* phase_name);
@@ -415,10 +404,6 @@ const TrainConfig& Trainer::config() const { return s_->cfg; }
 std::int64_t Trainer::updates() const { return s_->ppo_updates + s_->es_updates; }
 std::vector<float> Trainer::ll_parameters() const { return flat_parameters(*s_->ppo->net()); }
 std::vector<float> Trainer::hl_parameters() const { return flat_parameters(*s_->es->critic()); }
-int Trainer::rollout_slices() const {
-  const bool sliced = s_->cfg.loop.ll_pilot != LowLevelPilot::kAutopilot && s_->cfg.ll.eigen_inference;
-  return sliced ? static_cast<int>(s_->slice_bounds.size()) - 1 : 1;
-}
 
 void Trainer::State::build(bool fresh) {
   // Network initialisation draws from torch's global generator: seed it, once, here.
@@ -437,12 +422,6 @@ void Trainer::State::build(bool fresh) {
   n_env = env->n_env();
   n_agent = env->n_agent();
   ts = cfg.race.team_size;
-  {
-    const int q = env->slice_envs(), units = (n_env + q - 1) / q;
-    const int n_slices = std::max(1, std::min(omp_get_max_threads(), units));
-    slice_bounds.clear();
-    for (int k = 0; k <= n_slices; ++k) slice_bounds.push_back(std::min(n_env, q * (units * k / n_slices)));
-  }
   dims = obs_dims(*env);
   resolve_hl_scales(&cfg);
   cfg.ll.net.dims = dims;
@@ -607,29 +586,10 @@ void Trainer::State::ll_step(bool learn) {
   hl_decisions();
   const auto t_act = Clock::now();
   torch::Tensor actions = torch::empty({static_cast<std::int64_t>(n_env) * n_agent, race::kActionDim});
-  agents::PpoAction act, opp_act;
-  torch::Tensor noise, opp_noise;
-  LlObs mine_obs, opp_obs;
-  // The Eigen rollout forward gives every row the same bits in any slice (LlEigenForward), so
-  // its rollouts run in env slices, each on its own thread: act for the slice's rows, then step
-  // its envs, with no barrier between the stages. What needs the whole batch (statistics, the
-  // noise draw, the HL decisions, bookkeeping) stays serial. The bytes are the one-batch path's.
-  const bool sliced = cfg.loop.ll_pilot != LowLevelPilot::kAutopilot && cfg.ll.eigen_inference;
+  agents::PpoAction act;
   if (cfg.loop.ll_pilot == LowLevelPilot::kAutopilot) {
     // Every aircraft, of both teams (a pool snapshot of this run flies the autopilot too).
     race::autopilot_actions(*env, goal_lane_autopilot(cfg), actions.data_ptr<float>());
-  } else if (sliced) {
-    const LlObs obs = ll_view(false);
-    ll_rows.assign(owners());
-    mine_obs = ll_rows.owns_all(0) ? obs : models::index_rows(obs, ll_rows.rows(0));
-    const int n_slices = static_cast<int>(slice_bounds.size()) - 1;
-    act = ppo->begin_act(mine_obs, gen, /*update_stats=*/learn, n_slices, &noise);
-    if (ll_rows.rows(1).numel() > 0) {
-      opp_obs = models::index_rows(obs, ll_rows.rows(1));
-      opp_act = opp_ppo->begin_act(opp_obs, gen, false, n_slices, &opp_noise);
-    }
-    work.ll_forward_rows += act.action.size(0) + ll_rows.rows(1).numel();
-    work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
   } else {
     const LlObs obs = ll_view(false);
     // Each policy acts only on the aircraft it flies (the pool snapshot on the other team of pool
@@ -646,12 +606,11 @@ void Trainer::State::ll_step(bool learn) {
   }
   timing.inference += since(t_act);
   const auto learner = learner_index();  // before the step: sides change at resets
-  // Samples of the learner team (their positions in the learner's rows), taken before the env
-  // overwrites its buffers where act.obs may be a view of them (no normalisation, one batch).
+  // Samples of the learner team, taken before the env overwrites its buffers: their positions
+  // in the learner's rows.
   LlObs sample_obs;
   torch::Tensor sample_action, sample_logp, sample_value;
-  auto take_samples = [&] {
-    if (!learn) return;
+  if (learn) {
     auto pos = torch::empty_like(learner);
     const std::int64_t* li = learner.data_ptr<std::int64_t>();
     std::int64_t* pi = pos.data_ptr<std::int64_t>();
@@ -660,22 +619,16 @@ void Trainer::State::ll_step(bool learn) {
     sample_action = act.action.index_select(0, pos);
     sample_logp = act.log_prob.index_select(0, pos);
     sample_value = act.value.index_select(0, pos);
-  };
-  if (!sliced) take_samples();
+  }
   {  // airspeed of the learner's aircraft still racing, before the step (a finished race resets)
     const std::int64_t* li = learner.data_ptr<std::int64_t>();
     const double* vt = env->sim().state(dynamics::kVt);
     for (std::int64_t k = 0; k < learner.numel(); ++k)
       if (env->alive(static_cast<int>(li[k]))) sum_vt += vt[li[k]], n_vt += 1;
   }
-  if (sliced) {
-    act_and_step_slices(act, noise, mine_obs, opp_act, opp_noise, opp_obs, actions.data_ptr<float>());
-    take_samples();  // act.obs is begin_act's own copy
-  } else {
-    const auto t_env = Clock::now();
-    env->step(actions.data_ptr<float>());
-    timing.env += since(t_env);
-  }
+  const auto t_env = Clock::now();
+  env->step(actions.data_ptr<float>());
+  timing.env += since(t_env);
   env_steps += n_env;  // a group sums its ranks' steps after each update (Trainer::run)
   rank_env_steps += n_env;
 
@@ -748,56 +701,6 @@ void Trainer::State::ll_step(bool learn) {
     }
     draw_matchup(e);
   }
-}
-
-void Trainer::State::act_and_step_slices(agents::PpoAction& act, const torch::Tensor& noise, const LlObs& mine_obs,
-                                         agents::PpoAction& opp_act, const torch::Tensor& opp_noise,
-                                         const LlObs& opp_obs, float* actions) {
-  const int n_slices = static_cast<int>(slice_bounds.size()) - 1;
-  // Each slice's rows of a policy: a contiguous range of its ascending rows.
-  auto range = [&](int p, int k) {
-    const torch::Tensor& rows = ll_rows.rows(p);
-    const std::int64_t* r = rows.data_ptr<std::int64_t>();
-    const std::int64_t n = rows.numel();
-    const auto at = [&](int e) {
-      return std::lower_bound(r, r + n, static_cast<std::int64_t>(e) * n_agent) - r;
-    };
-    return std::pair<std::int64_t, std::int64_t>{at(slice_bounds[k]), at(slice_bounds[k + 1])};
-  };
-  std::vector<double> act_s(static_cast<std::size_t>(n_slices), 0.0), env_s(act_s);
-  std::vector<std::exception_ptr> failed(static_cast<std::size_t>(n_slices));
-  const auto t0 = Clock::now();
-#pragma omp parallel for schedule(static, 1)
-  for (int k = 0; k < n_slices; ++k) {
-    try {
-      c10::InferenceMode inference;  // thread-local, like the gradient mode
-      const auto t = Clock::now();
-      for (int p = 0; p < 2; ++p) {
-        agents::PpoAction& a = p == 0 ? act : opp_act;
-        if (ll_rows.rows(p).numel() == 0) continue;
-        const auto [r0, r1] = range(p, k);
-        (p == 0 ? *ppo : *opp_ppo).act_rows(p == 0 ? mine_obs : opp_obs, r0, r1, p == 0 ? noise : opp_noise, k, &a);
-        const std::int64_t* rows = ll_rows.rows(p).data_ptr<std::int64_t>();
-        const float* src = a.action.data_ptr<float>();
-        for (std::int64_t j = r0; j < r1; ++j)
-          std::copy(src + j * race::kActionDim, src + (j + 1) * race::kActionDim, actions + rows[j] * race::kActionDim);
-      }
-      const auto t_env = Clock::now();
-      act_s[static_cast<std::size_t>(k)] = since(t) - since(t_env);
-      env->step_envs(slice_bounds[k], slice_bounds[k + 1], actions);
-      env_s[static_cast<std::size_t>(k)] = since(t_env);
-    } catch (...) {
-      failed[static_cast<std::size_t>(k)] = std::current_exception();
-    }
-  }
-  for (const auto& f : failed)
-    if (f) std::rethrow_exception(f);
-  // The slices' wall time, split between the stages as their CPU time was.
-  const double wall = since(t0), a = std::accumulate(act_s.begin(), act_s.end(), 0.0),
-               e = std::accumulate(env_s.begin(), env_s.end(), 0.0);
-  const double share = a + e > 0.0 ? a / (a + e) : 0.0;
-  timing.inference += wall * share;
-  timing.env += wall * (1.0 - share);
 }
 
 void Trainer::State::ppo_update() {

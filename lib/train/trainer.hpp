@@ -150,9 +150,6 @@ class Trainer {
   // Learner weights, for tests that compare runs.
   std::vector<float> ll_parameters() const;
   std::vector<float> hl_parameters() const;
-  // Env slices the rollout runs on (one per OpenMP thread at construction, fewer with few envs;
-  // 1 on the LibTorch inference path and with the autopilot): the bytes do not depend on it.
-  int rollout_slices() const;
 
  private:
   struct State;

@@ -51,9 +51,6 @@ std::vector<Dense> dense_of(const std::vector<DenseLayer>& layers) {
 struct Scratch {
   RowMatrixF q_, k_, v_, attended_, encoded_, x_, h0_, h1_, y_;  // [rows, *] or [rows * n_other, *]
   std::vector<float> weights_;                                    // [rows, H, n_other]
-  // A block whose row count is not a multiple of kRowQuantum, copied and padded to one.
-  std::vector<float> pad_ego_, pad_goal_, pad_ado_, pad_task_, pad_mean_, pad_value_;
-  std::vector<unsigned char> pad_alive_;
 
   void mlp(const std::vector<Dense>& layers, RowMatrixF* result) {
     const RowMatrixF* in = &x_;
@@ -73,11 +70,6 @@ struct Scratch {
 // Rows are computed in blocks of this many, whatever the thread count: a block's arithmetic (and
 // so every output bit) depends only on its rows, and the blocks are the same at any thread count.
 constexpr int64_t kBlockRows = 32;
-// Eigen's GEMM takes rows in SIMD panels of 16, 8 and 4 with one arithmetic per row, and the last
-// count % 4 rows on a scalar path that rounds differently (measured: up to 2e-6 apart). Padding each
-// block to a multiple of 4 rows gives every row the same bits whichever rows share its block, so
-// a rollout's env slices reproduce one call (tests/models/test_ll_eigen_forward).
-constexpr int64_t kRowQuantum = 4;
 
 }  // namespace
 
@@ -89,38 +81,7 @@ struct LlEigenForward::Impl {
 
   void forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
                      const bool* ado_alive, const float* task, float* mean, float* value) const;
-  // forward_block for any b <= kBlockRows, through a copy padded to a multiple of kRowQuantum rows.
-  void forward_quantized(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
-                         const bool* ado_alive, const float* task, float* mean, float* value) const;
 };
-
-void LlEigenForward::Impl::forward_quantized(Scratch& m, int64_t b, const float* ego, const float* goal,
-                                             const float* ado, const bool* ado_alive, const float* task, float* mean,
-                                             float* value) const {
-  if (b % kRowQuantum == 0) {
-    forward_block(m, b, ego, goal, ado, ado_alive, task, mean, value);
-    return;
-  }
-  const int64_t p = (b + kRowQuantum - 1) / kRowQuantum * kRowQuantum, n = n_other, a = actor.back().weight.rows();
-  // Padding rows: zero inputs, nobody alive (the encoder's exact-zero case); their outputs are dropped.
-  auto fill = [&](std::vector<float>& dst, const float* src, int64_t width) {
-    dst.assign(static_cast<std::size_t>(p * width), 0.0f);
-    std::copy(src, src + b * width, dst.begin());
-  };
-  fill(m.pad_ego_, ego, d_ego);
-  fill(m.pad_goal_, goal, d_goal);
-  fill(m.pad_ado_, ado, n * d_ado);
-  fill(m.pad_task_, task, d_task);
-  m.pad_alive_.assign(static_cast<std::size_t>(p * n), 0);
-  std::copy(ado_alive, ado_alive + b * n, reinterpret_cast<bool*>(m.pad_alive_.data()));
-  m.pad_mean_.resize(static_cast<std::size_t>(p * a));
-  m.pad_value_.resize(static_cast<std::size_t>(p));
-  forward_block(m, p, m.pad_ego_.data(), m.pad_goal_.data(), m.pad_ado_.data(),
-                reinterpret_cast<const bool*>(m.pad_alive_.data()), m.pad_task_.data(), m.pad_mean_.data(),
-                m.pad_value_.data());
-  std::copy(m.pad_mean_.begin(), m.pad_mean_.begin() + b * a, mean);
-  std::copy(m.pad_value_.begin(), m.pad_value_.begin() + b, value);
-}
 
 LlEigenForward::LlEigenForward() = default;
 LlEigenForward::~LlEigenForward() = default;
@@ -167,8 +128,8 @@ void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal,
   const int64_t n = m.n_other, a = m.actor.back().weight.rows();
   auto block = [&](int64_t k, Scratch& sc) {
     const int64_t lo = k * kBlockRows, rows = std::min(kBlockRows, batch - lo);
-    m.forward_quantized(sc, rows, ego + lo * m.d_ego, goal + lo * m.d_goal, ado + lo * n * m.d_ado,
-                        ado_alive + lo * n, task + lo * m.d_task, mean + lo * a, value + lo);
+    m.forward_block(sc, rows, ego + lo * m.d_ego, goal + lo * m.d_goal, ado + lo * n * m.d_ado, ado_alive + lo * n,
+                    task + lo * m.d_task, mean + lo * a, value + lo);
   };
   if (threads <= 1) {
     for (int64_t k = 0; k < n_blocks; ++k) block(k, m.scratch[0]);
@@ -176,23 +137,6 @@ void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal,
   }
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (int64_t k = 0; k < n_blocks; ++k) block(k, m.scratch[static_cast<std::size_t>(omp_get_thread_num())]);
-}
-
-void LlEigenForward::reserve_slots(int n) {
-  if (!impl_) throw std::logic_error("LlEigenForward::reserve_slots before set_weights");
-  if (static_cast<int>(impl_->scratch.size()) < n) impl_->scratch.resize(static_cast<std::size_t>(n));
-}
-
-void LlEigenForward::forward_on_thread(int slot, int64_t batch, const float* ego, const float* goal, const float* ado,
-                                       const bool* ado_alive, const float* task, float* mean, float* value) {
-  Impl& m = *impl_;
-  Scratch& sc = m.scratch[static_cast<std::size_t>(slot)];
-  const int64_t n = m.n_other, a = m.actor.back().weight.rows();
-  for (int64_t lo = 0; lo < batch; lo += kBlockRows) {
-    const int64_t rows = std::min(kBlockRows, batch - lo);
-    m.forward_quantized(sc, rows, ego + lo * m.d_ego, goal + lo * m.d_goal, ado + lo * n * m.d_ado,
-                        ado_alive + lo * n, task + lo * m.d_task, mean + lo * a, value + lo);
-  }
 }
 
 void LlEigenForward::Impl::forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,

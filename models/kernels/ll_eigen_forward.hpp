@@ -47,14 +47,6 @@ class LlEigenForward {
   void forward(int64_t batch, const float* ego, const float* goal, const float* ado, const bool* ado_alive,
                const float* task, float* mean, float* value);
 
-  // The same arithmetic for a caller that runs its own threads over disjoint row ranges (a
-  // rollout's env slices): every block of this call on the calling thread, with scratch `slot`.
-  // Make the slots first, outside those threads. A row's bits do not depend on which rows share
-  // its block (tests/models/test_ll_eigen_forward), so slices reproduce forward() exactly.
-  void reserve_slots(int n);
-  void forward_on_thread(int slot, int64_t batch, const float* ego, const float* goal, const float* ado,
-                         const bool* ado_alive, const float* task, float* mean, float* value);
-
  private:
   struct Impl;  // Eigen weights and scratch, made and freed only in ll_eigen_forward.cpp
   std::unique_ptr<Impl> impl_;

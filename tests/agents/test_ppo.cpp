@@ -274,52 +274,6 @@ double learned_value_constant_reward(bool truncation_as_termination) {
   return agent.value(obs).mean().item<double>();
 }
 
-// A rollout's env slices act for their own rows on their own threads: begin_act (statistics and
-// the one noise draw) and act_rows over slices give act()'s outputs and statistics bit for bit on
-// the Eigen path, with slice sizes that are not multiples of its row quantum. LibTorch's GEMMs
-// round by batch composition: equal to float rounding only (so the trainer slices only the Eigen
-// path).
-TEST(Ppo, ActInSlicesOnTheirOwnThreadsEqualsOneAct) {
-  models::ObsDims dims{5, 4, 3, 3};
-  for (bool eigen : {true, false}) {
-    PpoConfig cfg;
-    cfg.net.dims = dims;
-    cfg.eigen_inference = eigen;
-    cfg.total_updates = 1;
-    torch::manual_seed(4);
-    PpoAgent whole(cfg);
-    torch::manual_seed(4);
-    PpoAgent sliced(cfg);
-    auto gen = models::make_generator(8);
-    for (int step = 0; step < 3; ++step) {
-      const int64_t b = 75;
-      const models::LlObs obs{torch::randn({b, 5}, gen), torch::randn({b, 3}, gen), torch::randn({b, 3, 4}, gen),
-                              torch::rand({b, 3}, gen) < 0.7, torch::randn({b, 3}, gen)};
-      auto g0 = models::make_generator(3 + step), g1 = models::make_generator(3 + step);
-      const PpoAction a = whole.act(obs, g0, true);
-      torch::Tensor noise;
-      const std::vector<int64_t> cuts{0, 1, 30, 75};
-      PpoAction s = sliced.begin_act(obs, g1, true, 3, &noise);
-#pragma omp parallel for num_threads(2) schedule(static)
-      for (int k = 0; k < 3; ++k) sliced.act_rows(obs, cuts[k], cuts[k + 1], noise, k, &s);
-      if (!eigen) {
-        EXPECT_LT((a.action - s.action).abs().max().item<double>(), 1e-5) << step;
-        EXPECT_LT((a.value - s.value).abs().max().item<double>(), 1e-5) << step;
-        EXPECT_TRUE(torch::equal(a.obs.ado, s.obs.ado)) << step;
-        continue;
-      }
-      EXPECT_TRUE(torch::equal(a.action, s.action)) << step;
-      EXPECT_TRUE(torch::equal(a.mean, s.mean)) << step;
-      EXPECT_TRUE(torch::equal(a.log_prob, s.log_prob)) << step;
-      EXPECT_TRUE(torch::equal(a.value, s.value)) << step;
-      EXPECT_TRUE(torch::equal(a.obs.ado, s.obs.ado) && torch::equal(a.obs.task, s.obs.task)) << eigen << " " << step;
-      EXPECT_TRUE(torch::equal(whole.normalizer()->ego()->mean(), sliced.normalizer()->ego()->mean()));
-      EXPECT_TRUE(torch::equal(whole.normalizer()->ado()->var(), sliced.normalizer()->ado()->var()));
-      EXPECT_TRUE(torch::equal(torch::randint(1 << 30, {4}, g0), torch::randint(1 << 30, {4}, g1)));  // same draws
-    }
-  }
-}
-
 TEST(Ppo, TruncationBootstrapsAndTerminationDoesNot) {
   const double v_truncated = learned_value_constant_reward(false);
   const double v_terminated = learned_value_constant_reward(true);

@@ -5,9 +5,7 @@
 #include <omp.h>
 #include <torch/torch.h>
 
-#include <cmath>
 #include <stdexcept>
-#include <vector>
 
 #include "models/kernels/ll_eigen_forward.hpp"
 #include "models/ll_actor_critic.hpp"
@@ -92,39 +90,6 @@ TEST(LlEigenForward, RefusesWeightsThatDoNotChain) {
   LlEigenForward fast;
   EXPECT_THROW(fast.set_weights(w), std::invalid_argument);
   EXPECT_FALSE(fast.ready());
-}
-
-// A rollout's env slices run their rows on their own threads (forward_on_thread): a row's bits
-// must not depend on which rows share its 32-row block, or the slices would change the run.
-TEST(LlEigenForward, SlicesOnTheirOwnThreadsGiveTheBitsOfOneCall) {
-  at::Generator g = make_generator(13);
-  LlActorCriticConfig cfg;
-  cfg.dims = ObsDims{22, 8, 24, 7};
-  LlActorCritic net(cfg);
-  randomize(*net, g);
-  LlEigenForward fast;
-  fast.set_weights(net->eigen_weights());
-  const int64_t b = 777;
-  const LlObs obs = random_obs(g, cfg.dims, b);
-  auto mean = torch::empty({b, 3}), value = torch::empty({b});
-  fast.forward(b, obs.ego.data_ptr<float>(), obs.goal.data_ptr<float>(), obs.ado.data_ptr<float>(),
-               obs.ado_alive.data_ptr<bool>(), obs.task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>());
-  const std::vector<int64_t> cuts{0, 1, 45, 46, 200, 233, 640, 777};  // no cut on a block boundary but 0
-  const int n_slices = static_cast<int>(cuts.size()) - 1;
-  fast.reserve_slots(n_slices);
-  auto mean_s = torch::full({b, 3}, std::nanf("")), value_s = torch::full({b}, std::nanf(""));
-#pragma omp parallel for num_threads(2) schedule(static)
-  for (int k = 0; k < n_slices; ++k) {
-    const int64_t lo = cuts[k], n = cuts[k + 1] - lo;
-    fast.forward_on_thread(k, n, obs.ego.data_ptr<float>() + lo * cfg.dims.d_ego,
-                           obs.goal.data_ptr<float>() + lo * cfg.dims.d_goal,
-                           obs.ado.data_ptr<float>() + lo * cfg.dims.n_other * cfg.dims.d_ado,
-                           obs.ado_alive.data_ptr<bool>() + lo * cfg.dims.n_other,
-                           obs.task.data_ptr<float>() + lo * cfg.dims.d_task, mean_s.data_ptr<float>() + lo * 3,
-                           value_s.data_ptr<float>() + lo);
-  }
-  EXPECT_TRUE(torch::equal(mean_s, mean));
-  EXPECT_TRUE(torch::equal(value_s, value));
 }
 
 }  // namespace

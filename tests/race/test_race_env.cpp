@@ -218,8 +218,7 @@ TEST(RaceEnv, PermutingOtherAircraftPermutesAdoRowsOnly) {
   }
 }
 
-// `sliced`: each env slice on its own thread through step_envs, as a training rollout steps them.
-std::vector<float> random_run(int threads, int steps, bool sliced = false) {
+std::vector<float> random_run(int threads, int steps) {
   omp_set_num_threads(threads);
   RaceConfig c = small_config(6, 4);
   RaceEnv env(c);
@@ -231,14 +230,7 @@ std::vector<float> random_run(int threads, int steps, bool sliced = false) {
     for (auto& b : bins) b = rng.below(7);
     for (auto& x : a) x = static_cast<float>(rng.uniform(-1.0, 1.0));
     env.set_hl_actions(bins.data());
-    if (sliced) {
-      const int q = env.slice_envs(), cuts[3] = {0, q, env.n_env()};
-      EXPECT_LT(q, env.n_env());  // two slices, neither empty
-#pragma omp parallel for num_threads(2) schedule(static)
-      for (int k = 0; k < 2; ++k) env.step_envs(cuts[k], cuts[k + 1], a.data());
-    } else {
-      env.step(a.data());
-    }
+    env.step(a.data());
     trace.insert(trace.end(), env.obs_ego(), env.obs_ego() + env.n_aircraft() * kEgoDim);
     trace.insert(trace.end(), env.obs_task(), env.obs_task() + env.n_aircraft() * env.task_dim());
     trace.insert(trace.end(), env.ll_reward(), env.ll_reward() + env.n_aircraft());
@@ -283,22 +275,6 @@ TEST(RaceEnv, SameSeedSameBytesAtOneAndTwoThreads) {
   const std::vector<float> one = random_run(1, 300), two = random_run(2, 300);
   ASSERT_EQ(one.size(), two.size());
   EXPECT_EQ(0, std::memcmp(one.data(), two.data(), one.size() * sizeof(float)));
-}
-
-// A rollout's env slices, each stepped on its own thread, end every env as one step() does, and
-// slices that cut the simulator's blocks are refused.
-TEST(RaceEnv, SlicesOnTheirOwnThreadsStepAsOneBatch) {
-  std::vector<float> one, sliced;
-  one = random_run(2, 300);
-  sliced = random_run(2, 300, true);
-  ASSERT_EQ(one.size(), sliced.size());
-  EXPECT_EQ(0, std::memcmp(one.data(), sliced.data(), one.size() * sizeof(float)));
-  RaceEnv env(small_config(6, 4));
-  std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
-  EXPECT_EQ(env.slice_envs(), 2);  // 16-lane blocks of 8-aircraft envs
-  EXPECT_THROW(env.step_envs(0, 3, a.data()), std::out_of_range);
-  EXPECT_THROW(env.step_envs(4, 7, a.data()), std::out_of_range);
-  EXPECT_NO_THROW(env.step_envs(4, 6, a.data()));
 }
 
 TEST(RaceEnv, LongRandomSoakKeepsEveryBufferFinite) {

@@ -1,7 +1,6 @@
 // The training loop: config validation, run-folder safety, checkpoints (atomic, refused when
 // corrupt or mismatched), exact resume, determinism, and the self-play pool draws.
 #include <gtest/gtest.h>
-#include <omp.h>
 #include <sys/resource.h>
 #include <torch/serialize/input-archive.h>
 #include <torch/serialize/output-archive.h>
@@ -234,28 +233,6 @@ TEST(Trainer, TeamExplorationChangesTheRunDeterministically) {
   EXPECT_NE(b.hl_parameters(), a.hl_parameters());
   EXPECT_EQ(b.hl_parameters(), c.hl_parameters());
   EXPECT_EQ(b.ll_parameters(), c.ll_parameters());
-}
-
-// The rollout runs in env slices, one per OpenMP thread (each acts for its rows and steps its
-// envs): the same weights at 1 thread (one slice) as at 2 (two slices).
-TEST(Trainer, RolloutSlicesGiveTheSameRunAtOneAndTwoThreads) {
-  const int before = omp_get_max_threads();
-  std::vector<float> ll[2], hl[2];
-  for (int t : {1, 2}) {
-    omp_set_num_threads(t);
-    Trainer a(smoke("race.n_env=8"), fresh_dir("slices_" + std::to_string(t)));
-    EXPECT_EQ(a.rollout_slices(), t);  // 8 envs of 4 aircraft: slices of 4 envs (16-lane simulator blocks)
-    a.run();
-    ll[t - 1] = a.ll_parameters();
-    hl[t - 1] = a.hl_parameters();
-  }
-  omp_set_num_threads(before);
-  EXPECT_EQ(ll[0], ll[1]);
-  EXPECT_EQ(hl[0], hl[1]);
-  omp_set_num_threads(2);
-  EXPECT_EQ(Trainer(smoke("race.n_env=3"), fresh_dir("slices_few")).rollout_slices(), 1);  // 3 envs: one block
-  EXPECT_EQ(Trainer(smoke("ll.inference=torch"), fresh_dir("slices_torch")).rollout_slices(), 1);
-  omp_set_num_threads(before);
 }
 
 // metrics.csv's airspeed column holds the learner's mean airspeed (an F-16 racing: hundreds of
