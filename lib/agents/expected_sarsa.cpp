@@ -62,6 +62,23 @@ torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps) {
   return (1.0 - eps) * std::get<0>(q.max(2)) + eps * q.mean(2);
 }
 
+torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps, const std::array<double, 3>& scale) {
+  check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
+  const auto e = torch::tensor({eps * scale[0], eps * scale[1], eps * scale[2]}, torch::kFloat32);
+  return (1.0 - e) * std::get<0>(q.max(2)) + e * q.mean(2);
+}
+
+EsTargetRule es_target_rule(const EsConfig& cfg) {
+  EsTargetRule rule;
+  rule.per_axis_target = cfg.per_axis_target;
+  rule.team_lateral = cfg.team_lateral;
+  for (int j = 0; j < 3; ++j) {
+    const bool team_axis = cfg.explore_per_team[j] || (j == 1 && cfg.team_lateral);
+    rule.axis_epsilon_scale[j] = team_axis ? cfg.team_explore_scale : 1.0;
+  }
+  return rule;
+}
+
 torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps) {
   return egreedy_value_per_axis(q, eps).mean(1);
 }
@@ -114,6 +131,9 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
   check_tensor(reward, "reward", {-1, -1}, torch::kFloat32);
   TORCH_CHECK(!rule.per_axis_target || v == EsVariant::kEsD2, "es_target: a per-axis team target is es_d2's only");
   TORCH_CHECK(!rule.team_lateral || v == EsVariant::kEsD2, "es_target: a team lateral lane is es_d2's only");
+  const auto& scale = rule.axis_epsilon_scale;
+  const bool scaled = scale[0] != 1.0 || scale[1] != 1.0 || scale[2] != 1.0;
+  TORCH_CHECK(!scaled || v == EsVariant::kEsD2, "es_target: a per-axis epsilon is es_d2's only");
   const int64_t t = reward.size(0), n_a = reward.size(1);
   check_tensor(done, "done", {t}, torch::kBool);
   check_tensor(active, "active", {t, n_a}, torch::kBool);
@@ -132,15 +152,16 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
   }
   const auto team_reward = masked_team_mean(reward, active).first;
   const auto team_live = done.logical_not().logical_and(next_active.any(1)).to(torch::kFloat32);
-  if (v == EsVariant::kEsD2 && (rule.per_axis_target || rule.team_lateral)) {
+  if (v == EsVariant::kEsD2 && (rule.per_axis_target || rule.team_lateral || scaled)) {
     // Per axis j: the eps-greedy value of Q^{i,j}, averaged over the members alive next.
-    const auto next_value = egreedy_value_per_axis(next_out.q, next_epsilon).view({t, n_a, 3});
+    const auto next_value = egreedy_value_per_axis(next_out.q, next_epsilon, scale).view({t, n_a, 3});
     auto team_next = masked_team_mean(next_value, next_active).first;  // [T, 3]
     if (rule.team_lateral) {
       // The lane is the team's: eps-greedy over the members' mean lateral utilities.
       const auto q_y = next_out.q.select(1, 1).reshape({t, n_a, -1});              // [T, n_a, bins]
       const auto team_q_y = masked_team_mean(q_y, next_active).first.unsqueeze(1);  // [T, 1, bins]
-      const auto lane = (1.0 - next_epsilon) * std::get<0>(team_q_y.max(2)) + next_epsilon * team_q_y.mean(2);  // [T, 1]
+      const double e = next_epsilon * scale[1];
+      const auto lane = (1.0 - e) * std::get<0>(team_q_y.max(2)) + e * team_q_y.mean(2);  // [T, 1]
       team_next = torch::cat({team_next.narrow(1, 0, 1), lane, team_next.narrow(1, 2, 1)}, 1);
     }
     target.value = rule.per_axis_target ? team_reward.unsqueeze(1) + gamma * team_live.unsqueeze(1) * team_next
@@ -237,6 +258,9 @@ EsAgent::EsAgent(const EsConfig& cfg)
   TORCH_CHECK(cfg.epsilon >= 0.0 && cfg.epsilon <= 1.0, "EsConfig.epsilon must be in [0, 1]");
   TORCH_CHECK(!cfg.per_axis_target || cfg.variant == EsVariant::kEsD2, "EsConfig.per_axis_target is es_d2's only");
   TORCH_CHECK(!cfg.team_lateral || cfg.variant == EsVariant::kEsD2, "EsConfig.team_lateral is es_d2's only");
+  TORCH_CHECK(cfg.team_explore_scale > 0.0 && cfg.team_explore_scale <= 1.0, "EsConfig.team_explore_scale must be in (0, 1]");
+  TORCH_CHECK(cfg.team_explore_scale == 1.0 || cfg.variant == EsVariant::kEsD2,
+              "EsConfig.team_explore_scale is es_d2's only");
   TORCH_CHECK(cfg.target_update_interval > 0 && cfg.n_epochs > 0 && cfg.n_minibatches > 0,
               "EsConfig: target_update_interval, n_epochs, n_minibatches must be > 0");
   const auto critic_cfg = es_critic_config(cfg);
@@ -295,10 +319,15 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
     const auto team_q_y = torch::zeros({n_groups, cfg_.n_bins}, out.q.options()).index_add_(0, slot, out.q.select(1, 1));
     a.greedy_bins.select(1, 1).copy_(team_q_y.argmax(1).index_select(0, slot));
   }
-  auto explore = (torch::rand({n_groups, 3}, generator) < epsilon).index_select(0, slot);
-  auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
   auto per_team = cfg_.explore_per_team;
   per_team[1] = per_team[1] || cfg_.team_lateral;  // the lane is the team's, so is its exploration
+  // The team coin's probability per axis (the row axes' team coins are drawn and not used).
+  const double team_eps = epsilon * cfg_.team_explore_scale;
+  const auto team_threshold = torch::tensor({per_team[0] ? team_eps : epsilon, per_team[1] ? team_eps : epsilon,
+                                             per_team[2] ? team_eps : epsilon},
+                                            torch::kFloat32);
+  auto explore = (torch::rand({n_groups, 3}, generator) < team_threshold).index_select(0, slot);
+  auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
   if (!(per_team[0] && per_team[1] && per_team[2])) {  // the other axes: a draw per row
     const auto team_axis = torch::tensor({per_team[0], per_team[1], per_team[2]}, torch::kBool);
     const auto row_explore = torch::rand({b, 3}, generator) < epsilon;
@@ -356,7 +385,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     torch::NoGradGuard no_grad;
     const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
     target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
-                       cfg_.gamma, support_, EsTargetRule{cfg_.per_axis_target, cfg_.team_lateral});
+                       cfg_.gamma, support_, es_target_rule(cfg_));
   }
   if (t > 0) {
     torch::NoGradGuard no_grad;

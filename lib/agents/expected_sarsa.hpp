@@ -72,6 +72,12 @@ struct EsConfig {
   // one either way, so the ES targets (expectations per aircraft and axis) hold as they are. The
   // trainer passes the teams to act() when any axis is per team.
   std::array<bool, 3> explore_per_team{false, false, false};
+  // es_d2: on the axes drawn per team, the team's exploration coin comes up with probability
+  // team_explore_scale x epsilon (1: the same epsilon as a per-aircraft draw). A team draw moves
+  // every member at once, so at epsilon / n_a it varies the team's behaviour about as much as n_a
+  // independent draws at epsilon do. Each aircraft's policy on such an axis is then eps-greedy
+  // with that smaller epsilon, and the target values it so (EsTargetRule::axis_epsilon_scale).
+  double team_explore_scale = 1.0;
   // Decoupled variants: the axes' utilities on one shared encoder and trunk (false, the paper's)
   // or on one critic per goal axis, no parameter shared (models::HlCriticConfig::per_axis).
   bool per_axis_critic = false;
@@ -165,6 +171,8 @@ void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stat
 torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps);
 // (1 - eps) max_b + eps mean_b per axis j: q [N, 3, n_bins] -> [N, 3].
 torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps);
+// The same with axis j at eps x scale[j].
+torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps, const std::array<double, 3>& scale);
 // Its mean over the axes: q [N, 3, n_bins] -> [N].
 torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps);
 // mean_j [(1 - eps) p_j(argmax_b q_j) + eps mean_b p_j(b)]: log_probs [N, 3, n_bins, K],
@@ -178,7 +186,12 @@ torch::Tensor decode_joint_index(const torch::Tensor& index, int64_t n_bins);
 struct EsTargetRule {
   bool per_axis_target = false;
   bool team_lateral = false;
+  // es_d2: per goal axis, the factor on next_epsilon of the policy the target values (the axes
+  // drawn per team at EsConfig::team_explore_scale).
+  std::array<double, 3> axis_epsilon_scale{1.0, 1.0, 1.0};
 };
+// The rule of an agent's config.
+EsTargetRule es_target_rule(const EsConfig& cfg);
 
 struct EsTarget {
   // es, es_d1: [T, n_a]; es_d2: [T] ([T, 3] with a per-axis team target); es_d3: [T] expected

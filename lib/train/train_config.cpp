@@ -89,6 +89,7 @@ void bind_hl(R& r, agents::EsConfig* c) {
   std::string lateral = c->team_lateral ? "team" : "aircraft";
   r.read("lateral", &lateral, {"aircraft", "team"});
   c->team_lateral = lateral == "team";
+  r.read("team_explore_scale", &c->team_explore_scale, 1e-6, 1.0);
   read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
   read_i64(r, "target_update_interval", &c->target_update_interval, 1, 1000000);
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
@@ -169,6 +170,15 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   if (c.hl.per_axis_target && c.hl.variant != agents::EsVariant::kEsD2)
     throw io::ConfigError(source + ": hl.team_target: per_axis is defined for hl.agent es_d2 only (its value "
                           "target; es_d3's is a distribution), not " + agents::es_variant_name(c.hl.variant));
+  if (c.hl.team_explore_scale != 1.0) {
+    const auto& t = c.hl.explore_per_team;
+    if (!(t[0] || t[1] || t[2] || c.hl.team_lateral))
+      throw io::ConfigError(source + ": hl.team_explore_scale scales the draws made per team: set hl.explore to "
+                            "team, team_x, team_y or team_z (or hl.lateral: team), or leave the scale at 1");
+    if (c.hl.variant != agents::EsVariant::kEsD2)
+      throw io::ConfigError(source + ": hl.team_explore_scale is defined for hl.agent es_d2 only (its value target), not " +
+                            agents::es_variant_name(c.hl.variant));
+  }
   if (c.hl.team_lateral && c.hl.variant != agents::EsVariant::kEsD2)
     throw io::ConfigError(source + ": hl.lateral: team is defined for hl.agent es_d2 only (its value target), not " +
                           agents::es_variant_name(c.hl.variant));

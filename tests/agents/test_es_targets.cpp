@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <array>
 #include <cmath>
 
 #include "agents/expected_sarsa.hpp"
@@ -210,6 +211,34 @@ TEST(EsTarget, PerAxisTeamTargetAndLoss) {
   EXPECT_EQ(l_axes.valid.sizes(), l_axes.prediction.sizes());
   EXPECT_THROW(es_target(EsVariant::kEsD1, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused,
                          EsTargetRule{true}),
+               c10::Error);
+}
+
+// hl.team_explore_scale (es_d2): an axis drawn per team at scale x eps is valued with that eps.
+TEST(EsTarget, TeamAxisEpsilonScale) {
+  models::HlOutput next;
+  next.q = decoupled_next_q();  // see its comment: per axis max and mean of each aircraft
+  const auto reward = torch::tensor({{1.f, 2.f}});
+  const auto done = torch::tensor({false});
+  EsTargetRule rule;
+  rule.axis_epsilon_scale = {1.0, 0.25, 1.0};
+  const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, rule);
+  // x: (1.9 + 0.95) / 2; y: [1, 1] -> 1 and [0, 0] -> 0 at any eps; z: (3.8 + 2.85) / 2.
+  EXPECT_NEAR(y.value[0].item<double>(), 1.5 + kGamma * (1.425 + 0.5 + 3.325) / 3.0, 1e-5);
+  auto q = decoupled_next_q();
+  q[1][1] = torch::tensor({0.f, 4.f});  // aircraft 1's lateral: max 4, mean 2, so eps matters
+  next.q = q;
+  const double e = kEps * 0.25;
+  const double lateral = (1.0 + ((1.0 - e) * 4.0 + e * 2.0)) / 2.0;
+  const auto ys = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, rule);
+  EXPECT_NEAR(ys.value[0].item<double>(), 1.5 + kGamma * (1.425 + lateral + 3.325) / 3.0, 1e-5);
+  // Scale 1 is the paper's target, bit for bit.
+  const auto y1 = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused,
+                            EsTargetRule{});
+  const auto y_plain = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused);
+  EXPECT_TRUE(torch::equal(y1.value, y_plain.value));
+  EXPECT_GT(std::abs(ys.value[0].item<double>() - y_plain.value[0].item<double>()), 1e-3);
+  EXPECT_THROW(es_target(EsVariant::kEsD3, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, rule),
                c10::Error);
 }
 
@@ -449,6 +478,21 @@ TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
   EXPECT_TRUE(explored.select(2, 1).eq(explored.select(2, 1).select(1, 0).unsqueeze(1)).all().item<bool>());
   EXPECT_THROW(lane.act(obs, 0.0, gen), c10::Error);  // the lane needs the teams
   cfg.variant = EsVariant::kEsD3;
+  EXPECT_THROW(EsAgent{cfg}, c10::Error);
+
+  // hl.team_explore_scale: a team axis's coin at scale x eps; the row axes keep eps.
+  cfg.variant = EsVariant::kEsD2;
+  cfg.team_lateral = false;
+  cfg.explore_per_team = {false, true, false};
+  cfg.team_explore_scale = 0.25;
+  torch::manual_seed(3);
+  EsAgent quarter(cfg);
+  const EsAction qa = quarter.act(obs, 0.8, gen, group);
+  const auto off = qa.bins.ne(qa.greedy_bins).to(torch::kFloat64).mean(0);  // [3]
+  EXPECT_NEAR(off[1].item<double>(), 0.2 * 6.0 / 7.0, 0.03);  // 2000 teams: sd 0.009
+  EXPECT_NEAR(off[0].item<double>(), 0.8 * 6.0 / 7.0, 0.03);
+  EXPECT_EQ(es_target_rule(cfg).axis_epsilon_scale, (std::array<double, 3>{1.0, 0.25, 1.0}));
+  cfg.team_explore_scale = 0.0;
   EXPECT_THROW(EsAgent{cfg}, c10::Error);
 }
 

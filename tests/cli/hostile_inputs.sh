@@ -69,6 +69,7 @@ case_ "one atom" -- $T --set hl.n_atoms=1
 case_ "per-axis critic on es" -- $T --set hl.agent=es --set hl.critic=per_axis
 case_ "per-axis target on es_d3" -- $T --set hl.agent=es_d3 --set hl.team_target=per_axis
 case_ "team lane on es_d1" -- $T --set hl.agent=es_d1 --set hl.lateral=team
+case_ "team explore scale without team draws" -- $T --set hl.team_explore_scale=0.25
 case_ "empty hidden" -- $T --set "ll.hidden=[]"
 case_ "zero hidden" -- $T --set "ll.hidden=[0]"
 case_ "negative lr" -- $T --set ll.learning_rate=-1

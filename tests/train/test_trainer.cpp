@@ -90,6 +90,15 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_NE(error_of("hl: {lateral: lane}").find("hl.lateral: 'lane' is not one of: aircraft, team"), std::string::npos);
   EXPECT_TRUE(read_train_config(YAML::Load("hl: {agent: es_d2, lateral: team}"), "cfg.yaml").hl.team_lateral);
   EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.team_lateral);  // the paper's, per aircraft
+  EXPECT_NE(error_of("hl: {team_explore_scale: 0.25}").find("cfg.yaml: hl.team_explore_scale scales the draws made per team"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {agent: es_d3, explore: team_y, team_explore_scale: 0.25}")
+                .find("hl.team_explore_scale is defined for hl.agent es_d2 only"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {team_explore_scale: 1.5}").find("hl.team_explore_scale"), std::string::npos);
+  EXPECT_EQ(read_train_config(YAML::Load("hl: {agent: es_d2, explore: team_y, team_explore_scale: 0.25}"), "cfg.yaml")
+                .hl.team_explore_scale,
+            0.25);
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8.000000) must be <= time_limit_s (5.000000)"),
