@@ -68,14 +68,18 @@ torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps, const s
   return (1.0 - e) * std::get<0>(q.max(2)) + e * q.mean(2);
 }
 
+std::array<bool, 3> team_drawn_axes(const EsConfig& cfg) {
+  auto per_team = cfg.explore_per_team;
+  per_team[1] = per_team[1] || cfg.team_lateral;
+  return per_team;
+}
+
 EsTargetRule es_target_rule(const EsConfig& cfg) {
   EsTargetRule rule;
   rule.per_axis_target = cfg.per_axis_target;
   rule.team_lateral = cfg.team_lateral;
-  for (int j = 0; j < 3; ++j) {
-    const bool team_axis = cfg.explore_per_team[j] || (j == 1 && cfg.team_lateral);
-    rule.axis_epsilon_scale[j] = team_axis ? cfg.team_explore_scale : 1.0;
-  }
+  const auto per_team = team_drawn_axes(cfg);
+  for (int j = 0; j < 3; ++j) rule.axis_epsilon_scale[j] = per_team[j] ? cfg.team_explore_scale : 1.0;
   return rule;
 }
 
@@ -319,8 +323,7 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
     const auto team_q_y = torch::zeros({n_groups, cfg_.n_bins}, out.q.options()).index_add_(0, slot, out.q.select(1, 1));
     a.greedy_bins.select(1, 1).copy_(team_q_y.argmax(1).index_select(0, slot));
   }
-  auto per_team = cfg_.explore_per_team;
-  per_team[1] = per_team[1] || cfg_.team_lateral;  // the lane is the team's, so is its exploration
+  const auto per_team = team_drawn_axes(cfg_);
   // The team coin's probability per axis (the row axes' team coins are drawn and not used).
   const double team_eps = epsilon * cfg_.team_explore_scale;
   const auto team_threshold = torch::tensor({per_team[0] ? team_eps : epsilon, per_team[1] ? team_eps : epsilon,

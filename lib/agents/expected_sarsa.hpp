@@ -190,6 +190,9 @@ struct EsTargetRule {
   // drawn per team at EsConfig::team_explore_scale).
   std::array<double, 3> axis_epsilon_scale{1.0, 1.0, 1.0};
 };
+// Which goal axes x, y, z an agent's config draws per team: EsConfig::explore_per_team, plus the
+// lateral axis with a team lateral lane (the lane is the team's, so is its exploration).
+std::array<bool, 3> team_drawn_axes(const EsConfig& cfg);
 // The rule of an agent's config.
 EsTargetRule es_target_rule(const EsConfig& cfg);
 

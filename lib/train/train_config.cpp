@@ -171,8 +171,8 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
     throw io::ConfigError(source + ": hl.team_target: per_axis is defined for hl.agent es_d2 only (its value "
                           "target; es_d3's is a distribution), not " + agents::es_variant_name(c.hl.variant));
   if (c.hl.team_explore_scale != 1.0) {
-    const auto& t = c.hl.explore_per_team;
-    if (!(t[0] || t[1] || t[2] || c.hl.team_lateral))
+    const auto t = agents::team_drawn_axes(c.hl);
+    if (!(t[0] || t[1] || t[2]))
       throw io::ConfigError(source + ": hl.team_explore_scale scales the draws made per team: set hl.explore to "
                             "team, team_x, team_y or team_z (or hl.lateral: team), or leave the scale at 1");
     if (c.hl.variant != agents::EsVariant::kEsD2)
