@@ -124,6 +124,7 @@ template <class R>
 void bind_pool(R& r, PoolConfig* c) {
   r.read("p_self_play", &c->p_self_play, 0.0, 1.0);
   r.read("p_center", &c->p_center, 0.0, 1.0);
+  r.read("p_center_tail", &c->p_center_tail, 0.0, 1.0);
   r.read("snapshot_every_updates", &c->snapshot_every_updates, 1, 1000000);
   r.read("max_snapshots", &c->max_snapshots, 1, 100000);
   r.read("randomize_sides", &c->randomize_sides);
@@ -158,6 +159,10 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   if (c.loop.ll_pilot == LowLevelPilot::kAutopilot && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
                           "train.hl_phase_updates must be > 0");
+  if (c.pool.p_center_tail > 0.0 && c.loop.hl_tail_share == 0.0)
+    throw io::ConfigError(source + ": pool.p_center_tail = " + std::to_string(c.pool.p_center_tail) +
+                          " applies to the HL-only tail, and train.hl_tail_share is 0 (no tail): set "
+                          "train.hl_tail_share > 0, or use pool.p_center for the whole run");
   if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");

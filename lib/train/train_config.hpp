@@ -41,6 +41,10 @@ struct PoolConfig {
   // with every opponent's high level fixed at the middle bin, the `@center` entry of a
   // tournament. 0: the paper's pool only (docs/learning.md, "A fixed plan in the pool").
   double p_center = 0.0;
+  // The same share in the HL-only tail (train.hl_tail_share), where the low level is frozen: the
+  // high level then learns to beat the formation its final low level flies (docs/learning.md,
+  // "The center line in the tail"). pool.p_center holds for the bilevel part before it.
+  double p_center_tail = 0.0;
   int snapshot_every_updates = 40; // PPO+ES updates between pool snapshots
   int max_snapshots = 20;          // oldest snapshots are removed beyond this
   bool randomize_sides = true;     // learner plays blue or red at random per race

@@ -267,6 +267,12 @@ struct Trainer::State {
   LlObs ll_view(bool final_obs) const { return ll_obs_view(*env, final_obs); }
   HlObs hl_view(bool final_obs) const { return hl_obs_view(*env, final_obs); }
   void draw_matchup(int env);
+  // The run has used its low level's share of the steps: only the high level learns from here
+  // (train.hl_tail_share).
+  bool in_hl_tail() const {
+    return cfg.loop.hl_tail_share > 0.0 &&
+           static_cast<double>(env_steps) >= (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
+  }
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
   void ll_step(bool learn);
@@ -470,16 +476,16 @@ void Trainer::State::build(bool fresh) {
     for (int e = 0; e < n_env; ++e) draw_matchup(e);
 }
 
-Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available) {
+Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available, bool in_tail) {
   Matchup m;
   // Both numbers are always drawn, so the stream advances the same way whatever the settings.
   const double u_side = stream.uniform(), u_pool = stream.uniform();
   m.learner_side = pool.randomize_sides && u_side < 0.5 ? 1 : 0;
   // u_pool below p_center: the center-line control; above it, self-play or pool in the odds
   // p_self_play gives (p_center 0 leaves the paper's draws unchanged).
-  m.vs_center = u_pool < pool.p_center;
-  m.vs_pool = !m.vs_center && pool_available &&
-              u_pool >= pool.p_center + (1.0 - pool.p_center) * pool.p_self_play;
+  const double p_center = in_tail ? pool.p_center_tail : pool.p_center;
+  m.vs_center = u_pool < p_center;
+  m.vs_pool = !m.vs_center && pool_available && u_pool >= p_center + (1.0 - p_center) * pool.p_self_play;
   return m;
 }
 
@@ -488,7 +494,7 @@ std::size_t draw_pool_entry(RandomStream& stream, std::size_t n) {
 }
 
 void Trainer::State::draw_matchup(int e) {
-  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0);
+  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0, in_hl_tail());
   side[e] = m.learner_side;
   vs_pool[e] = m.vs_center ? kVsCenter : (m.vs_pool ? kVsPool : kVsSelf);
 }
@@ -1221,10 +1227,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
     // Phase switch: the other level learns next; a new pool opponent for the new phase.
     const int phase_len = ll_phase ? s.cfg.loop.ll_phase_updates : s.cfg.loop.hl_phase_updates;
     // In the HL-only tail (train.hl_tail_share) an LL phase ends at once and never comes back.
-    const bool hl_only = s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot ||
-                         (s.cfg.loop.hl_tail_share > 0.0 &&
-                          static_cast<double>(s.env_steps) >=
-                              (1.0 - s.cfg.loop.hl_tail_share) * static_cast<double>(s.cfg.loop.total_env_steps));
+    const bool hl_only = s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot || s.in_hl_tail();
     if ((s.phase_updates >= phase_len || (hl_only && s.phase == 0)) && s.cfg.loop.hl_phase_updates > 0) {
       // With only the high level learning its phase repeats, each time against a newly drawn pool
       // opponent.

@@ -62,7 +62,8 @@ struct Matchup {
   bool vs_pool = false;   // opponent is the current pool snapshot (else the current policy)
   bool vs_center = false; // opponent is the learner's low level under a center-line high level
 };
-Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available);
+// in_tail: the race starts in the HL-only tail, where pool.p_center_tail replaces pool.p_center.
+Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available, bool in_tail = false);
 // Which pool snapshot the next phase plays: uniform over the n stored ones.
 std::size_t draw_pool_entry(RandomStream& stream, std::size_t n);
 

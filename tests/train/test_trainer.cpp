@@ -187,6 +187,41 @@ TEST(Trainer, HlTailFreezesTheLowLevelForTheLastShareOfTheSteps) {
             std::string::npos);
 }
 
+// pool.p_center_tail: the center-line share of the HL-only tail's races. Up to the switch the run is
+// the one without it (the same low level, bit for bit, and so the same high level at the switch);
+// in the tail the high level learns another way; a run stopped in the tail resumes exactly.
+TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
+  const std::string tail = "train.hl_tail_share=0.5";
+  Trainer a(smoke(tail), fresh_dir("ctail_none"));
+  const TrainSummary plain = a.run();
+  TrainConfig centered = smoke(tail);
+  centered.pool.p_center_tail = 0.9;
+  Trainer b(centered, fresh_dir("ctail_whole"));
+  const TrainSummary full = b.run();
+  EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
+  EXPECT_NE(b.hl_parameters(), a.hl_parameters());
+  std::size_t k = 0;  // the first update in the tail: both runs agree on every row before it
+  while (k < full.rows.size() && full.rows[k].env_steps < 300) ++k;
+  ASSERT_LT(k + 2, full.rows.size());
+  ASSERT_EQ(plain.rows.size(), full.rows.size());
+  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
+  for (std::size_t i = 0; i < k; ++i) {
+    EXPECT_EQ(full.rows[i].env_steps, plain.rows[i].env_steps) << "update " << i;
+    EXPECT_TRUE(same(full.rows[i].ll_return, plain.rows[i].ll_return)) << "update " << i;
+    EXPECT_TRUE(same(full.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
+  }
+  const std::string split = fresh_dir("ctail_split");
+  {
+    Trainer c(centered, split);
+    c.run(nullptr, static_cast<std::int64_t>(k) + 2);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
+  EXPECT_NE(error_of("pool: {p_center_tail: 0.25}").find("pool.p_center_tail = 0.250000 applies to the HL-only tail"),
+            std::string::npos);
+}
+
 TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   const std::string whole = fresh_dir("whole"), split = fresh_dir("split");
   Trainer a(smoke(), whole);
@@ -582,6 +617,18 @@ TEST(SelfPlay, CenterControlShareComesFirstAndSplitsTheRest) {
     center += m.vs_center;
   }
   EXPECT_NEAR(center / double(n), 0.3, 0.01);
+  // In the HL-only tail pool.p_center_tail takes its place; the stream advances as before.
+  p.p_center_tail = 0.8;
+  RandomStream t1(4, 1), t2(4, 1);
+  center = 0;
+  for (int k = 0; k < n; ++k) {
+    const Matchup in_tail = draw_matchup(t1, p, true, true);
+    const Matchup before = draw_matchup(t2, p, true, false);
+    EXPECT_EQ(in_tail.learner_side, before.learner_side);
+    EXPECT_TRUE(!before.vs_center || in_tail.vs_center);  // the same draw, a larger share
+    center += in_tail.vs_center;
+  }
+  EXPECT_NEAR(center / double(n), 0.8, 0.01);
 }
 
 }  // namespace
