@@ -494,7 +494,9 @@ std::size_t draw_pool_entry(RandomStream& stream, std::size_t n) {
 }
 
 void Trainer::State::draw_matchup(int e) {
-  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0, in_hl_tail());
+  // The tail's races are those that start after the low level's last update (the step count
+  // crosses the switch inside an update): its last update keeps the bilevel part's matchups.
+  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0, in_hl_tail() && phase == 1);
   side[e] = m.learner_side;
   vs_pool[e] = m.vs_center ? kVsCenter : (m.vs_pool ? kVsPool : kVsSelf);
 }

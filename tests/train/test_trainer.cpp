@@ -195,7 +195,7 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
   Trainer a(smoke(tail), fresh_dir("ctail_none"));
   const TrainSummary plain = a.run();
   TrainConfig centered = smoke(tail);
-  centered.pool.p_center_tail = 0.9;
+  centered.pool.p_center_tail = 1.0;
   Trainer b(centered, fresh_dir("ctail_whole"));
   const TrainSummary full = b.run();
   EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
