@@ -222,6 +222,31 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
             std::string::npos);
 }
 
+// The step count crosses the switch inside the low level's last update; races that end there and
+// start again still belong to the bilevel part, so that update, and with it the final low level,
+// is the same as without the tail's center share. Races of 6.4 s (80 LL steps) in LL updates of
+// 100 steps: the third update (env steps 600-900) crosses the switch at 690 and ends a race of
+// every env at 720.
+TEST(Trainer, LastLowLevelUpdateKeepsTheBilevelMatchups) {
+  TrainConfig base = smoke("train.hl_tail_share=0.655");
+  base.race.time_limit_s = 6.4;
+  base.ll.n_steps = 100;
+  base.loop.total_env_steps = 2000;
+  base.loop.ll_phase_updates = 4;
+  Trainer a(base, fresh_dir("ctail_last_none"));
+  const TrainSummary plain = a.run();
+  ASSERT_EQ(plain.rows.at(2).phase, "ll");
+  ASSERT_LT(plain.rows.at(1).env_steps, 690);
+  ASSERT_GE(plain.rows.at(2).env_steps, 690);
+  ASSERT_EQ(plain.rows.at(3).phase, "hl");
+  TrainConfig centered = base;
+  centered.pool.p_center_tail = 1.0;
+  Trainer b(centered, fresh_dir("ctail_last_center"));
+  b.run();
+  EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
+  EXPECT_NE(b.hl_parameters(), a.hl_parameters());
+}
+
 TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   const std::string whole = fresh_dir("whole"), split = fresh_dir("split");
   Trainer a(smoke(), whole);
