@@ -225,8 +225,9 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
 // The step count crosses the switch inside the low level's last update; races that end there and
 // start again still belong to the bilevel part, so that update, and with it the final low level,
 // is the same as without the tail's center share. Races of 6.4 s (80 LL steps) in LL updates of
-// 100 steps: the third update (env steps 600-900) crosses the switch at 690 and ends a race of
-// every env at 720.
+// 100 steps: the third update (env steps 600-900) crosses the switch at 690, and a race that
+// reaches its time limit ends at 720, inside it (on a8cd501's rule, which drew races restarted
+// after 690 with the tail's share, the final low levels differ: checked).
 TEST(Trainer, LastLowLevelUpdateKeepsTheBilevelMatchups) {
   TrainConfig base = smoke("train.hl_tail_share=0.655");
   base.race.time_limit_s = 6.4;
