@@ -170,6 +170,10 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   const Trend vt = trend(sum.rows, &train::MetricsRow::airspeed_ftps);
   std::printf("done: %lld updates, %lld env steps, %lld HL gradient steps\n", static_cast<long long>(sum.updates),
               static_cast<long long>(sum.env_steps), static_cast<long long>(sum.hl_grad_steps));
+  if (sum.hl_average_count > 0)
+    std::printf("high-level policy: the weight average of the critic over its last %lld ES updates "
+                "(train.hl_average_share)\n",
+                static_cast<long long>(sum.hl_average_count));
   if (dc.world_size > 1)
     std::printf("group of %d ranks: rank 0 spent %.0f%% of its time in collectives\n", dc.world_size,
                 100.0 * sum.communication_s / std::max(sum.time.total, 1e-9));

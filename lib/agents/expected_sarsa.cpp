@@ -285,6 +285,25 @@ void EsAgent::sync_target() {
   for (auto& item : target_->named_buffers()) item.value().copy_(src_buf[item.key()]);
 }
 
+void EsAgent::add_to_average() {
+  torch::NoGradGuard no_grad;
+  const auto params = critic_->parameters();
+  ++average_count_;
+  if (average_.empty()) {
+    for (const auto& p : params) average_.push_back(p.detach().clone());
+    return;
+  }
+  const double w = 1.0 / static_cast<double>(average_count_);
+  for (std::size_t k = 0; k < params.size(); ++k) average_[k].add_(params[k] - average_[k], w);
+}
+
+void EsAgent::act_with_average() {
+  if (average_count_ == 0) return;
+  torch::NoGradGuard no_grad;
+  auto params = critic_->parameters();
+  for (std::size_t k = 0; k < params.size(); ++k) params[k].copy_(average_[k]);
+}
+
 models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats) {
   return cfg_.normalize_obs ? normalizer_->normalize(flat_obs, update_stats) : flat_obs;
 }
@@ -515,6 +534,11 @@ void EsAgent::save(const std::string& path) const {
   write_sub_archive(root, "target", *target_);
   root.write("variant", torch::tensor(static_cast<int64_t>(cfg_.variant)));
   write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
+  if (average_count_ > 0) {  // a file without these fields is a run without the average
+    const auto params = critic_->named_parameters();
+    for (std::size_t k = 0; k < params.size(); ++k) root.write("average/" + params[k].key(), average_[k]);
+    root.write("average_count", torch::tensor(average_count_));
+  }
   save_archive_atomic(root, path);
 }
 
@@ -542,6 +566,18 @@ void EsAgent::load_archive(torch::serialize::InputArchive& root) {
   read_sub_archive(root, "critic", *critic_);
   read_sub_archive(root, "target", *target_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
+  torch::Tensor count;
+  average_count_ = root.try_read("average_count", count) ? count.item<int64_t>() : 0;
+  average_.clear();
+  if (average_count_ > 0) {
+    for (const auto& item : critic_->named_parameters()) {
+      torch::Tensor a;
+      root.read("average/" + item.key(), a);
+      TORCH_CHECK(a.sizes() == item.value().sizes(), "EsAgent::load: average/", item.key(), " has shape ", a.sizes(),
+                  ", the critic's parameter ", item.value().sizes());
+      average_.push_back(a);
+    }
+  }
 }
 
 }  // namespace f16race::agents

@@ -243,6 +243,14 @@ class EsAgent {
   EsStats update(const EsBatch& batch);
   void set_replicas(const Replicas& replicas);
   void sync_target();
+  // Weight average (train.hl_average_share): the uniform mean of the online critic's parameters
+  // after each call, a_n = a_{n-1} + (w - a_{n-1}) / n (stochastic weight averaging, Izmailov et
+  // al. 2018). act() and update() never read it; it is saved in hl.pt beside the online critic.
+  void add_to_average();
+  int64_t average_count() const { return average_count_; }
+  // For an evaluation copy (train::load_run_policy): the online critic's parameters become the
+  // average, so act() is the averaged policy. Nothing happens without one (count 0).
+  void act_with_average();
   void save(const std::string& path) const;
   void load(const std::string& path);
   void load_bytes(const std::string& bytes);  // a file's bytes, received instead of read
@@ -268,6 +276,11 @@ class EsAgent {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
+  // One tensor per online critic parameter, in named_parameters() order; empty without an average.
+  // Plain tensors, not a second module: building one would draw initial weights from LibTorch's
+  // global generator in the middle of a run.
+  std::vector<torch::Tensor> average_;
+  int64_t average_count_ = 0;
 };
 
 }  // namespace f16race::agents

@@ -54,6 +54,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
     p.ll->load((dir / "ll.pt").string());
     step = "hl.pt";
     p.hl->load((dir / "hl.pt").string());
+    p.hl->act_with_average();  // a run trained with train.hl_average_share is evaluated on its average
   } catch (const std::exception& e) {
     throw io::InputError((dir / step).string() + ": cannot load the policy (" + checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");

@@ -25,7 +25,8 @@ struct RunPolicy {
   std::unique_ptr<agents::EsAgent> hl;
 };
 
-// Loads the LATEST checkpoint of `run_dir`. Throws io::InputError naming the file and the
+// Loads the LATEST checkpoint of `run_dir`; a run trained with train.hl_average_share acts on its
+// high level's weight average (EsAgent::act_with_average). Throws io::InputError naming the file and the
 // fix when the folder is not a run, has no checkpoint, was written by another config.yaml
 // (hash mismatch) or a checkpoint file is unreadable.
 RunPolicy load_run_policy(const std::string& run_dir);

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "io/csv_table.hpp"
 #include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
 
@@ -117,6 +118,7 @@ void bind_loop(R& r, LoopConfig* c) {
   c->ll_pilot = pilot == "autopilot" ? LowLevelPilot::kAutopilot : LowLevelPilot::kPpo;
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
   r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
+  r.read("hl_average_share", &c->hl_average_share, 0.0, 0.95);
   r.finish();
 }
 
@@ -163,6 +165,10 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
     throw io::ConfigError(source + ": pool.p_center_tail = " + std::to_string(c.pool.p_center_tail) +
                           " applies to the HL-only tail, and train.hl_tail_share is 0 (no tail): set "
                           "train.hl_tail_share > 0, or use pool.p_center for the whole run");
+  if (c.loop.hl_average_share > c.loop.hl_tail_share && c.loop.ll_pilot != LowLevelPilot::kAutopilot)
+    throw io::ConfigError(source + ": train.hl_average_share = " + io::format_double(c.loop.hl_average_share) +
+                          " averages the high level's weights where the low level still learns (train.hl_tail_share = " +
+                          io::format_double(c.loop.hl_tail_share) + "): set it at most train.hl_tail_share");
   if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");

@@ -33,6 +33,11 @@ struct LoopConfig {
   // Share of total_env_steps at the end of a run in which the LL is frozen and only the HL learns
   // (every update an ES update): the bilevel problem's outer level against the final inner one.
   double hl_tail_share = 0.0;
+  // Share of total_env_steps at the end of a run over whose ES updates the online HL critic's
+  // weights are averaged (uniformly); the average is the run's evaluated policy, training never
+  // reads it. At most hl_tail_share (or any with ll_pilot autopilot): only where the low level is
+  // frozen are the targets stationary (docs/learning.md, "A weight average over the tail").
+  double hl_average_share = 0.0;
 };
 
 struct PoolConfig {

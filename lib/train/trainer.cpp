@@ -273,6 +273,11 @@ struct Trainer::State {
     return cfg.loop.hl_tail_share > 0.0 &&
            static_cast<double>(env_steps) >= (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
   }
+  // The ES updates from here on enter the HL weight average (train.hl_average_share).
+  bool in_hl_average() const {
+    return cfg.loop.hl_average_share > 0.0 && static_cast<double>(env_steps) >=
+                                                   (1.0 - cfg.loop.hl_average_share) * static_cast<double>(cfg.loop.total_env_steps);
+  }
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
   void ll_step(bool learn);
@@ -762,6 +767,7 @@ void Trainer::State::es_update() {
   }
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
+  if (in_hl_average()) es->add_to_average();
   hl_grad_steps += last_es.grad_steps;
   work.hl_forward_rows += last_es.forward_rows;
   work.hl_forward_calls += 2;
@@ -1258,6 +1264,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   summary.updates = s.ppo_updates + s.es_updates;
   summary.env_steps = s.env_steps;
   summary.hl_grad_steps = s.hl_grad_steps;
+  summary.hl_average_count = s.es->average_count();
   summary.curves_problem = s.curves_problem;
   summary.rank_env_steps = s.rank_env_steps - rank_steps_at_start;
   summary.communication_s = s.group != nullptr ? s.group->collective_seconds() - comm_at_start : 0.0;

@@ -121,6 +121,7 @@ struct TrainSummary {
   std::int64_t updates = 0;
   std::int64_t env_steps = 0;
   std::int64_t hl_grad_steps = 0;  // ES gradient steps of the whole run
+  std::int64_t hl_average_count = 0;  // ES updates in the HL weight average (train.hl_average_share)
   std::string curves_problem;      // why RUN/curves.png was not drawn at the last checkpoint, if not
   bool interrupted = false;
   double communication_s = 0.0;  // inside the group's collectives (also counted in `time`'s parts)

@@ -12,12 +12,14 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "io/atomic_file.hpp"
 #include "io/yaml_config.hpp"
+#include "train/run_policy.hpp"
 #include "train/trainer.hpp"
 #include "support/temp_paths.hpp"
 
@@ -220,6 +222,63 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
   EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
   EXPECT_NE(error_of("pool: {p_center_tail: 0.25}").find("pool.p_center_tail = 0.250000 applies to the HL-only tail"),
             std::string::npos);
+}
+
+// train.hl_average_share: the ES updates of the run's last share enter a uniform weight average
+// of the high-level critic. Training never reads it (the final weights and every metrics row are
+// the run's without it), the run's evaluated policy is the average (load_run_policy), and a run
+// stopped inside the window resumes to the same hl.pt, byte for byte.
+TEST(Trainer, HlWeightAverageIsTheRunsPolicyAndChangesNoTraining) {
+  const std::string tail = "train.hl_tail_share=0.5";
+  const std::string dir_a = fresh_dir("avg_none"), dir_b = fresh_dir("avg_whole"), split = fresh_dir("avg_split");
+  Trainer a(smoke(tail), dir_a);
+  const TrainSummary plain = a.run();
+  TrainConfig averaged = smoke(tail);
+  averaged.loop.hl_average_share = 0.25;  // env steps 450-600 of 600
+  Trainer b(averaged, dir_b);
+  const TrainSummary full = b.run();
+  EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(b.hl_parameters(), a.hl_parameters());
+  ASSERT_EQ(plain.rows.size(), full.rows.size());
+  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
+  for (std::size_t i = 0; i < full.rows.size(); ++i) {
+    EXPECT_TRUE(same(full.rows[i].es_loss, plain.rows[i].es_loss)) << "update " << i;
+    EXPECT_TRUE(same(full.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
+  }
+  std::int64_t in_window = 0;  // ES updates that ended at or after env step 450
+  std::size_t k = 0;           // the first of them
+  for (std::size_t i = 0; i < full.rows.size(); ++i)
+    if (full.rows[i].phase == "hl" && full.rows[i].env_steps >= 450 && in_window++ == 0) k = i;
+  ASSERT_GE(in_window, 2);
+  EXPECT_EQ(full.hl_average_count, in_window);
+  EXPECT_EQ(plain.hl_average_count, 0);
+  const RunPolicy pa = load_run_policy(dir_a), pb = load_run_policy(dir_b);
+  EXPECT_EQ(pa.hl->average_count(), 0);
+  EXPECT_EQ(pb.hl->average_count(), in_window);
+  std::vector<float> evaluated;  // the policy tournaments and replays fly
+  for (const auto& p : pb.hl->critic()->parameters()) {
+    const auto c = p.detach().contiguous();
+    evaluated.insert(evaluated.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
+  }
+  EXPECT_NE(evaluated, b.hl_parameters());
+  EXPECT_EQ(evaluated.size(), b.hl_parameters().size());
+  {
+    Trainer c(averaged, split);
+    c.run(nullptr, static_cast<std::int64_t>(k) + 1);  // one update into the window
+  }
+  auto resumed = Trainer::resume(split);
+  const TrainSummary rest = resumed->run();
+  EXPECT_EQ(rest.hl_average_count, in_window);
+  auto hl_bytes = [](const std::string& run) {
+    std::ifstream in(fs::path(run) / "checkpoint" / latest_checkpoint_name(run) / "hl.pt", std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(hl_bytes(split), hl_bytes(dir_b));
+  EXPECT_NE(hl_bytes(dir_a), hl_bytes(dir_b));
+  EXPECT_NE(error_of("train: {hl_tail_share: 0.2, hl_average_share: 0.3}")
+                .find("train.hl_average_share = 0.3 averages the high level's weights where the low level still learns"),
+            std::string::npos);
+  EXPECT_EQ(error_of("train: {ll_pilot: autopilot, hl_average_share: 0.3}"), "");
 }
 
 // The step count crosses the switch inside the low level's last update; races that end there and
