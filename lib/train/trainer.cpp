@@ -269,14 +269,12 @@ struct Trainer::State {
   void draw_matchup(int env);
   // The run has used its low level's share of the steps: only the high level learns from here
   // (train.hl_tail_share).
-  bool in_hl_tail() const {
-    return cfg.loop.hl_tail_share > 0.0 &&
-           static_cast<double>(env_steps) >= (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
-  }
+  bool in_hl_tail() const { return in_last_share(cfg.loop.hl_tail_share); }
   // The ES updates from here on enter the HL weight average (train.hl_average_share).
-  bool in_hl_average() const {
-    return cfg.loop.hl_average_share > 0.0 && static_cast<double>(env_steps) >=
-                                                   (1.0 - cfg.loop.hl_average_share) * static_cast<double>(cfg.loop.total_env_steps);
+  bool in_hl_average() const { return in_last_share(cfg.loop.hl_average_share); }
+  // The run is in the last `share` of its env steps (never, for a share of 0).
+  bool in_last_share(double share) const {
+    return share > 0.0 && static_cast<double>(env_steps) >= (1.0 - share) * static_cast<double>(cfg.loop.total_env_steps);
   }
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
