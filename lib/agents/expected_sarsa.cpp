@@ -309,12 +309,22 @@ models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats)
 }
 
 EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& generator, const torch::Tensor& group) {
+  return choose(q_values(obs), epsilon, generator, group);
+}
+
+torch::Tensor EsAgent::q_values(const models::HlObs& obs) {
   torch::NoGradGuard no_grad;
-  const int64_t b = models::check_obs(obs, cfg_.dims);
-  const auto out = critic_(prepare(obs, false));
+  models::check_obs(obs, cfg_.dims);
+  return critic_(prepare(obs, false)).q;
+}
+
+EsAction EsAgent::choose(const torch::Tensor& q, double epsilon, at::Generator& generator,
+                         const torch::Tensor& group) const {
+  torch::NoGradGuard no_grad;
+  const int64_t b = q.size(0);
   EsAction a;
-  a.q = out.q;
-  a.greedy_bins = es_is_decoupled(cfg_.variant) ? out.q.argmax(2) : decode_joint_index(out.q.argmax(1), cfg_.n_bins);
+  a.q = q;
+  a.greedy_bins = es_is_decoupled(cfg_.variant) ? q.argmax(2) : decode_joint_index(q.argmax(1), cfg_.n_bins);
   // One coin per action dimension (see the header: keeps the other dimensions greedy while one
   // explores, so a dimension's value is not confounded by the others' exploration).
   TORCH_CHECK(group.defined() || !cfg_.team_lateral, "EsAgent::act: a team lateral lane needs the teams (group)");
@@ -339,7 +349,7 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
   n_groups += b > 0 ? 1 : 0;
   if (cfg_.team_lateral) {
     // One lane per team: the argmax of the members' summed lateral utilities (first maximum).
-    const auto team_q_y = torch::zeros({n_groups, cfg_.n_bins}, out.q.options()).index_add_(0, slot, out.q.select(1, 1));
+    const auto team_q_y = torch::zeros({n_groups, cfg_.n_bins}, q.options()).index_add_(0, slot, q.select(1, 1));
     a.greedy_bins.select(1, 1).copy_(team_q_y.argmax(1).index_select(0, slot));
   }
   const auto per_team = team_drawn_axes(cfg_);

@@ -237,6 +237,11 @@ class EsAgent {
   // and its rows share the lateral bin, greedy and explored (a per-team draw on that axis).
   EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator,
                const torch::Tensor& group = torch::Tensor());
+  // act() in two halves: the critic's action values on `obs` (EsAction::q's shape; no gradients),
+  // and the eps-greedy choice on given values of that shape (an ensemble's mean, or q_values').
+  torch::Tensor q_values(const models::HlObs& obs);
+  EsAction choose(const torch::Tensor& q, double epsilon, at::Generator& generator,
+                  const torch::Tensor& group = torch::Tensor()) const;
   // With replicas set (issue 18), every rank calls update() at the same point with its own batch
   // (T may differ, even be 0), and each gradient step is the step on the union of the ranks'
   // minibatches. The diagnostics of EsStats (loss_before, shares, spread) are this rank's.

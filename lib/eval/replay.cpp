@@ -45,7 +45,7 @@ Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint6
     return Side{path, std::nullopt};
   }
   if (path == "untrained") return Side{with_rule("untrained", rule), train::untrained_policy(blue->config, seed), rule};
-  train::RunPolicy p = train::load_run_policy(path);
+  train::RunPolicy p = train::load_policy_spec(path);
   train::check_same_race_shape(*blue, p);
   const std::string name = with_rule(p.name, rule);
   return Side{name, std::move(p), rule};
@@ -62,7 +62,7 @@ std::string seconds(double t) {
 RaceReplay run_replay(const ReplayOptions& o) {
   torch::NoGradGuard no_grad;
   const auto [blue_path, blue_rule] = parse_entry_spec(o.run);
-  Side blue{"", train::load_run_policy(blue_path), blue_rule};
+  Side blue{"", train::load_policy_spec(blue_path), blue_rule};
   blue.name = with_rule(blue.policy->name, blue_rule);
   const std::string opp = o.opponent.empty() || o.opponent == "self" ? o.run : o.opponent;
   Side red = make_side(opp, &*blue.policy, o.seed);

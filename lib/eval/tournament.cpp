@@ -103,10 +103,12 @@ void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& r
   throw std::invalid_argument("fixed_hl_bins: HlOverride::none means the run's own HL policy, not a fixed rule");
 }
 
-RandomStream control_stream(std::uint64_t seed, int env) {
-  // Not the (seed * 1000003, env) streams that draw the tracks: its own ids under the plain seed.
-  return RandomStream(seed, 0xC0470000ULL + static_cast<std::uint64_t>(env));
+RandomStream control_stream(std::uint64_t seed, int race) {
+  // Not the (seed * 1000003, ...) streams that draw the tracks: its own ids under the plain seed.
+  return RandomStream(seed, 0xC0470000ULL + static_cast<std::uint64_t>(race));
 }
+
+std::uint64_t track_stream_id(int track) { return 0x7A0C000000000000ULL + static_cast<std::uint64_t>(track); }
 
 bool in_variant_statistics(const Entry& entry, const TournamentOptions& options) {
   if (is_control(entry) || is_autopilot(entry)) return false;
@@ -118,12 +120,13 @@ namespace {
 
 struct Game {
   int pair, blue, red;
+  int race;  // index in its pairing: track race / 2, sides swapped on odd races
 };
 
 // Every rank's race records, on every rank: fixed-width rows of doubles (each field a small
 // integer or the duration, exact in a double), padded to the longest rank's count.
 std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceRecord>& mine, std::uint64_t track_seed) {
-  constexpr std::size_t kFields = 12;
+  constexpr std::size_t kFields = 13;
   std::vector<std::int64_t> counts(group.size(), 0);
   counts[group.rank()] = static_cast<std::int64_t>(mine.size());
   group.allreduce_sum(counts);
@@ -131,9 +134,10 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
   std::vector<double> packed(rows * kFields, -1.0);
   for (std::size_t i = 0; i < mine.size(); ++i) {
     const RaceRecord& r = mine[i];
-    const double f[kFields] = {double(r.pair),       double(r.blue),     double(r.red),         double(r.env),
-                               double(r.race_in_env), double(r.winner),  double(r.end_reason),  r.duration_s,
-                               double(r.blue_out),   double(r.red_out),  double(r.blue_blocks), double(r.red_blocks)};
+    const double f[kFields] = {double(r.pair),     double(r.blue),      double(r.red),       double(r.env),
+                               double(r.race),     double(r.track),     double(r.winner),    double(r.end_reason),
+                               r.duration_s,       double(r.blue_out),  double(r.red_out),   double(r.blue_blocks),
+                               double(r.red_blocks)};
     std::copy(f, f + kFields, packed.begin() + static_cast<std::ptrdiff_t>(i * kFields));
   }
   const std::vector<double> all = group.allgather(packed);
@@ -146,14 +150,15 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
       r.blue = static_cast<int>(f[1]);
       r.red = static_cast<int>(f[2]);
       r.env = static_cast<int>(f[3]);
-      r.race_in_env = static_cast<int>(f[4]);
-      r.winner = static_cast<int>(f[5]);
-      r.end_reason = static_cast<int>(f[6]);
-      r.duration_s = f[7];
-      r.blue_out = static_cast<int>(f[8]);
-      r.red_out = static_cast<int>(f[9]);
-      r.blue_blocks = static_cast<int>(f[10]);
-      r.red_blocks = static_cast<int>(f[11]);
+      r.race = static_cast<int>(f[4]);
+      r.track = static_cast<int>(f[5]);
+      r.winner = static_cast<int>(f[6]);
+      r.end_reason = static_cast<int>(f[7]);
+      r.duration_s = f[8];
+      r.blue_out = static_cast<int>(f[9]);
+      r.red_out = static_cast<int>(f[10]);
+      r.blue_blocks = static_cast<int>(f[11]);
+      r.red_blocks = static_cast<int>(f[12]);
       r.track_seed = track_seed;
       out.push_back(r);
     }
@@ -173,7 +178,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     for (const std::string& q : o.runs)
       if (&q != &r && fs::weakly_canonical(q) == fs::weakly_canonical(r))
         throw io::InputError("tournament: " + r + " is given twice in --runs; list each run folder once");
-    pol.push_back(train::load_run_policy(r));
+    pol.push_back(train::load_policy_spec(r));
     // Races use the first run's race; every entry must have been trained for the same shapes.
     train::check_same_race_shape(pol.front(), pol.back());
     res.entries.push_back(Entry{pol.back().name, r, agents::es_variant_name(pol.back().config.hl.variant),
@@ -208,17 +213,21 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   int pair = 0;
   for (int i = 0; i < n_entries; ++i)
     for (int j = i + 1; j < n_entries; ++j, ++pair)
-      for (int r = 0; r < o.races_per_pair; ++r) games.push_back(r % 2 == 0 ? Game{pair, i, j} : Game{pair, j, i});
+      for (int r = 0; r < o.races_per_pair; ++r)
+        games.push_back(r % 2 == 0 ? Game{pair, i, j, r} : Game{pair, j, i, r});
 
   c10::InferenceMode inference;  // as the trainer's rollout: no autograd bookkeeping on any tensor of a race
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   const int ts = rc.team_size, n_agent = rc.n_agent();
   // One batch of envs for the whole tournament: an env whose race ends takes the next game at
-  // once (its auto-reset already drew a fresh track and start), so no env idles until the
-  // slowest race of a batch is over.
+  // once, so no env idles until the slowest race of a batch is over. Each game's track and start
+  // come from its own stream, race r of every pairing on track r / 2 (both sides of each track
+  // flown, sides swapped), and its @random draws from the race's own: the same race whatever
+  // env slot it lands in, so pairings within a tournament and the same pairing in tournaments of
+  // other entries race the same tracks (common random numbers for paired comparisons).
   const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size()));
-  // Ranks: this one races envs [lo, hi) of the n; env ids (and so tracks, starts and @random
-  // draws) are the batch's, so the split changes no race.
+  // Ranks: this one races envs [lo, hi) of the n; every rank makes the same assignments, so the
+  // split changes no race.
   const int world = group ? group->size() : 1, rank = group ? group->rank() : 0;
   if (n < world)
     throw io::InputError("tournament: " + std::to_string(n) + " races at once cannot be split over " +
@@ -230,11 +239,10 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   rc.seed = o.seed * 1000003ULL;
   race::RaceEnv env(rc, lo);
   race::BlockCounter blocks(env);
-  // The @random rule's draws: one stream per env, used only at that env's own HL decisions.
-  std::vector<RandomStream> control_rng;
-  for (int e = 0; e < nl; ++e) control_rng.push_back(control_stream(o.seed, lo + e));
+  // The @random rule's draws: the stream of the env's current race, used only at its own HL
+  // decisions.
+  std::vector<RandomStream> control_rng(nl, control_stream(o.seed, 0));
   std::vector<long> env_game(n, -1);  // game index raced in each env of the whole batch, -1 idle
-  std::vector<int> race_in_env(nl, 0);
   std::vector<int> out_blue(nl, 0), out_red(nl, 0);
   std::vector<int> owner(static_cast<std::size_t>(nl) * n_agent, -1);  // entry flying this rank's aircraft i
   std::size_t next_game = 0;
@@ -244,10 +252,11 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     if (eg < lo || eg >= hi) return;
     const int e = eg - lo;
     out_blue[e] = out_red[e] = 0;
-    for (int a = 0; a < n_agent; ++a) {
-      const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
-      owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
-    }
+    const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
+    for (int a = 0; a < n_agent; ++a) owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
+    if (!g) return;
+    env.start_race(e, track_stream_id(g->race / 2));
+    control_rng[e] = control_stream(o.seed, g->race);
   };
   for (int e = 0; e < n; ++e) assign(e);
   // Aircraft rows per entry: every network acts only on the aircraft it flies.
@@ -320,7 +329,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       r.red = g.red;
       r.track_seed = rc.seed;
       r.env = lo + e;
-      r.race_in_env = race_in_env[e]++;
+      r.race = g.race;
+      r.track = g.race / 2;
       const int w = env.race_winner()[e];
       r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
       r.end_reason = env.race_end()[e];
@@ -363,8 +373,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     }
   }
   // Races finish in env order, not game order: sort for a stable races.csv.
-  std::stable_sort(res.races.begin(), res.races.end(), [](const RaceRecord& x, const RaceRecord& y) {
-    return x.env != y.env ? x.env < y.env : x.race_in_env < y.race_in_env;
+  std::sort(res.races.begin(), res.races.end(), [](const RaceRecord& x, const RaceRecord& y) {
+    return x.pair != y.pair ? x.pair < y.pair : x.race < y.race;
   });
   return res;
 }

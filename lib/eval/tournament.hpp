@@ -49,9 +49,14 @@ std::pair<std::string, HlOverride> parse_entry_spec(const std::string& spec);
 // must not be none (that is the run's policy).
 void fixed_hl_bins(HlOverride rule, int hl_bins, int n_aircraft, RandomStream& rng, std::int64_t* out);
 
-// The random stream of the @random rule in env `env` of a tournament (or replay) seeded `seed`:
-// independent of the track streams, and of the thread count (drawn serially, per env).
-RandomStream control_stream(std::uint64_t seed, int env);
+// The random stream of the @random rule in race `race` of each pairing of a tournament (or in a
+// replay, race 0) seeded `seed`: independent of the track streams, and of the thread count
+// (drawn serially, per race).
+RandomStream control_stream(std::uint64_t seed, int race);
+
+// The stream id (under the tournament's track seed) that draws track `track` and its start:
+// race r of every pairing is flown on track r / 2.
+std::uint64_t track_stream_id(int track);
 
 struct TournamentOptions {
   std::vector<std::string> runs;  // run folders written by `f16race train`
@@ -89,10 +94,12 @@ bool in_variant_statistics(const Entry& entry, const TournamentOptions& options)
 
 struct RaceRecord {
   int pair = 0, blue = 0, red = 0;  // entry indices
-  // The track and start: race number race_in_env of env `env` of a RaceEnv seeded track_seed.
+  int race = 0;                     // index in its pairing: even races blue = the lower entry
+  // The track and start: drawn by a RaceEnv seeded track_seed from stream track_stream_id(track),
+  // track = race / 2 (each track flown from both sides). `env`: the env slot that raced it.
   std::uint64_t track_seed = 0;
+  int track = 0;
   int env = 0;
-  int race_in_env = 0;
   int winner = -1;                  // entry index, -1 draw
   int end_reason = 0;               // RaceEnv::EndReason
   double duration_s = 0.0;

@@ -156,33 +156,30 @@ TournamentStatistics tournament_statistics(const TournamentResult& r, const Tour
 }
 
 void write_races_csv(const TournamentResult& r, const std::string& path) {
-  std::vector<std::vector<double>> cols(8);
-  std::vector<double> durations, race_idx, blue_blocks, red_blocks;
+  std::vector<std::vector<double>> cols(13);
   std::vector<std::vector<std::string>> names(3);
   for (const RaceRecord& x : r.races) {
-    cols[0].push_back(x.pair);
-    cols[1].push_back(static_cast<double>(r.entries[x.blue].seed));
-    cols[2].push_back(static_cast<double>(r.entries[x.red].seed));
-    cols[3].push_back(static_cast<double>(x.track_seed));
-    cols[4].push_back(x.env);
-    race_idx.push_back(x.race_in_env);
-    cols[5].push_back(x.end_reason);
-    durations.push_back(x.duration_s);
-    cols[6].push_back(x.blue_out);
-    cols[7].push_back(x.red_out);
-    blue_blocks.push_back(x.blue_blocks);
-    red_blocks.push_back(x.red_blocks);
+    const double f[13] = {double(x.pair),
+                          double(x.race),
+                          static_cast<double>(r.entries[x.blue].seed),
+                          static_cast<double>(r.entries[x.red].seed),
+                          static_cast<double>(x.track_seed),
+                          double(x.track),
+                          double(x.env),
+                          double(x.end_reason),
+                          double(x.blue_out),
+                          double(x.red_out),
+                          x.duration_s,
+                          double(x.blue_blocks),
+                          double(x.red_blocks)};
+    for (int c = 0; c < 13; ++c) cols[c].push_back(f[c]);
     names[0].push_back(r.entries[x.blue].name);
     names[1].push_back(r.entries[x.red].name);
     names[2].push_back(x.winner < 0 ? "draw" : r.entries[x.winner].name);
   }
-  cols.push_back(durations);
-  cols.push_back(race_idx);
-  cols.push_back(blue_blocks);
-  cols.push_back(red_blocks);
   io::write_csv(path,
-                {"pair", "blue_seed", "red_seed", "track_stream_seed", "track_stream_env", "end_reason",
-                 "blue_terminated", "red_terminated", "duration_s", "track_stream_race", "blue_blocks", "red_blocks"},
+                {"pair", "race", "blue_seed", "red_seed", "track_seed", "track", "env", "end_reason",
+                 "blue_terminated", "red_terminated", "duration_s", "blue_blocks", "red_blocks"},
                 cols, {"blue", "red", "winner"}, names);
 }
 

@@ -171,6 +171,12 @@ void RaceEnv::reset() {
   }
 }
 
+void RaceEnv::start_race(int env, std::uint64_t stream_id) {
+  rng_[env] = RandomStream(config_.seed, stream_id);
+  reset_env(env);
+  write_observations(env);
+}
+
 void RaceEnv::copy_final_observations(int env) {
   const std::size_t a0 = static_cast<std::size_t>(env) * n_agent_, a1 = a0 + n_agent_;
   auto copy = [&](const auto& src, auto& dst, std::size_t width) {

@@ -70,6 +70,11 @@ class RaceEnv {
 
   // Starts every race afresh (new tracks from each env's stream) and writes observations.
   void reset();
+  // Starts env `env`'s next race now, its track and start drawn from the stream (seed,
+  // stream_id) instead of the env's own: an evaluation that names its races (a tournament's
+  // game k) gets the same race whichever env slot it lands in. The env's later auto-resets go
+  // on from that stream. This step's outputs (env_done, causes, rewards) are left as they were.
+  void start_race(int env, std::uint64_t stream_id);
   // Advances every env by one LL step. actions: [n_env, n_agent, 3] in [-1, 1] (clamped).
   StepStats step(const float* actions);
   // Sets HL goals for the envs whose hl_due() flag is up; others are ignored. bins: [n_env,

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include "io/input_error.hpp"
@@ -62,6 +63,45 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   return p;
 }
 
+RunPolicy load_ensemble_policy(const std::vector<std::string>& run_dirs) {
+  if (run_dirs.size() < 2) throw io::InputError("an ensemble needs at least two run folders joined by '+'");
+  auto file_bytes = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  RunPolicy p = load_run_policy(run_dirs.front());
+  const std::string ll_bytes = file_bytes(fs::path(p.checkpoint_dir) / "ll.pt");
+  for (std::size_t k = 1; k < run_dirs.size(); ++k) {
+    RunPolicy m = load_run_policy(run_dirs[k]);
+    check_same_race_shape(p, m);
+    // One low level flies every decision: the members' values are only comparable for it.
+    if (file_bytes(fs::path(m.checkpoint_dir) / "ll.pt") != ll_bytes)
+      throw io::InputError(m.checkpoint_dir + "/ll.pt: another low level than " + p.checkpoint_dir +
+                           "/ll.pt; an ensemble joins high levels trained against one low level");
+    if (m.config.hl.variant != p.config.hl.variant || m.config.hl.n_bins != p.config.hl.n_bins ||
+        m.config.hl.team_lateral != p.config.hl.team_lateral)
+      throw io::InputError(run_dirs[k] + ": another high-level variant, bin count or hl.lateral than " +
+                           run_dirs.front() + "; an ensemble joins critics of one kind");
+    p.name += "+" + m.name;
+    p.hl_members.push_back(std::move(m.hl));
+  }
+  return p;
+}
+
+RunPolicy load_policy_spec(const std::string& spec) {
+  if (spec.find('+') == std::string::npos || fs::exists(spec)) return load_run_policy(spec);
+  std::vector<std::string> dirs;
+  for (std::size_t start = 0;;) {
+    const std::size_t plus = spec.find('+', start);
+    dirs.push_back(spec.substr(start, plus - start));
+    if (plus == std::string::npos) break;
+    start = plus + 1;
+  }
+  for (const std::string& d : dirs)
+    if (d.empty()) throw io::InputError(spec + ": an empty run folder in an ensemble; join run folders as RUN+RUN");
+  return load_ensemble_policy(dirs);
+}
+
 void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
   // The same bins mean other goals in another frame: such a run would fly other lanes than it learned.
   if (reference.config.race.goal_frame != other.config.race.goal_frame)
@@ -95,7 +135,13 @@ void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::T
                     at::Generator& gen, std::int64_t* bins) {
   if (rows.numel() == 0) return;
   const torch::Tensor team = p.hl->config().team_lateral ? rows.div(p.config.race.team_size, "floor") : torch::Tensor();
-  scatter_rows(rows, p.hl->act(models::index_rows(obs, rows), epsilon, gen, team).bins, bins);
+  const models::HlObs mine = models::index_rows(obs, rows);
+  torch::Tensor q = p.hl->q_values(mine);
+  if (!p.hl_members.empty()) {
+    for (const auto& m : p.hl_members) q = q + m->q_values(mine);
+    q = q / static_cast<double>(p.hl_members.size() + 1);
+  }
+  scatter_rows(rows, p.hl->choose(q, epsilon, gen, team).bins, bins);
 }
 
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed) {

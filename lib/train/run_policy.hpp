@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "agents/expected_sarsa.hpp"
 #include "agents/ppo.hpp"
@@ -23,6 +24,9 @@ struct RunPolicy {
   models::ObsDims dims;
   std::unique_ptr<agents::PpoAgent> ll;
   std::unique_ptr<agents::EsAgent> hl;
+  // An ensemble's other high levels (load_ensemble_policy): the policy is greedy on the mean of
+  // hl's and their action values. Empty for a run.
+  std::vector<std::unique_ptr<agents::EsAgent>> hl_members;
 };
 
 // Loads the LATEST checkpoint of `run_dir`; a run trained with train.hl_average_share acts on its
@@ -30,6 +34,17 @@ struct RunPolicy {
 // fix when the folder is not a run, has no checkpoint, was written by another config.yaml
 // (hash mismatch) or a checkpoint file is unreadable.
 RunPolicy load_run_policy(const std::string& run_dir);
+
+// The mean-Q ensemble of the high levels of several runs that share one low level (the same
+// ll.pt bytes: e.g. high-level tails trained from one run's checkpoint): the first run's low level
+// flies, and each decision is eps-greedy on the mean of the runs' action values, each critic on
+// its own normalised observations. The name joins the folders' names with '+'. Throws
+// io::InputError naming the run and the fix when the runs' low levels, variants or bins differ.
+RunPolicy load_ensemble_policy(const std::vector<std::string>& run_dirs);
+
+// The policy a tournament or replay entry names: a run folder, or folders joined by '+' (an
+// ensemble, above) when no folder has that name.
+RunPolicy load_policy_spec(const std::string& spec);
 
 // Throws io::InputError naming `other`'s folder unless it was trained for the same race
 // shapes (team size, observation sizes) and goal frame as `reference`, so their policies can

@@ -14,6 +14,10 @@
 #include "eval/tournament.hpp"
 #include "eval/tournament_report.hpp"
 #include "io/yaml_config.hpp"
+#include "io/input_error.hpp"
+#include "race/race_env.hpp"
+#include "train/obs_views.hpp"
+#include "train/run_policy.hpp"
 #include "train/trainer.hpp"
 
 namespace f16race::eval {
@@ -86,6 +90,94 @@ TEST(Tournament, CountsEveryRaceOnceWithSidesSwapped) {
     EXPECT_LE(lo, v["iqm"].as<double>() + 1e-12);
     EXPECT_GE(hi, v["iqm"].as<double>() - 1e-12);
   }
+}
+
+// Common random numbers: race r of a pairing is flown on track r / 2 from its own stream, so it is
+// the same race whichever env slot it lands in and whichever other entries the tournament has
+// (before, a race's track followed the order in which the batch's envs came free).
+TEST(Tournament, EachRaceIsTheSameWhateverItsEnvSlotAndTheOtherEntries) {
+  TournamentOptions o;
+  o.runs = {trained_run("crn_a", 1), trained_run("crn_b", 2)};
+  o.races_per_pair = 8;
+  o.batch_envs = 7;
+  const TournamentResult wide = run_tournament(o);  // a, b, untrained: pair 0 is a vs b
+  o.include_untrained = false;
+  o.batch_envs = 3;
+  const TournamentResult narrow = run_tournament(o);  // a vs b alone, in other env slots
+  std::vector<RaceRecord> w, n;
+  for (const RaceRecord& x : wide.races)
+    if (x.pair == 0) w.push_back(x);
+  for (const RaceRecord& x : narrow.races) n.push_back(x);
+  ASSERT_EQ(w.size(), 8u);
+  ASSERT_EQ(n.size(), 8u);
+  int other_slot = 0;
+  std::set<double> durations;
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    EXPECT_EQ(w[k].race, static_cast<int>(k));
+    EXPECT_EQ(n[k].race, static_cast<int>(k));
+    EXPECT_EQ(w[k].track, static_cast<int>(k) / 2);
+    EXPECT_EQ(w[k].blue, n[k].blue);
+    EXPECT_EQ(w[k].blue, k % 2 == 0 ? 0 : 1) << "even races: the lower entry is blue";
+    EXPECT_EQ(w[k].winner, n[k].winner) << "race " << k;
+    EXPECT_EQ(w[k].end_reason, n[k].end_reason) << "race " << k;
+    EXPECT_DOUBLE_EQ(w[k].duration_s, n[k].duration_s) << "race " << k;
+    EXPECT_EQ(w[k].blue_out, n[k].blue_out) << "race " << k;
+    EXPECT_EQ(w[k].red_out, n[k].red_out) << "race " << k;
+    other_slot += w[k].env != n[k].env;
+    durations.insert(w[k].duration_s);
+  }
+  EXPECT_GT(other_slot, 0) << "the test needs races that ran in other env slots";
+  EXPECT_GT(durations.size(), 1u) << "the races should differ from each other";
+}
+
+// An ensemble entry RUN+RUN: the first run's low level, the greedy bins of the mean of the
+// critics' action values, each on its own normalised observations; runs over another low level
+// are refused.
+TEST(TournamentEnsemble, GreedyOnTheMeanOfTheCriticsOverOneLowLevel) {
+  const std::string a = trained_run("ens_a", 1);
+  const fs::path b = fs::temp_directory_path() / "f16race_tour_ens_b";
+  fs::remove_all(b);
+  fs::copy(a, b, fs::copy_options::recursive);
+  const std::string hl_b = b.string() + "/checkpoint/" + train::latest_checkpoint_name(b.string()) + "/hl.pt";
+  {
+    // Another high level over the same low level: b's critic perturbed and saved back.
+    train::RunPolicy pb = train::load_run_policy(b.string());
+    torch::NoGradGuard no_grad;
+    torch::manual_seed(11);
+    for (auto& w : pb.hl->critic()->parameters()) w.add_(0.5 * torch::randn_like(w));
+    pb.hl->save(hl_b);
+  }
+  train::RunPolicy pa = train::load_run_policy(a), pb = train::load_run_policy(b.string());
+  train::RunPolicy ens = train::load_policy_spec(a + "+" + b.string());
+  EXPECT_EQ(ens.name, "f16race_tour_ens_a+f16race_tour_ens_b");
+  ASSERT_EQ(ens.hl_members.size(), 1u);
+
+  race::RaceConfig rc = pa.config.race;
+  rc.n_env = 3;
+  race::RaceEnv env(rc);
+  const models::HlObs obs = train::hl_obs_view(env);
+  const int n = env.n_aircraft();
+  const torch::Tensor rows = torch::arange(n, torch::kInt64);
+  at::Generator gen = models::make_generator(1);
+  std::vector<std::int64_t> bins_ens(static_cast<std::size_t>(n) * 3, -1), bins_a(bins_ens), bins_b(bins_ens);
+  train::policy_hl_bins(ens, obs, rows, 0.0, gen, bins_ens.data());
+  train::policy_hl_bins(pa, obs, rows, 0.0, gen, bins_a.data());
+  train::policy_hl_bins(pb, obs, rows, 0.0, gen, bins_b.data());
+  const torch::Tensor q = 0.5 * (pa.hl->q_values(obs) + pb.hl->q_values(obs));  // decoupled: [n, 3, bins]
+  const torch::Tensor expect = q.argmax(2).contiguous();
+  const std::int64_t* e = expect.data_ptr<std::int64_t>();
+  for (int k = 0; k < n * 3; ++k) EXPECT_EQ(bins_ens[k], e[k]) << k;
+  EXPECT_NE(bins_a, bins_b) << "the test needs two critics that choose differently";
+
+  // A run over another low level is refused, naming its ll.pt.
+  const std::string c = trained_run("ens_c", 2);
+  try {
+    train::load_policy_spec(a + "+" + c);
+    ADD_FAILURE() << "expected a refusal";
+  } catch (const io::InputError& err) {
+    EXPECT_NE(std::string(err.what()).find("ll.pt: another low level"), std::string::npos) << err.what();
+  }
+  EXPECT_THROW(train::load_policy_spec(a + "+"), io::InputError);
 }
 
 TEST(TournamentControls, CenterRuleIsTheMiddleBinEverywhere) {
