@@ -100,6 +100,10 @@ case_ "tournament batch 0" -- "$bin" tournament --runs "$run" --batch 0 --out t5
 case_ "tournament epsilon 2" -- "$bin" tournament --runs "$run" --epsilon 2 --out t6
 case_ "tournament one entry" -- "$bin" tournament --runs "$run" --no-untrained --out t7
 case_ "tournament rule typo" -- "$bin" tournament --runs "$run@centre" --out t8
+"$bin" train --config "$smoke" --run other_ll --seed 2 --max-updates 1 --quiet >/dev/null || { echo "FAIL: setup run 2"; exit 1; }
+case_ "tournament ensemble over two low levels" -- "$bin" tournament --runs "$run+other_ll" --out t16
+case_ "tournament ensemble with a missing run" -- "$bin" tournament --runs "$run+$work/nothing" --out t17
+case_ "tournament ensemble with an empty member" -- "$bin" tournament --runs "$run+" --out t18
 case_ "tournament out under a device" -- "$bin" tournament --runs "$run" --races 2 --out /dev/null/t9
 case_ "tournament negative seed" -- "$bin" tournament --runs "$run" --seed -1 --out t10
 case_ "tournament rank outside the group" -- env WORLD_SIZE=2 RANK=2 "$bin" tournament --runs "$run" --out t11
