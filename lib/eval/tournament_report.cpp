@@ -269,7 +269,7 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   const int n = static_cast<int>(r.entries.size());
   const std::size_t nv = s.variants.size();
   std::ostringstream md;
-  md << "# Tournament\n\n" << o.races_per_pair << " races per pair (sides swapped in half), HL epsilon " << o.epsilon
+  md << "# Tournament\n\n" << o.races_per_pair << " races per pair (race r on track r / 2: each track from both sides), HL epsilon " << o.epsilon
      << ", " << r.races.size() << " races in all.\n\n"
      << "| variant | runs | races | total winrate (mean +- std over runs) | IQM of pairing winrates [95% CI] "
         "| blocks per race |\n"
