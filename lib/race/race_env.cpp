@@ -148,6 +148,7 @@ RaceEnv::RaceEnv(const RaceConfig& config, int first_env_id)
     tracks_.emplace_back(track_slices_.back().get(), config_.track);
   }
   rng_.reserve(n_env());
+  first_env_id_ = first_env_id;
   for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(first_env_id + e));
   visit_arrays(*this, [&](const char*, auto& v, Extent x, auto init) {
     v.assign(extent_size(x), static_cast<typename std::decay_t<decltype(v)>::value_type>(init));
@@ -175,6 +176,11 @@ void RaceEnv::start_race(int env, std::uint64_t stream_id) {
   rng_[env] = RandomStream(config_.seed, stream_id);
   reset_env(env);
   write_observations(env);
+}
+
+void RaceEnv::reseed_streams(std::uint64_t salt) {
+  for (int e = 0; e < n_env(); ++e)
+    rng_[e] = RandomStream(config_.seed, (salt << 32) + static_cast<std::uint64_t>(first_env_id_ + e));
 }
 
 void RaceEnv::copy_final_observations(int env) {

@@ -75,6 +75,10 @@ class RaceEnv {
   // game k) gets the same race whichever env slot it lands in. The env's later auto-resets go
   // on from that stream. This step's outputs (env_done, causes, rewards) are left as they were.
   void start_race(int env, std::uint64_t stream_id);
+  // Every env's stream becomes (seed, (salt << 32) + env id) for salt > 0: the races that begin
+  // from here on draw other tracks and starts (a tail member's, train.tail_member); the races
+  // under way go on.
+  void reseed_streams(std::uint64_t salt);
   // Advances every env by one LL step. actions: [n_env, n_agent, 3] in [-1, 1] (clamped).
   StepStats step(const float* actions);
   // Sets HL goals for the envs whose hl_due() flag is up; others are ignored. bins: [n_env,
@@ -225,6 +229,7 @@ class RaceEnv {
   std::vector<std::unique_ptr<std::pmr::monotonic_buffer_resource>> track_slices_;
   std::vector<Track> tracks_;
   std::vector<RandomStream> rng_;
+  int first_env_id_ = 0;
   std::vector<double> time_s_, hl_time_left_s_;
   std::vector<std::uint8_t> hl_due_, env_done_;
   std::vector<std::int8_t> race_winner_, race_end_;

@@ -119,6 +119,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
   r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
   r.read("hl_average_share", &c->hl_average_share, 0.0, 0.95);
+  r.read("tail_member", &c->tail_member, 0, 1000000);
   r.finish();
 }
 
@@ -169,6 +170,10 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
     throw io::ConfigError(source + ": train.hl_average_share = " + io::format_double(c.loop.hl_average_share) +
                           " averages the high level's weights where the low level still learns (train.hl_tail_share = " +
                           io::format_double(c.loop.hl_tail_share) + "): set it at most train.hl_tail_share");
+  if (c.loop.tail_member > 0 && c.loop.hl_tail_share == 0.0)
+    throw io::ConfigError(source + ": train.tail_member = " + std::to_string(c.loop.tail_member) +
+                          " draws another HL-only tail, and train.hl_tail_share is 0 (no tail): set "
+                          "train.hl_tail_share > 0, or leave train.tail_member at 0");
   if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");

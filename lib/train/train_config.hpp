@@ -38,6 +38,11 @@ struct LoopConfig {
   // reads it. At most hl_tail_share (or any with ll_pilot autopilot): only where the low level is
   // frozen are the targets stationary (docs/learning.md, "A weight average over the tail").
   double hl_average_share = 0.0;
+  // > 0: from the first update of the HL-only tail on, the run draws from member m's random
+  // streams (new races' tracks and starts, matchups, exploration, ES minibatch order): tails of
+  // one low level, each an independent draw, for an ensemble of high levels (a tournament entry
+  // RUN+RUN+RUN; docs/learning.md, "An ensemble of tails"). 0: the run's own streams throughout.
+  int tail_member = 0;
 };
 
 struct PoolConfig {

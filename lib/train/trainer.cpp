@@ -180,6 +180,8 @@ struct Trainer::State {
   PolicyRows ll_rows{2, 0}, hl_rows{2, 0};  // [n_env * n_agent] learner (0) and pool (1) rows
   at::Generator gen;
   RandomStream stream{1, 0xC0FFEE};
+  // train.tail_member: the tail's streams have been switched to the member's (start_tail_member).
+  bool tail_reseeded = false;
   int n_env = 0, n_agent = 0, ts = 0;  // n_env: this rank's envs
   int n_env_global = 0;                // race.n_env: the group's
   models::ObsDims dims;
@@ -276,6 +278,9 @@ struct Trainer::State {
   bool in_last_share(double share) const {
     return share > 0.0 && static_cast<double>(env_steps) >= (1.0 - share) * static_cast<double>(cfg.loop.total_env_steps);
   }
+  // train.tail_member m > 0, at the first update of the HL-only tail: the env's track streams,
+  // the matchup stream, the exploration generator and the ES minibatch order become member m's.
+  void start_tail_member();
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
   void ll_step(bool learn);
@@ -323,6 +328,21 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
   // Added after the key above was fixed: checkpoints written before it resume with nan here.
   v.optional_reals("last_middle_share", last_es.middle_share[0], last_es.middle_share[1], last_es.middle_share[2]);
   v.reals("wall", wall_s);
+  // Only with a tail member, so the checkpoints of every other run keep their bytes.
+  if (cfg.loop.tail_member > 0) {
+    double reseeded = tail_reseeded ? 1.0 : 0.0;
+    v.optional_reals("tail_reseeded", reseeded);
+    tail_reseeded = reseeded != 0.0;
+  }
+}
+
+void Trainer::State::start_tail_member() {
+  const std::uint64_t m = static_cast<std::uint64_t>(cfg.loop.tail_member);
+  env->reseed_streams(m);
+  stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank) + (m << 32));
+  gen.set_current_seed(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003 + m * 0x9E3779B97F4A7C15ULL);
+  es->minibatch_generator().set_current_seed(cfg.hl.seed + m * 0x9E3779B97F4A7C15ULL);
+  tail_reseeded = true;
 }
 
 Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
@@ -1206,6 +1226,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   const std::int64_t rank_steps_at_start = s.rank_env_steps;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
+    if (s.cfg.loop.tail_member > 0 && !s.tail_reseeded && s.in_hl_tail()) s.start_tail_member();
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
     const std::int64_t steps_before = s.env_steps;
     if (ll_phase) {

@@ -224,6 +224,45 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
             std::string::npos);
 }
 
+// train.tail_member: the same run up to the HL-only tail (every metrics row, the low level bit for
+// bit), another high level after it from the member's streams, and a run stopped inside its tail
+// resumes to the same hl.pt as the unbroken one.
+TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
+  const std::string tail = "train.hl_tail_share=0.5";
+  Trainer a(smoke(tail), fresh_dir("member_0"));
+  const TrainSummary plain = a.run();
+  TrainConfig member = smoke(tail);
+  member.loop.tail_member = 1;
+  Trainer b(member, fresh_dir("member_1"));
+  const TrainSummary other = b.run();
+  EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
+  EXPECT_NE(b.hl_parameters(), a.hl_parameters());
+  std::size_t k = 0;  // the first update in the tail
+  while (k < other.rows.size() && other.rows[k].env_steps < 300) ++k;
+  ASSERT_LT(k + 2, other.rows.size());
+  ASSERT_EQ(plain.rows.size(), other.rows.size());
+  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
+  for (std::size_t i = 0; i <= k; ++i) {  // row k is the update that crossed into the tail
+    EXPECT_EQ(other.rows[i].env_steps, plain.rows[i].env_steps) << "update " << i;
+    EXPECT_TRUE(same(other.rows[i].ll_return, plain.rows[i].ll_return)) << "update " << i;
+    EXPECT_TRUE(same(other.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
+  }
+  bool differs = false;
+  for (std::size_t i = k + 1; i < other.rows.size(); ++i)
+    differs = differs || !same(other.rows[i].es_loss, plain.rows[i].es_loss);
+  EXPECT_TRUE(differs) << "the member's tail should learn from other draws";
+  const std::string split = fresh_dir("member_split");
+  {
+    Trainer c(member, split);
+    c.run(nullptr, static_cast<std::int64_t>(k) + 3);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
+  EXPECT_NE(error_of("train: {tail_member: 2}").find("train.tail_member = 2 draws another HL-only tail"),
+            std::string::npos);
+}
+
 // train.hl_average_share: the ES updates of the run's last share enter a uniform weight average
 // of the high-level critic. Training never reads it (the final weights and every metrics row are
 // the run's without it), the run's evaluated policy is the average (load_run_policy), and a run
