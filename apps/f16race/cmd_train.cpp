@@ -81,6 +81,7 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   const bool lead = dc.rank == 0;
   std::unique_ptr<dist::Group> group;
   std::unique_ptr<train::Trainer> trainer;
+  std::string run_dir;  // the run folder trained (fresh or resumed)
   if (!o.resume.empty()) {
     if (!o.overrides.empty() || !o.agent.empty() || o.seed >= 0 || o.overwrite)
       throw io::InputError("--resume continues a run exactly as configured: drop --set/--agent/--seed/--overwrite");
@@ -91,6 +92,7 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
       group = std::make_unique<dist::Group>(dc, fp.str());
     }
     trainer = train::Trainer::resume(o.resume, group.get());
+    run_dir = o.resume;
     if (lead) spdlog::info("resuming {} at update {}", o.resume, trainer->updates());
   } else {
     YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
@@ -119,6 +121,7 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
       spdlog::info("moved the run that was in {} aside to {}", run, aside);
     }
     trainer = std::make_unique<train::Trainer>(cfg, run, group.get());
+    run_dir = run;
     if (lead)
       spdlog::info("run folder {}: {} envs x {} vs {}, agent {}, {} env steps, {} threads{}", run, cfg.race.n_env,
                    cfg.race.team_size, cfg.race.team_size, agents::es_variant_name(cfg.hl.variant),
@@ -127,20 +130,21 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
                                                    cfg.race.n_env / dc.world_size)
                                      : std::string());
   }
-  const auto& cfg = trainer->config();
+  const train::TrainConfig cfg = trainer->config();  // a copy: the trainer goes before its tail members train
   const bool quiet = o.quiet || !lead;
   const bool tty = isatty(STDOUT_FILENO) != 0 && !quiet;
   std::signal(SIGINT, on_sigint);
   std::signal(SIGTERM, on_sigint);
+  std::string member_tag;  // "member m: " while train.hl_tail_members trains the run's other tails
   auto on_row = [&](const train::MetricsRow& r) {
     if (quiet) return;
     const double frac = static_cast<double>(r.env_steps) / static_cast<double>(cfg.loop.total_env_steps);
     const double eta = frac > 0 ? r.wall_s * (1.0 - frac) / frac : NAN;
     char line[400];
     std::snprintf(line, sizeof line,
-                  "%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | %3.0f ft/s | win %.2f | "
+                  "%s%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | %3.0f ft/s | win %.2f | "
                   "finish %.2f | LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, middle bin x/y/z %.2f/%.2f/%.2f",
-                  100.0 * frac, fmt_time(r.wall_s).c_str(), fmt_time(eta).c_str(), static_cast<long long>(r.update),
+                  member_tag.c_str(), 100.0 * frac, fmt_time(r.wall_s).c_str(), fmt_time(eta).c_str(), static_cast<long long>(r.update),
                   r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft, r.airspeed_ftps, r.winrate, r.finish_rate,
                   r.ll_return, r.hl_return, r.q_spread, r.middle_share[0], r.middle_share[1],
                   r.middle_share[2]);
@@ -162,6 +166,24 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
                 static_cast<long long>(sum.updates));
     throw ExitStatus{130};  // as a shell reports a command ended by SIGINT, after the checkpoint
   }
+  if (cfg.loop.hl_tail_members > 1) {
+    // The run's other tails, forked at its tail's first update: each as long as its own.
+    trainer.reset();  // its lock stays until here; the members hold their own
+    if (!quiet)
+      std::printf("%sthe run's policy is an ensemble of %d high-level tails: training %s/members/1..%d\n",
+                  tty ? "\n" : "", cfg.loop.hl_tail_members, run_dir.c_str(), cfg.loop.hl_tail_members - 1);
+    const std::vector<train::TrainSummary> members =
+        train::train_tail_members(run_dir, &g_stop, [&](int m, const train::MetricsRow& r) {
+          member_tag = "member " + std::to_string(m) + ": ";
+          on_row(r);
+        });
+    if (tty) std::printf("\n");
+    if (!members.empty() && members.back().interrupted) {
+      std::printf("interrupted: tail member %zu's checkpoint written; continue the run with --resume %s\n",
+                  members.size(), run_dir.c_str());
+      throw ExitStatus{130};
+    }
+  }
   // What improved, between the first and last tenth of this process's rows.
   const Trend goal = trend(sum.rows, &train::MetricsRow::goal_dist_ft);
   const Trend fin = trend(sum.rows, &train::MetricsRow::finish_rate);
@@ -174,10 +196,15 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
     std::printf("high-level policy: the weight average of the critic over its last %lld ES updates "
                 "(train.hl_average_share)\n",
                 static_cast<long long>(sum.hl_average_count));
+  if (cfg.loop.hl_tail_members > 1)
+    std::printf("high-level policy: greedy on the mean of %d tails' critics (the run's and %s/members/1..%d; "
+                "train.hl_tail_members)\n",
+                cfg.loop.hl_tail_members, run_dir.c_str(), cfg.loop.hl_tail_members - 1);
   if (dc.world_size > 1)
     std::printf("group of %d ranks: rank 0 spent %.0f%% of its time in collectives\n", dc.world_size,
                 100.0 * sum.communication_s / std::max(sum.time.total, 1e-9));
   if (!sum.curves_problem.empty()) std::printf("no curves.png: %s\n", sum.curves_problem.c_str());
+  if (sum.rows.empty()) return;  // a resumed run that had already reached its budget: no trend to show
   std::printf("first -> last tenth: goal distance %.0f -> %.0f ft, finish rate %.2f -> %.2f, "
               "LL return %.2f -> %.2f, HL return %.2f -> %.2f, airspeed %.0f -> %.0f ft/s\n",
               goal.first, goal.last, fin.first, fin.last, ll.first, ll.last, hl.first, hl.last, vt.first, vt.last);

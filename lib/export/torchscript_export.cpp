@@ -195,8 +195,13 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "```python\nimport torch\nhl = torch.jit.load(\"hl_policy.pt\")\nll = torch.jit.load(\"ll_policy.pt\")\n"
     << "with torch.no_grad():\n    bins = hl(ego, prev_action, ado, ado_alive, task)[\"bins\"]      # every dt_hl_s = "
     << rc.dt_hl_s << " s\n    action = ll(ego, goal, ado, ado_alive, task)[\"action\"]      # every dt_ll_s = " << rc.dt_ll_s
-    << " s\n```\n\n"
-    << "B is any batch size: one row per aircraft (decentralised execution: each aircraft acts on its own\n"
+    << " s\n```\n\n";
+  if (!p.hl_members.empty())
+    o << "The high level is an ensemble of " << p.hl_members.size() + 1
+      << " critics trained against one low level (`train.hl_tail_members`, or runs joined by `+`): `hl_policy.pt`\n"
+      << "holds each as a submodule `memberK` and answers with the greedy bins of the mean of their `q`\n"
+      << (d3 ? "(and the mean of their atom probabilities, `probs`, whose expectation that is).\n\n" : "(also returned).\n\n");
+  o << "B is any batch size: one row per aircraft (decentralised execution: each aircraft acts on its own\n"
     << "observation). Inputs are the raw observations the f16race environment writes (docs/race.md);\n"
     << "the running observation normalisation of training is inside the modules (clip ±" << p.config.ll.obs_clip
     << "). The two modules have their own cross-attention encoders (the HL critic and the LL actor-critic\n"
@@ -266,14 +271,17 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
 
 }  // namespace
 
-torch::jit::Module make_hl_module(const train::RunPolicy& p) {
-  const auto& critic = p.hl->critic();
+namespace {
+
+// One high-level critic (an agent of the run) as a module: bins, q and, for es_d3, probs.
+torch::jit::Module make_hl_critic_module(const train::RunPolicy& p, agents::EsAgent& agent) {
+  const auto& critic = agent.critic();
   const auto& cc = critic->config();
   std::ostringstream o;
   const std::vector<std::string> branches =
       cc.per_axis ? std::vector<std::string>{"_x", "_y", "_z"} : std::vector<std::string>{""};
   torch::jit::Module m =
-      start_module("f16race.HlPolicy", *critic, p.hl->normalizer(), p.config.hl.normalize_obs,
+      start_module("f16race.HlPolicy", *critic, agent.normalizer(), p.config.hl.normalize_obs,
                    Shape{p.dims, cc.d_model, cc.n_heads, p.config.hl.obs_clip, branches}, "prev_action", o);
   for (const std::string& br : branches) {
     const std::string x = "x" + br;
@@ -299,6 +307,44 @@ torch::jit::Module make_hl_module(const train::RunPolicy& p) {
       << "    q = (probs * self.net_atoms).sum(-1)\n"
       << "    return {'bins': q.argmax(2), 'q': q, 'probs': probs}\n";
   }
+  m.define(o.str());
+  m.eval();
+  return m;
+}
+
+}  // namespace
+
+torch::jit::Module make_hl_module(const train::RunPolicy& p) {
+  if (p.hl_members.empty()) return make_hl_critic_module(p, *p.hl);
+  // An ensemble (train.hl_tail_members or RUN+RUN): each critic as a submodule, greedy on the
+  // mean of their q (for es_d3 the mean of their atom probabilities, whose expectation it is).
+  std::vector<agents::EsAgent*> agents{p.hl.get()};
+  for (const auto& a : p.hl_members) agents.push_back(a.get());
+  torch::jit::Module m("f16race.HlEnsemble");
+  for (std::size_t k = 0; k < agents.size(); ++k)
+    m.register_module("member" + std::to_string(k), make_hl_critic_module(p, *agents[k]));
+  const auto& cc = p.hl->critic()->config();
+  const bool d3 = cc.decoupled && cc.n_atoms > 1;
+  const int64_t nb = cc.n_bins;
+  std::ostringstream o;
+  o << "def forward(self, ego: Tensor, prev_action: Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> "
+       "Dict[str, Tensor]:\n";
+  for (std::size_t k = 0; k < agents.size(); ++k) {
+    o << "    o" << k << " = self.member" << k << ".forward(ego, prev_action, ado, ado_alive, task)\n";
+    o << "    q" << (k == 0 ? " = " : " = q + ") << "o" << k << "['q']\n";
+    if (d3) o << "    probs" << (k == 0 ? " = " : " = probs + ") << "o" << k << "['probs']\n";
+  }
+  const std::string n = num(static_cast<double>(agents.size()));
+  o << "    q = q / " << n << "\n";
+  if (d3) o << "    probs = probs / " << n << "\n";
+  if (!cc.decoupled)
+    o << "    idx = q.argmax(1)\n"
+      << "    bins = torch.stack([torch.div(idx, " << nb * nb << ", rounding_mode='floor'), "
+      << "torch.remainder(torch.div(idx, " << nb << ", rounding_mode='floor'), " << nb << "), torch.remainder(idx, " << nb
+      << ")], 1)\n";
+  else
+    o << "    bins = q.argmax(2)\n";
+  o << "    return {'bins': bins, 'q': q" << (d3 ? ", 'probs': probs" : "") << "}\n";
   m.define(o.str());
   m.eval();
   return m;
@@ -343,13 +389,24 @@ HlReference hl_reference(train::RunPolicy& p, const ExampleObs& x) {
   torch::NoGradGuard no_grad;
   const models::HlObs raw{x.ego, x.prev_action, x.ado, x.ado_alive, x.task};
   at::Generator g = models::make_generator(0);
-  const agents::EsAction a = p.hl->act(raw, 0.0, g);
-  HlReference r{a.greedy_bins, a.q, {}};
-  if (p.config.hl.variant == agents::EsVariant::kEsD3) {
-    const models::HlObs n = p.config.hl.normalize_obs ? p.hl->normalizer()->normalize(raw, false) : raw;
-    r.probs = p.hl->critic()(n).log_probs.exp();
+  std::vector<agents::EsAgent*> agents{p.hl.get()};
+  for (const auto& a : p.hl_members) agents.push_back(a.get());
+  torch::Tensor q, probs;
+  for (agents::EsAgent* a : agents) {
+    q = q.defined() ? q + a->q_values(raw) : a->q_values(raw);
+    if (p.config.hl.variant == agents::EsVariant::kEsD3) {
+      const models::HlObs n = p.config.hl.normalize_obs ? a->normalizer()->normalize(raw, false) : raw;
+      const torch::Tensor pr = a->critic()(n).log_probs.exp();
+      probs = probs.defined() ? probs + pr : pr;
+    }
   }
-  return r;
+  const double k = static_cast<double>(agents.size());
+  if (agents.size() > 1) {
+    q = q / k;
+    if (probs.defined()) probs = probs / k;
+  }
+  const agents::EsAction a = p.hl->choose(q, 0.0, g);
+  return HlReference{a.greedy_bins, a.q, probs};
 }
 
 LlReference ll_reference(train::RunPolicy& p, const ExampleObs& x) {

@@ -36,6 +36,25 @@ RunPolicy make_policy(TrainConfig cfg) {
   return p;
 }
 
+std::string file_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// m's high level joins p's ensemble: refused unless both fly one low level with critics of one kind.
+void add_hl_member(RunPolicy& p, RunPolicy m) {
+  check_same_race_shape(p, m);
+  // One low level flies every decision: the members' values are only comparable for it.
+  if (file_bytes(fs::path(m.checkpoint_dir) / "ll.pt") != file_bytes(fs::path(p.checkpoint_dir) / "ll.pt"))
+    throw io::InputError(m.checkpoint_dir + "/ll.pt: another low level than " + p.checkpoint_dir +
+                         "/ll.pt; an ensemble joins high levels trained against one low level");
+  if (m.config.hl.variant != p.config.hl.variant || m.config.hl.n_bins != p.config.hl.n_bins ||
+      m.config.hl.team_lateral != p.config.hl.team_lateral)
+    throw io::InputError(m.run_dir + ": another high-level variant, bin count or hl.lateral than " + p.run_dir +
+                         "; an ensemble joins critics of one kind");
+  p.hl_members.push_back(std::move(m.hl));
+}
+
 }  // namespace
 
 RunPolicy load_run_policy(const std::string& run_dir) {
@@ -60,30 +79,33 @@ RunPolicy load_run_policy(const std::string& run_dir) {
     throw io::InputError((dir / step).string() + ": cannot load the policy (" + checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");
   }
+  // train.hl_tail_members: a finished run's policy is the ensemble of its tails (a run still
+  // training is evaluated as it stands: its members come at its end).
+  if (p.config.loop.hl_tail_members > 1 && p.env_steps >= p.config.loop.total_env_steps)
+    for (int m = 1; m < p.config.loop.hl_tail_members; ++m) {
+      const std::string member = (fs::path(run_dir) / "members" / std::to_string(m)).string();
+      if (!fs::is_directory(member))
+        throw io::InputError(member + ": missing, so the run's policy (an ensemble of " +
+                             std::to_string(p.config.loop.hl_tail_members) +
+                             " tails, train.hl_tail_members) is incomplete; continue it with f16race train --resume " +
+                             run_dir);
+      RunPolicy mp = load_run_policy(member);
+      if (mp.env_steps < mp.config.loop.total_env_steps)
+        throw io::InputError(member + ": tail member " + std::to_string(m) + " is at " + std::to_string(mp.env_steps) +
+                             " of " + std::to_string(mp.config.loop.total_env_steps) +
+                             " env steps; finish it with f16race train --resume " + run_dir);
+      add_hl_member(p, std::move(mp));
+    }
   return p;
 }
 
 RunPolicy load_ensemble_policy(const std::vector<std::string>& run_dirs) {
   if (run_dirs.size() < 2) throw io::InputError("an ensemble needs at least two run folders joined by '+'");
-  auto file_bytes = [](const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  };
   RunPolicy p = load_run_policy(run_dirs.front());
-  const std::string ll_bytes = file_bytes(fs::path(p.checkpoint_dir) / "ll.pt");
   for (std::size_t k = 1; k < run_dirs.size(); ++k) {
     RunPolicy m = load_run_policy(run_dirs[k]);
-    check_same_race_shape(p, m);
-    // One low level flies every decision: the members' values are only comparable for it.
-    if (file_bytes(fs::path(m.checkpoint_dir) / "ll.pt") != ll_bytes)
-      throw io::InputError(m.checkpoint_dir + "/ll.pt: another low level than " + p.checkpoint_dir +
-                           "/ll.pt; an ensemble joins high levels trained against one low level");
-    if (m.config.hl.variant != p.config.hl.variant || m.config.hl.n_bins != p.config.hl.n_bins ||
-        m.config.hl.team_lateral != p.config.hl.team_lateral)
-      throw io::InputError(run_dirs[k] + ": another high-level variant, bin count or hl.lateral than " +
-                           run_dirs.front() + "; an ensemble joins critics of one kind");
     p.name += "+" + m.name;
-    p.hl_members.push_back(std::move(m.hl));
+    add_hl_member(p, std::move(m));
   }
   return p;
 }

@@ -120,6 +120,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
   r.read("hl_average_share", &c->hl_average_share, 0.0, 0.95);
   r.read("tail_member", &c->tail_member, 0, 1000000);
+  r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
   r.finish();
 }
 
@@ -174,6 +175,14 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
     throw io::ConfigError(source + ": train.tail_member = " + std::to_string(c.loop.tail_member) +
                           " draws another HL-only tail, and train.hl_tail_share is 0 (no tail): set "
                           "train.hl_tail_share > 0, or leave train.tail_member at 0");
+  if (c.loop.hl_tail_members > 1 && c.loop.hl_tail_share == 0.0)
+    throw io::ConfigError(source + ": train.hl_tail_members = " + std::to_string(c.loop.hl_tail_members) +
+                          " is an ensemble of HL-only tails, and train.hl_tail_share is 0 (no tail): set "
+                          "train.hl_tail_share > 0, or train.hl_tail_members to 1");
+  if (c.loop.hl_tail_members > 1 && c.loop.tail_member > 0)
+    throw io::ConfigError(source + ": train.tail_member = " + std::to_string(c.loop.tail_member) +
+                          " with train.hl_tail_members = " + std::to_string(c.loop.hl_tail_members) +
+                          ": the members are the run's own forks; set one of them (tail_member 0 or hl_tail_members 1)");
   if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");

@@ -43,6 +43,11 @@ struct LoopConfig {
   // one low level, each an independent draw, for an ensemble of high levels (a tournament entry
   // RUN+RUN+RUN; docs/learning.md, "An ensemble of tails"). 0: the run's own streams throughout.
   int tail_member = 0;
+  // K > 1: the run's policy is an ensemble of K HL-only tails of its final low level, greedy on the
+  // mean of their critics' action values. The run itself is tail 0; at its tail's first update it
+  // writes a checkpoint and forks RUN/members/1..K-1 (run folders of this config with
+  // tail_member m), which `train` trains after it, each as long as the run's own tail.
+  int hl_tail_members = 1;
 };
 
 struct PoolConfig {

@@ -180,8 +180,9 @@ struct Trainer::State {
   PolicyRows ll_rows{2, 0}, hl_rows{2, 0};  // [n_env * n_agent] learner (0) and pool (1) rows
   at::Generator gen;
   RandomStream stream{1, 0xC0FFEE};
-  // train.tail_member: the tail's streams have been switched to the member's (start_tail_member).
-  bool tail_reseeded = false;
+  // The HL-only tail's first update has begun (start_tail): a tail member's streams are switched,
+  // an ensemble's members forked. Kept in trainer.pt only by runs with either.
+  bool tail_started = false;
   int n_env = 0, n_agent = 0, ts = 0;  // n_env: this rank's envs
   int n_env_global = 0;                // race.n_env: the group's
   models::ObsDims dims;
@@ -278,9 +279,14 @@ struct Trainer::State {
   bool in_last_share(double share) const {
     return share > 0.0 && static_cast<double>(env_steps) >= (1.0 - share) * static_cast<double>(cfg.loop.total_env_steps);
   }
-  // train.tail_member m > 0, at the first update of the HL-only tail: the env's track streams,
-  // the matchup stream, the exploration generator and the ES minibatch order become member m's.
-  void start_tail_member();
+  // At the first update of the HL-only tail. train.hl_tail_members K > 1: a checkpoint, then
+  // fork_tail_members. train.tail_member m > 0: the env's track streams, the matchup stream, the
+  // exploration generator and the ES minibatch order become member m's.
+  void start_tail();
+  // RUN/members/1..K-1 from the LATEST checkpoint: run folders of this config with tail_member m
+  // (config.yaml, the checkpoint under its hash, the pool, metrics.csv), each made in a temporary
+  // folder and renamed; a member folder that exists is kept (a resumed run forks once).
+  void fork_tail_members();
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
   void ll_step(bool learn);
@@ -328,25 +334,88 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
   // Added after the key above was fixed: checkpoints written before it resume with nan here.
   v.optional_reals("last_middle_share", last_es.middle_share[0], last_es.middle_share[1], last_es.middle_share[2]);
   v.reals("wall", wall_s);
-  // Only with a tail member, so the checkpoints of every other run keep their bytes.
-  if (cfg.loop.tail_member > 0) {
-    double reseeded = tail_reseeded ? 1.0 : 0.0;
-    v.optional_reals("tail_reseeded", reseeded);
-    tail_reseeded = reseeded != 0.0;
+  // Only with tail members, so the checkpoints of every other run keep their bytes.
+  if (cfg.loop.tail_member > 0 || cfg.loop.hl_tail_members > 1) {
+    double started = tail_started ? 1.0 : 0.0;
+    v.optional_reals("tail_started", started);
+    tail_started = started != 0.0;
   }
 }
 
-void Trainer::State::start_tail_member() {
-  const std::uint64_t m = static_cast<std::uint64_t>(cfg.loop.tail_member);
-  env->reseed_streams(m);
-  stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank) + (m << 32));
-  gen.set_current_seed(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003 + m * 0x9E3779B97F4A7C15ULL);
-  es->minibatch_generator().set_current_seed(cfg.hl.seed + m * 0x9E3779B97F4A7C15ULL);
-  tail_reseeded = true;
+void Trainer::State::start_tail() {
+  // The members start from the state before any of the tail's draws, with tail_started unset.
+  if (cfg.loop.hl_tail_members > 1) {
+    save_checkpoint(false);
+    if (writes()) fork_tail_members();
+  }
+  if (cfg.loop.tail_member > 0) {
+    const std::uint64_t m = static_cast<std::uint64_t>(cfg.loop.tail_member);
+    env->reseed_streams(m);
+    stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank) + (m << 32));
+    gen.set_current_seed(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003 + m * 0x9E3779B97F4A7C15ULL);
+    es->minibatch_generator().set_current_seed(cfg.hl.seed + m * 0x9E3779B97F4A7C15ULL);
+  }
+  tail_started = true;
+}
+
+void Trainer::State::fork_tail_members() {
+  const fs::path members = fs::path(run_dir) / "members";
+  const std::string ck = latest_checkpoint_name(run_dir);
+  const std::string meta = read_text((fs::path(run_dir) / "checkpoint" / ck / "meta.yaml").string());
+  for (int m = 1; m < cfg.loop.hl_tail_members; ++m) {
+    const fs::path dir = members / std::to_string(m);
+    if (fs::exists(dir)) continue;
+    const fs::path tmp = members / ("." + std::to_string(m) + ".tmp");
+    fs::remove_all(tmp);
+    fs::create_directories(tmp / "checkpoint");
+    // The member's config is this run's with two keys changed, resolved as `train --set` would.
+    YAML::Node root = io::parse_yaml_text(resolved_yaml, run_dir + "/config.yaml");
+    io::apply_override(root, "train.tail_member=" + std::to_string(m));
+    io::apply_override(root, "train.hl_tail_members=1");
+    const std::string yaml = train_config_yaml(read_train_config(root, run_dir + "/config.yaml"));
+    io::write_file_atomic((tmp / "config.yaml").string(), yaml);
+    fs::copy(fs::path(run_dir) / "checkpoint" / ck, tmp / "checkpoint" / ck, fs::copy_options::recursive);
+    const std::string key = "config_hash: ";
+    const std::size_t at = meta.find(key), end = meta.find('\n', at);
+    io::write_file_atomic((tmp / "checkpoint" / ck / "meta.yaml").string(),
+                          meta.substr(0, at + key.size()) + std::to_string(config_hash(yaml)) + meta.substr(end));
+    io::write_file_atomic((tmp / "checkpoint" / "LATEST").string(), ck);
+    fs::copy(fs::path(run_dir) / "pool", tmp / "pool", fs::copy_options::recursive);
+    fs::copy_file(fs::path(run_dir) / "metrics.csv", tmp / "metrics.csv");
+    fs::rename(tmp, dir);
+  }
 }
 
 Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
 Trainer::~Trainer() = default;
+
+namespace {
+void check_tail_members_in_one_process(const TrainConfig& cfg, int world, const std::string& source) {
+  if (cfg.loop.hl_tail_members > 1 && world > 1)
+    throw io::InputError(source + ": train.hl_tail_members = " + std::to_string(cfg.loop.hl_tail_members) +
+                         " trains its tail members in one process, not over a group of ranks; train without "
+                         "launch, or with train.hl_tail_members 1");
+}
+}  // namespace
+
+std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const std::atomic<bool>* stop,
+                                             const std::function<void(int, const MetricsRow&)>& on_row) {
+  const RunConfig run = read_run_config(run_dir);
+  std::vector<TrainSummary> out;
+  for (int m = 1; m < run.config.loop.hl_tail_members; ++m) {
+    const std::string dir = (fs::path(run_dir) / "members" / std::to_string(m)).string();
+    if (!fs::is_directory(dir))
+      throw io::InputError(dir + ": missing, so tail member " + std::to_string(m) +
+                           " was never forked (the run has not reached its tail, or the folder was removed); "
+                           "continue the run with --resume " + run_dir + ", or train it again");
+    auto member = Trainer::resume(dir);
+    out.push_back(member->run(stop, -1, [&](const MetricsRow& r) {
+      if (on_row) on_row(m, r);
+    }));
+    if (out.back().interrupted) break;
+  }
+  return out;
+}
 
 Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Group* group)
     : s_(std::make_unique<State>()) {
@@ -357,6 +426,7 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Gr
     s_->rank = group->rank();
     s_->world = group->size();
   }
+  check_tail_members_in_one_process(config, s_->world, "the config");
   if (!s_->writes()) {  // another rank: the run folder is rank 0's
     s_->resolved_yaml = train_config_yaml(config);
     s_->hash = config_hash(s_->resolved_yaml);
@@ -420,6 +490,7 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
       run.hash = config_hash(run.yaml);
     }
   }
+  check_tail_members_in_one_process(run.config, st->world, run_dir + "/config.yaml");
   st->cfg = run.config;
   st->run_dir = run_dir;
   st->resolved_yaml = std::move(run.yaml);
@@ -1226,7 +1297,8 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   const std::int64_t rank_steps_at_start = s.rank_env_steps;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
-    if (s.cfg.loop.tail_member > 0 && !s.tail_reseeded && s.in_hl_tail()) s.start_tail_member();
+    if ((s.cfg.loop.tail_member > 0 || s.cfg.loop.hl_tail_members > 1) && !s.tail_started && s.in_hl_tail())
+      s.start_tail();
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
     const std::int64_t steps_before = s.env_steps;
     if (ll_phase) {

@@ -159,4 +159,12 @@ class Trainer {
   std::unique_ptr<State> s_;
 };
 
+// train.hl_tail_members K > 1: trains the run's tail members RUN/members/1..K-1 (forked at its
+// tail's first update) to the end, one after the other, each resumed from its own LATEST
+// checkpoint (a member already at the end returns at once); stops after a member whose run was
+// interrupted by `stop`. `on_row(m, row)` for every metrics row of member m. Throws
+// io::InputError naming a member folder that is missing.
+std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const std::atomic<bool>* stop = nullptr,
+                                             const std::function<void(int, const MetricsRow&)>& on_row = {});
+
 }  // namespace f16race::train

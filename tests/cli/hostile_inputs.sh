@@ -80,6 +80,9 @@ case_ "center share in the tail 1.5" -- $T --set train.hl_tail_share=0.3 --set p
 case_ "weight average beyond the tail" -- $T --set train.hl_tail_share=0.3 --set train.hl_average_share=0.5
 case_ "weight average share 1" -- $T --set train.hl_average_share=1
 case_ "tail member without a tail" -- $T --set train.tail_member=1
+case_ "tail members without a tail" -- $T --set train.hl_tail_members=3
+case_ "tail members 17" -- $T --set train.hl_tail_share=0.3 --set train.hl_tail_members=17
+case_ "tail members of a tail member" -- $T --set train.hl_tail_share=0.3 --set train.hl_tail_members=3 --set train.tail_member=1
 case_ "--set without =" -- $T --set race.n_env
 case_ "--set empty key" -- $T --set race..n_env=3
 case_ "--set bad YAML" -- $T --set "race.n_env=[1"

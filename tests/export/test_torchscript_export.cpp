@@ -106,6 +106,39 @@ INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
                            return std::get<0>(param_info.param) + (std::get<1>(param_info.param) ? "" : "_unnormalised");
                          });
 
+// An ensemble's high level (train.hl_tail_members, RUN+RUN): the exported module answers with the
+// mean of its critics' q (and atom probabilities), each on its own normalised observations, and
+// the greedy bins of that mean, for the joint, decoupled and distributional heads.
+TEST(Export, EnsembleModuleIsTheMeanOfItsCritics) {
+  for (const std::string agent : {"es", "es_d2", "es_d3"}) {
+    train::RunPolicy p = policy_with_stats(agent);
+    for (std::uint64_t seed : {8, 9}) {
+      train::RunPolicy other = train::untrained_policy(tiny_config(agent), seed);
+      const ExampleObs y = random_example_obs(p.dims, 64, seed, 3.0);
+      other.hl->normalizer()->normalize(models::HlObs{y.ego * 3.0, y.prev_action, y.ado, y.ado_alive, y.task - 1.0}, true);
+      p.hl_members.push_back(std::move(other.hl));
+    }
+    torch::NoGradGuard no_grad;
+    const torch::jit::Module m = round_trip(make_hl_module(p), "ensemble_" + agent);
+    const ExampleObs x = random_example_obs(p.dims, 96, 5);
+    const models::HlObs raw{x.ego, x.prev_action, x.ado, x.ado_alive, x.task};
+    const torch::Tensor q = (p.hl->q_values(raw) + p.hl_members[0]->q_values(raw) + p.hl_members[1]->q_values(raw)) / 3.0;
+    const auto out = torch::jit::Module(m).forward({x.ego, x.prev_action, x.ado, x.ado_alive, x.task}).toGenericDict();
+    EXPECT_LT(diff(out.at("q").toTensor(), q), 1e-4) << agent;
+    EXPECT_GT(diff(p.hl->q_values(raw), q), 1e-3) << agent << ": the members should differ";
+    const HlReference ref = hl_reference(p, x);
+    EXPECT_LT(diff(ref.q, q), 1e-6) << agent;
+    ExportReport rep;
+    compare_bins(ref.q, ref.bins, out.at("bins").toTensor(), &rep);
+    EXPECT_TRUE(rep.bins_equal) << agent;
+    if (agent == "es_d3") {
+      ASSERT_TRUE(ref.probs.defined());
+      EXPECT_LT(diff(out.at("probs").toTensor(), ref.probs), 1e-4);
+      EXPECT_LT(diff((ref.probs * p.hl->critic()->atoms()).sum(-1), q), 1e-4) << "q is the mixture's expectation";
+    }
+  }
+}
+
 TEST(Export, BadInputShapesAreRefusedByName) {
   train::RunPolicy p = policy_with_stats("es_d3");
   torch::jit::Module ll = make_ll_module(p);

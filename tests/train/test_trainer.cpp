@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "io/atomic_file.hpp"
+#include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
 #include "train/run_policy.hpp"
 #include "train/trainer.hpp"
@@ -260,6 +261,63 @@ TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
   resumed->run();
   EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
   EXPECT_NE(error_of("train: {tail_member: 2}").find("train.tail_member = 2 draws another HL-only tail"),
+            std::string::npos);
+}
+
+// train.hl_tail_members: the run forks its tail members at its tail's first update; each member,
+// trained after the run, is the run of its config with tail_member m (bit for bit), the run's
+// own tail is the plain run's, a run stopped after the fork resumes without forking twice, and
+// the finished run's policy is the ensemble of the three.
+TEST(Trainer, TailMembersAreTheRunsForksAndItsPolicyTheirEnsemble) {
+  const std::string tail = "train.hl_tail_share=0.5";
+  Trainer plain(smoke(tail), fresh_dir("members_plain"));
+  plain.run();
+  TrainConfig one = smoke(tail);
+  one.loop.tail_member = 1;
+  Trainer alone(one, fresh_dir("members_alone1"));
+  const TrainSummary alone_sum = alone.run();
+  TrainConfig ens = smoke(tail);
+  ens.loop.hl_tail_members = 3;
+  const std::string dir = fresh_dir("members_run");
+  std::vector<float> run_hl;
+  {
+    Trainer t(ens, dir);
+    t.run();
+    run_hl = t.hl_parameters();
+  }
+  EXPECT_EQ(run_hl, plain.hl_parameters());
+  for (int m : {1, 2}) EXPECT_TRUE(fs::is_directory(dir + "/members/" + std::to_string(m))) << m;
+  try {  // members forked, not trained: the run's policy is not complete yet
+    load_run_policy(dir);
+    ADD_FAILURE() << "expected a refusal";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("members/1: tail member 1 is at"), std::string::npos) << e.what();
+  }
+  const std::vector<TrainSummary> members = train_tail_members(dir);
+  ASSERT_EQ(members.size(), 2u);
+  EXPECT_EQ(Trainer::resume(dir + "/members/1")->hl_parameters(), alone.hl_parameters());
+  EXPECT_EQ(Trainer::resume(dir + "/members/1")->ll_parameters(), plain.ll_parameters());
+  EXPECT_NE(Trainer::resume(dir + "/members/2")->hl_parameters(), alone.hl_parameters());
+  const RunPolicy p = load_run_policy(dir);
+  EXPECT_EQ(p.hl_members.size(), 2u);
+  EXPECT_EQ(p.name, fs::path(dir).filename().string());  // the run's name, not the members'
+
+  // Stopped two updates after the fork, resumed: the same members, forked once.
+  std::size_t k = 0;
+  while (k < alone_sum.rows.size() && alone_sum.rows[k].env_steps < 300) ++k;
+  const std::string split = fresh_dir("members_split");
+  {
+    Trainer t(ens, split);
+    t.run(nullptr, static_cast<std::int64_t>(k) + 3);
+  }
+  ASSERT_TRUE(fs::is_directory(split + "/members/1"));
+  const auto forked_at = fs::last_write_time(split + "/members/1/config.yaml");
+  Trainer::resume(split)->run();
+  EXPECT_EQ(fs::last_write_time(split + "/members/1/config.yaml"), forked_at);
+  train_tail_members(split);
+  EXPECT_EQ(Trainer::resume(split + "/members/1")->hl_parameters(), alone.hl_parameters());
+  EXPECT_EQ(Trainer::resume(split)->hl_parameters(), plain.hl_parameters());
+  EXPECT_NE(error_of("train: {hl_tail_members: 2}").find("train.hl_tail_members = 2 is an ensemble of HL-only tails"),
             std::string::npos);
 }
 
