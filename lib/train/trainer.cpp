@@ -1297,7 +1297,10 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   const std::int64_t rank_steps_at_start = s.rank_env_steps;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
-    if ((s.cfg.loop.tail_member > 0 || s.cfg.loop.hl_tail_members > 1) && !s.tail_started && s.in_hl_tail())
+    // The tail's first update with the low level frozen for good: a run resumed from a checkpoint
+    // inside an LL phase past the tail's share still finishes that phase's update first.
+    if ((s.cfg.loop.tail_member > 0 || s.cfg.loop.hl_tail_members > 1) && !s.tail_started && s.in_hl_tail() &&
+        s.phase == 1)
       s.start_tail();
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
     const std::int64_t steps_before = s.env_steps;

@@ -264,6 +264,51 @@ TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
             std::string::npos);
 }
 
+// A finished run extended by a tail (its config's budget raised, train.hl_tail_share set, the
+// checkpoint's hash rewritten: the way stop 37-39's tail arms were made) whose last checkpoint lies
+// inside an LL phase finishes that phase's PPO update before the tail: a tail member's streams
+// begin after it, so every member keeps the run's final low level (bit for bit).
+TEST(Trainer, TailMemberStreamsBeginAfterTheLastLowLevelUpdate) {
+  const std::string base = fresh_dir("extend_base");
+  TrainConfig short_run = smoke();
+  std::int64_t total = 0;  // a budget whose run ends one update into a two-update LL phase
+  for (std::int64_t t : {300, 320, 340, 360, 380, 400}) {
+    short_run.loop.total_env_steps = t;
+    fs::remove_all(base);
+    Trainer a(short_run, base);
+    const TrainSummary sum = a.run();
+    const std::size_t n = sum.rows.size();
+    if (n >= 2 && sum.rows[n - 1].phase == "ll" && sum.rows[n - 2].phase == "hl") {
+      total = t;
+      break;
+    }
+  }
+  ASSERT_GT(total, 0) << "no budget ends inside an LL phase";
+  std::vector<std::vector<float>> ll, hl;
+  for (int member : {0, 1}) {
+    const std::string dir = fresh_dir("extend_" + std::to_string(member));
+    fs::copy(base, dir, fs::copy_options::recursive);
+    fs::remove(dir + "/.lock");
+    TrainConfig longer = smoke("train.hl_tail_share=0.5");
+    longer.loop.total_env_steps = 2 * total;  // the tail starts where the short run ended
+    longer.loop.tail_member = member;
+    const std::string yaml = train_config_yaml(longer);
+    io::write_file_atomic(dir + "/config.yaml", yaml);
+    const std::string meta_path = dir + "/checkpoint/" + latest_checkpoint_name(dir) + "/meta.yaml";
+    std::ifstream in(meta_path);
+    std::string meta((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = meta.find("config_hash: ") + 13;
+    meta = meta.substr(0, at) + std::to_string(config_hash(yaml)) + meta.substr(meta.find('\n', at));
+    io::write_file_atomic(meta_path, meta);
+    auto t = Trainer::resume(dir);
+    t->run();
+    ll.push_back(t->ll_parameters());
+    hl.push_back(t->hl_parameters());
+  }
+  EXPECT_EQ(ll[1], ll[0]);
+  EXPECT_NE(hl[1], hl[0]);
+}
+
 // train.hl_tail_members: the run forks its tail members at its tail's first update; each member,
 // trained after the run, is the run of its config with tail_member m (bit for bit), the run's
 // own tail is the plain run's, a run stopped after the fork resumes without forking twice, and
