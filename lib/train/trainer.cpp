@@ -273,6 +273,12 @@ struct Trainer::State {
   // The run has used its low level's share of the steps: only the high level learns from here
   // (train.hl_tail_share).
   bool in_hl_tail() const { return in_last_share(cfg.loop.hl_tail_share); }
+  // In the tail with the low level frozen for good: the tail's matchups, and where its members'
+  // streams begin (a run resumed inside an LL phase past the tail's share finishes that phase's
+  // update first).
+  bool in_frozen_tail() const { return in_hl_tail() && phase == 1; }
+  // The run draws another tail (train.tail_member) or forks some (train.hl_tail_members).
+  bool has_tail_members() const { return cfg.loop.tail_member > 0 || cfg.loop.hl_tail_members > 1; }
   // The ES updates from here on enter the HL weight average (train.hl_average_share).
   bool in_hl_average() const { return in_last_share(cfg.loop.hl_average_share); }
   // The run is in the last `share` of its env steps (never, for a share of 0).
@@ -335,7 +341,7 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
   v.optional_reals("last_middle_share", last_es.middle_share[0], last_es.middle_share[1], last_es.middle_share[2]);
   v.reals("wall", wall_s);
   // Only with tail members, so the checkpoints of every other run keep their bytes.
-  if (cfg.loop.tail_member > 0 || cfg.loop.hl_tail_members > 1) {
+  if (has_tail_members()) {
     double started = tail_started ? 1.0 : 0.0;
     v.optional_reals("tail_started", started);
     tail_started = started != 0.0;
@@ -590,7 +596,7 @@ std::size_t draw_pool_entry(RandomStream& stream, std::size_t n) {
 void Trainer::State::draw_matchup(int e) {
   // The tail's races are those that start after the low level's last update (the step count
   // crosses the switch inside an update): its last update keeps the bilevel part's matchups.
-  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0, in_hl_tail() && phase == 1);
+  const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0, in_frozen_tail());
   side[e] = m.learner_side;
   vs_pool[e] = m.vs_center ? kVsCenter : (m.vs_pool ? kVsPool : kVsSelf);
 }
@@ -1297,11 +1303,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   const std::int64_t rank_steps_at_start = s.rank_env_steps;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
-    // The tail's first update with the low level frozen for good: a run resumed from a checkpoint
-    // inside an LL phase past the tail's share still finishes that phase's update first.
-    if ((s.cfg.loop.tail_member > 0 || s.cfg.loop.hl_tail_members > 1) && !s.tail_started && s.in_hl_tail() &&
-        s.phase == 1)
-      s.start_tail();
+    if (s.has_tail_members() && !s.tail_started && s.in_frozen_tail()) s.start_tail();
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
     const std::int64_t steps_before = s.env_steps;
     if (ll_phase) {
