@@ -84,24 +84,50 @@ std::pair<torch::Tensor, torch::Tensor> PpoAgent::infer(const models::LlObs& obs
     const auto out = net_(obs);
     return {out.mean, out.value};
   }
+  const int64_t b = models::check_obs(obs, cfg_.net.dims);
+  auto mean = torch::empty({b, cfg_.net.action_dim});
+  auto value = torch::empty({b});
+  infer_into(obs, mean, value, nullptr);
+  return {mean, value};
+}
+
+void PpoAgent::infer_into(const models::LlObs& obs, torch::Tensor& mean, torch::Tensor& value,
+                          const models::GaussianDraw* draw) {
   if (eigen_stale_) {
     eigen_.set_weights(net_->eigen_weights());
     eigen_stale_ = false;
   }
-  const int64_t b = models::check_obs(obs, cfg_.net.dims);
   const auto ego = obs.ego.contiguous(), goal = obs.goal.contiguous(), ado = obs.ado.contiguous(),
              alive = obs.ado_alive.contiguous(), task = obs.task.contiguous();
-  auto mean = torch::empty({b, cfg_.net.action_dim});
-  auto value = torch::empty({b});
-  eigen_.forward(b, ego.data_ptr<float>(), goal.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
-                 task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>());
-  return {mean, value};
+  eigen_.forward(mean.size(0), ego.data_ptr<float>(), goal.data_ptr<float>(), ado.data_ptr<float>(),
+                 alive.data_ptr<bool>(), task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>(), draw);
 }
 
 PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool update_stats) {
   torch::NoGradGuard no_grad;
   PpoAction a;
   a.obs = normalize(raw, update_stats);
+  if (cfg_.eigen_inference) {
+    // The draw in the forward's blocks, on the threads (the torch ops below were ~4 % of a 32-env
+    // run, on one thread); the same noise from the same generator, the same bits.
+    const int64_t b = models::check_obs(a.obs, cfg_.net.dims), n_act = cfg_.net.action_dim;
+    const auto noise = torch::randn({b, n_act}, generator, torch::kFloat32);
+    const auto log_std = net_->log_std().contiguous();
+    const auto std_dev = log_std.exp(), inv_std = (-log_std).exp();
+    a.mean = torch::empty({b, n_act});
+    a.value = torch::empty({b});
+    a.action = torch::empty({b, n_act});
+    a.log_prob = torch::empty({b});
+    models::GaussianDraw draw;
+    draw.noise = noise.data_ptr<float>();
+    draw.std = std_dev.data_ptr<float>();
+    draw.inv_std = inv_std.data_ptr<float>();
+    draw.log_std = log_std.data_ptr<float>();
+    draw.action = a.action.data_ptr<float>();
+    draw.log_prob = a.log_prob.data_ptr<float>();
+    infer_into(a.obs, a.mean, a.value, &draw);
+    return a;
+  }
   const auto [mean, value] = infer(a.obs);
   const auto log_std = net_->log_std().expand_as(mean);
   const auto noise = torch::randn(mean.sizes(), generator, torch::kFloat32);
@@ -138,7 +164,9 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   // and still takes part in every step (its share is then 0).
   const auto rows = buffer.valid.flatten().nonzero().squeeze(1);
   TORCH_CHECK(rows.numel() > 0 || replicas_.active(), "PpoAgent::update: the buffer holds no valid sample");
-  const auto obs = models::index_rows(models::flatten2(buffer.obs), rows);
+  // Observations stay in the buffer: each chunk gathers its rows from it (rows[chunk's]), where a
+  // compacted copy of the valid rows cost a serial copy of the whole buffer per update.
+  const auto buffer_obs = models::flatten2(buffer.obs);
   const auto actions = buffer.actions.flatten(0, 1).index_select(0, rows);
   const auto old_log_probs = buffer.log_probs.flatten().index_select(0, rows);
   const auto old_values = buffer.values.flatten().index_select(0, rows);
@@ -200,7 +228,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
         // Contiguous slices of the shuffled minibatch; each chunk's mean weighs by its share.
         const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
         const auto rows_c = mb.slice(0, lo, hi);
-        const auto out = net_(models::index_rows(obs, rows_c));
+        const auto out = net_(models::index_rows(buffer_obs, rows.index_select(0, rows_c)));
         ChunkResult& r = chunks[static_cast<std::size_t>(c)];
         r.weight = static_cast<double>(hi - lo) / static_cast<double>(m);
         // The loss terms as one node (agents/ppo_fused_loss.hpp; ppo_loss is its oracle in the tests).

@@ -129,6 +129,8 @@ class PpoAgent {
  private:
   // mean [B, A] and value [B] of a normalised observation, by the configured inference path.
   std::pair<torch::Tensor, torch::Tensor> infer(const models::LlObs& obs);
+  // The Eigen forward into mean [B, A] and value [B]; with `draw`, the actions sampled too.
+  void infer_into(const models::LlObs& obs, torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw);
   void load_archive(torch::serialize::InputArchive& root);
   PpoConfig cfg_;
   Replicas replicas_;

@@ -29,6 +29,18 @@ struct LlEigenWeights {
   std::vector<DenseLayer> actor, critic;   // tanh between layers, none after the last
 };
 
+// The Gaussian policy's draw for each row, done by the block that computed the row's mean:
+// action = mean + noise * std and its log-probability, with LibTorch's float arithmetic in its
+// order (PpoAgent::act's torch ops are the oracle: models::gaussian_log_prob).
+struct GaussianDraw {
+  const float* noise = nullptr;    // [B, A] standard normal
+  const float* std = nullptr;      // [A] exp(log_std)
+  const float* inv_std = nullptr;  // [A] exp(-log_std)
+  const float* log_std = nullptr;  // [A]
+  float* action = nullptr;         // [B, A]
+  float* log_prob = nullptr;       // [B]
+};
+
 class LlEigenForward {
  public:
   LlEigenForward();
@@ -44,8 +56,9 @@ class LlEigenForward {
   // Normalised observations, row-major and contiguous: ego [B, d_ego], goal [B, d_goal],
   // ado [B, n_other, d_ado], ado_alive [B, n_other], task [B, d_task]. Writes mean [B, A] and
   // value [B]. Scratch grows to the largest B seen and is reused.
+  // With `draw`, each block also samples its rows' actions (see GaussianDraw).
   void forward(int64_t batch, const float* ego, const float* goal, const float* ado, const bool* ado_alive,
-               const float* task, float* mean, float* value);
+               const float* task, float* mean, float* value, const GaussianDraw* draw = nullptr);
 
  private:
   struct Impl;  // Eigen weights and scratch, made and freed only in ll_eigen_forward.cpp

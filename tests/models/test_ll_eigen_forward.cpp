@@ -80,6 +80,52 @@ TEST(LlEigenForward, SameBitsAtAnyThreadCount) {
   EXPECT_TRUE(torch::equal(values[0], values[1]));
 }
 
+// The draw done in the forward's blocks is PpoAgent::act's torch ops, bit for bit: action =
+// mean + noise * exp(log_std) and gaussian_log_prob, for several log_std, batch sizes and 1 and
+// 2 threads (the rollout's samples, and so every PPO update, must not change with the path).
+TEST(LlEigenForward, DrawInTheBlocksIsTheTorchOpsBitForBit) {
+  at::Generator g = make_generator(13);
+  LlActorCriticConfig cfg;
+  cfg.dims = ObsDims{22, 8, 24, 7};
+  cfg.action_dim = 4;
+  LlActorCritic net(cfg);
+  randomize(*net, g);
+  LlEigenForward fast;
+  fast.set_weights(net->eigen_weights());
+  for (const double scale : {0.0, 0.7, 2.5}) {
+    const auto log_std = (scale * torch::randn({4}, g) - 1.0).to(torch::kFloat32).contiguous();
+    const auto std_dev = log_std.exp(), inv_std = (-log_std).exp();
+    for (int64_t b : {1, 7, 66, 300}) {
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        const LlObs obs = random_obs(g, cfg.dims, b);
+        const auto noise = torch::randn({b, 4}, g);
+        auto mean = torch::empty({b, 4}), value = torch::empty({b});
+        auto action = torch::empty({b, 4}), log_prob = torch::empty({b});
+        GaussianDraw draw;
+        draw.noise = noise.data_ptr<float>();
+        draw.std = std_dev.data_ptr<float>();
+        draw.inv_std = inv_std.data_ptr<float>();
+        draw.log_std = log_std.data_ptr<float>();
+        draw.action = action.data_ptr<float>();
+        draw.log_prob = log_prob.data_ptr<float>();
+        fast.forward(b, obs.ego.data_ptr<float>(), obs.goal.data_ptr<float>(), obs.ado.data_ptr<float>(),
+                     obs.ado_alive.data_ptr<bool>(), obs.task.data_ptr<float>(), mean.data_ptr<float>(),
+                     value.data_ptr<float>(), &draw);
+        // PpoAgent::act's ops before the draw moved into the blocks.
+        const auto expanded = log_std.expand_as(mean);
+        const auto want_action = mean + noise * expanded.exp();
+        const auto want_log_prob = gaussian_log_prob(mean, expanded, want_action);
+        EXPECT_TRUE(torch::equal(action, want_action)) << "B=" << b << " threads=" << threads;
+        EXPECT_TRUE(torch::equal(log_prob, want_log_prob))
+            << "B=" << b << " threads=" << threads << " max diff "
+            << (log_prob - want_log_prob).abs().max().item<double>();
+      }
+    }
+  }
+  omp_set_num_threads(2);
+}
+
 TEST(LlEigenForward, RefusesWeightsThatDoNotChain) {
   LlActorCriticConfig cfg;
   cfg.dims = ObsDims{22, 8, 24, 7};
