@@ -48,20 +48,29 @@ void RunningNormImpl::update_rows(const torch::Tensor& x, const torch::Tensor& k
   merge_moments(moments.data());
 }
 
+void RunningNormImpl::update_picked(const torch::Tensor& x, const torch::Tensor& keep, const RowPick& pick) {
+  std::vector<double> moments;
+  batch_moments(x, keep, &moments, &pick);
+  merge_moments(moments.data());
+}
+
 void RunningNormImpl::batch_moments(const torch::Tensor& x_in, const torch::Tensor& keep_in,
-                                    std::vector<double>* out) const {
+                                    std::vector<double>* out, const RowPick* pick) const {
   check_tensor(x_in, "x", {-1, dim_}, torch::kFloat32);
   const auto x = x_in.contiguous();
   const auto keep = keep_in.defined() ? keep_in.contiguous() : keep_in;
-  const int64_t rows = x.size(0), d = dim_;
-  const float* xp = x.data_ptr<float>();
-  const bool* kp = keep.defined() ? keep.data_ptr<bool>() : nullptr;
+  const int64_t rows = pick != nullptr ? pick->rows() : x.size(0), d = dim_;
+  const float* x0 = x.data_ptr<float>();
+  const bool* k0 = keep.defined() ? keep.data_ptr<bool>() : nullptr;
+  // Row i of the batch: x's row i, or the i-th picked row (read in place, in the same order).
+  const auto row = [&](int64_t i) { return x0 + (pick != nullptr ? pick->at(i) : i) * d; };
+  const auto kept = [&](int64_t i) { return k0 == nullptr || k0[pick != nullptr ? pick->at(i) : i]; };
   const std::size_t at = out->size();
   out->resize(at + 1 + 2 * static_cast<std::size_t>(d), 0.0);
   double* batch_mean = out->data() + at + 1;
   double* batch_m2 = batch_mean + d;
   int64_t n = 0;
-  for (int64_t i = 0; i < rows; ++i) n += (kp == nullptr || kp[i]) ? 1 : 0;
+  for (int64_t i = 0; i < rows; ++i) n += kept(i) ? 1 : 0;
   (*out)[at] = static_cast<double>(n);
   if (n == 0) return;
   over_column_shares(rows, d, [&](int64_t c0, int64_t c1) {
@@ -69,14 +78,16 @@ void RunningNormImpl::batch_moments(const torch::Tensor& x_in, const torch::Tens
     // one cache line written by both threads), from 0 in row order as before: the same bits.
     std::vector<double> sum(static_cast<std::size_t>(c1 - c0), 0.0), m2(sum.size(), 0.0);
     for (int64_t i = 0; i < rows; ++i) {
-      if (kp != nullptr && !kp[i]) continue;
-      for (int64_t c = c0; c < c1; ++c) sum[c - c0] += xp[i * d + c];
+      if (!kept(i)) continue;
+      const float* xr = row(i);
+      for (int64_t c = c0; c < c1; ++c) sum[c - c0] += xr[c];
     }
     for (int64_t c = c0; c < c1; ++c) sum[c - c0] /= static_cast<double>(n);
     for (int64_t i = 0; i < rows; ++i) {  // second pass: squared deviations about the batch mean
-      if (kp != nullptr && !kp[i]) continue;
+      if (!kept(i)) continue;
+      const float* xr = row(i);
       for (int64_t c = c0; c < c1; ++c) {
-        const double dev = xp[i * d + c] - sum[c - c0];
+        const double dev = xr[c] - sum[c - c0];
         m2[c - c0] += dev * dev;
       }
     }
@@ -176,14 +187,25 @@ void ObsNormalizerImpl::sync_replicas() {
 
 torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const { return normalize_rows(x, torch::Tensor()); }
 
-torch::Tensor RunningNormImpl::normalize_rows(const torch::Tensor& x_in, const torch::Tensor& keep_in) const {
+torch::Tensor RunningNormImpl::normalize_rows(const torch::Tensor& x, const torch::Tensor& keep) const {
+  return normalize_impl(x, keep, nullptr);
+}
+
+torch::Tensor RunningNormImpl::normalize_picked(const torch::Tensor& x, const torch::Tensor& keep,
+                                                const RowPick& pick) const {
+  check_tensor(x, "x", {-1, dim_}, torch::kFloat32);
+  return normalize_impl(x, keep, &pick);
+}
+
+torch::Tensor RunningNormImpl::normalize_impl(const torch::Tensor& x_in, const torch::Tensor& keep_in,
+                                              const RowPick* pick) const {
   TORCH_CHECK(x_in.dim() >= 1 && x_in.size(-1) == dim_, "RunningNorm: last dimension of x is ", x_in.size(-1),
               ", expected ", dim_);
   TORCH_CHECK(x_in.scalar_type() == torch::kFloat32, "RunningNorm: x must be float32");
   const auto x = x_in.contiguous();
   const auto keep = keep_in.defined() ? keep_in.contiguous() : keep_in;
-  auto out = torch::empty_like(x);
-  const int64_t d = dim_, rows = d > 0 ? x.numel() / d : 0;
+  auto out = pick != nullptr ? torch::empty({pick->rows(), dim_}) : torch::empty_like(x);
+  const int64_t d = dim_, rows = pick != nullptr ? pick->rows() : (d > 0 ? x.numel() / d : 0);
   const float* xp = x.data_ptr<float>();
   const bool* kp = keep.defined() ? keep.data_ptr<bool>() : nullptr;
   float* op = out.data_ptr<float>();
@@ -199,11 +221,13 @@ torch::Tensor RunningNormImpl::normalize_rows(const torch::Tensor& x_in, const t
   const float* sp = s.data();
 #pragma omp parallel for schedule(static) if (rows * d >= kParallelElements && !omp_in_parallel())
   for (int64_t i = 0; i < rows; ++i) {
-    if (kp != nullptr && !kp[i]) {
+    const int64_t src = pick != nullptr ? pick->at(i) : i;
+    if (kp != nullptr && !kp[src]) {
       for (int64_t c = 0; c < d; ++c) op[i * d + c] = 0.0f;
       continue;
     }
-    for (int64_t c = 0; c < d; ++c) op[i * d + c] = std::min(std::max((xp[i * d + c] - mp[c]) * sp[c], lo), hi);
+    const float* xr = xp + src * d;
+    for (int64_t c = 0; c < d; ++c) op[i * d + c] = std::min(std::max((xr[c] - mp[c]) * sp[c], lo), hi);
   }
   return out;
 }
@@ -253,6 +277,30 @@ LlObs ObsNormalizerImpl::normalize(const LlObs& obs, bool update_stats) {
   }
   return {ego_->normalize(obs.ego), extra_->normalize(obs.goal), ado_(obs.ado, obs.ado_alive, update_stats),
           obs.ado_alive, task_->normalize(obs.task)};
+}
+
+LlObs ObsNormalizerImpl::normalize(const LlObs& obs, const torch::Tensor& rows_in, bool update_stats) {
+  check_obs(obs, dims_);
+  check_tensor(rows_in, "rows", {-1}, torch::kInt64);
+  torch::NoGradGuard no_grad;
+  // Replicas hold batches back through hold_back's gathered path.
+  if (update_stats && gather_) return normalize(index_rows(obs, rows_in), update_stats);
+  const auto rows = rows_in.contiguous();
+  const int64_t n = rows.numel(), all = obs.ego.size(0);
+  const int64_t* idx = rows.data_ptr<int64_t>();
+  for (int64_t i = 0; i < n; ++i)
+    TORCH_CHECK(idx[i] >= 0 && idx[i] < all, "ObsNormalizer: row ", idx[i], " outside the ", all, " rows");
+  const RowPick pick{idx, n, 1}, pick_ado{idx, n, dims_.n_other};
+  const auto ado = obs.ado.reshape({-1, dims_.d_ado}), alive = obs.ado_alive.reshape({-1});
+  if (update_stats) {
+    ego_->update_picked(obs.ego, torch::Tensor(), pick);
+    extra_->update_picked(obs.goal, torch::Tensor(), pick);
+    task_->update_picked(obs.task, torch::Tensor(), pick);
+    ado_norm_->update_picked(ado, alive, pick_ado);
+  }
+  return {ego_->normalize_picked(obs.ego, torch::Tensor(), pick), extra_->normalize_picked(obs.goal, torch::Tensor(), pick),
+          ado_norm_->normalize_picked(ado, alive, pick_ado).view({n, dims_.n_other, dims_.d_ado}),
+          obs.ado_alive.index_select(0, rows), task_->normalize_picked(obs.task, torch::Tensor(), pick)};
 }
 
 }  // namespace f16race::models

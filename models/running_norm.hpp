@@ -16,6 +16,16 @@
 
 namespace f16race::models {
 
+// Rows of x picked by an index instead of a gathered copy: logical row r is x's row
+// index[r / group] * group + r % group (group: rows per indexed sample, e.g. the n_other ado rows).
+// The statistics and outputs are those of the gathered rows, bit for bit.
+struct RowPick {
+  const int64_t* index = nullptr;  // [count]
+  int64_t count = 0, group = 1;
+  int64_t rows() const { return count * group; }
+  int64_t at(int64_t r) const { return index[r / group] * group + r % group; }
+};
+
 class RunningNormImpl : public torch::nn::Module {
  public:
   explicit RunningNormImpl(int64_t dim, double clip = 10.0, double eps = 1e-8);
@@ -28,7 +38,11 @@ class RunningNormImpl : public torch::nn::Module {
   // update_rows in two halves, for replicas that pool their batches first: a batch's moments
   // appended to `out` as [n, mean (dim), m2 (dim)] (m2: summed squared deviations), and the merge
   // of such moments into the statistics (n = 0: nothing).
-  void batch_moments(const torch::Tensor& x, const torch::Tensor& keep, std::vector<double>* out) const;
+  void batch_moments(const torch::Tensor& x, const torch::Tensor& keep, std::vector<double>* out,
+                     const RowPick* pick = nullptr) const;
+  // With `pick`, over the picked rows of x (and of keep) only, the output [pick rows, dim].
+  void update_picked(const torch::Tensor& x, const torch::Tensor& keep, const RowPick& pick);
+  torch::Tensor normalize_picked(const torch::Tensor& x, const torch::Tensor& keep, const RowPick& pick) const;
   void merge_moments(const double* moments);
   int64_t dim() const { return dim_; }
   const torch::Tensor& mean() const { return mean_; }
@@ -40,6 +54,7 @@ class RunningNormImpl : public torch::nn::Module {
   double count() const { return count_.item<double>(); }
 
  private:
+  torch::Tensor normalize_impl(const torch::Tensor& x, const torch::Tensor& keep, const RowPick* pick) const;
   int64_t dim_;
   double clip_, eps_;
   torch::Tensor mean_, var_, count_;
@@ -65,6 +80,9 @@ class ObsNormalizerImpl : public torch::nn::Module {
   // Normalised copy of `obs`; with update_stats the statistics first absorb this batch.
   HlObs normalize(const HlObs& obs, bool update_stats);
   LlObs normalize(const LlObs& obs, bool update_stats);
+  // The same for the rows `rows` (int64 [R]) of obs, read in place: what normalize(index_rows(obs,
+  // rows)) gives, without the gathered copy (the rollout's policies each fly a subset of rows).
+  LlObs normalize(const LlObs& obs, const torch::Tensor& rows, bool update_stats);
   // Per field: ego, extra (prev_action for the HL, goal for the LL), ado, task.
   const RunningNorm& ego() const { return ego_; }
   const RunningNorm& extra() const { return extra_; }
@@ -73,6 +91,7 @@ class ObsNormalizerImpl : public torch::nn::Module {
 
  private:
   torch::Tensor ado_(const torch::Tensor& ado, const torch::Tensor& alive, bool update_stats);
+
   // A batch of the four fields into `pending_` (replicas).
   void hold_back(const torch::Tensor& ego, const torch::Tensor& extra, const torch::Tensor& ado,
                  const torch::Tensor& alive, const torch::Tensor& task);

@@ -104,9 +104,19 @@ void PpoAgent::infer_into(const models::LlObs& obs, torch::Tensor& mean, torch::
 }
 
 PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool update_stats) {
+  return act(raw, torch::Tensor(), generator, update_stats);
+}
+
+PpoAction PpoAgent::act(const models::LlObs& raw, const torch::Tensor& rows, at::Generator& generator,
+                        bool update_stats) {
   torch::NoGradGuard no_grad;
   PpoAction a;
-  a.obs = normalize(raw, update_stats);
+  if (!rows.defined())
+    a.obs = normalize(raw, update_stats);
+  else if (cfg_.normalize_obs)
+    a.obs = normalizer_->normalize(raw, rows, update_stats);
+  else
+    a.obs = normalize(models::index_rows(raw, rows), false);
   if (cfg_.eigen_inference) {
     // The draw in the forward's blocks, on the threads (the torch ops below were ~4 % of a 32-env
     // run, on one thread); the same noise from the same generator, the same bits.

@@ -103,6 +103,10 @@ class PpoAgent {
   models::LlObs normalize(const models::LlObs& raw, bool update_stats);
   // Samples a ~ N(mean, exp(log_std)) with `generator`. No gradients.
   PpoAction act(const models::LlObs& raw, at::Generator& generator, bool update_stats = true);
+  // The same for the rows `rows` (int64 [R]) of raw, read in place: act(index_rows(raw, rows)) bit
+  // for bit, without the gathered copy.
+  PpoAction act(const models::LlObs& raw, const torch::Tensor& rows, at::Generator& generator,
+                bool update_stats = true);
   // V(raw obs) with the current statistics, not updating them: last_value and bootstrap values.
   torch::Tensor value(const models::LlObs& raw);
   // With replicas set (issue 18), every rank calls update() at the same point with its own

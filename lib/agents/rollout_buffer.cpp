@@ -50,6 +50,36 @@ RolloutBuffer::RolloutBuffer(int64_t n_steps, int64_t n_samples, const models::O
   valid = torch::ones({t, n}, torch::kBool);
 }
 
+void RolloutBuffer::stage_picked(const models::LlObs& o, const torch::Tensor& action, const torch::Tensor& log_prob,
+                                 const torch::Tensor& value, const torch::Tensor& rows) {
+  TORCH_CHECK(size_ < n_steps_, "RolloutBuffer::stage_picked: buffer is full (", n_steps_, " steps)");
+  const int64_t n = n_samples_, b = models::check_obs(o, dims_);
+  check_tensor(rows, "rows", {n}, torch::kInt64);
+  check_tensor(action, "action", {b, action_dim_}, torch::kFloat32);
+  check_tensor(log_prob, "log_prob", {b}, torch::kFloat32);
+  check_tensor(value, "value", {b}, torch::kFloat32);
+  torch::NoGradGuard no_grad;
+  const int64_t t = size_;
+  auto gather = [&](const torch::Tensor& src, torch::Tensor slot) { torch::index_select_out(slot, src, 0, rows); };
+  gather(o.ego, obs.ego[t]);
+  gather(o.goal, obs.goal[t]);
+  gather(o.ado, obs.ado[t]);
+  gather(o.ado_alive, obs.ado_alive[t]);
+  gather(o.task, obs.task[t]);
+  gather(action, actions[t]);
+  gather(log_prob, log_probs[t]);
+  gather(value, values[t]);
+  staged_ = true;
+}
+
+void RolloutBuffer::commit(const torch::Tensor& reward, const torch::Tensor& term, const torch::Tensor& trunc,
+                           const torch::Tensor& bootstrap_value, const torch::Tensor& valid_mask) {
+  TORCH_CHECK(staged_, "RolloutBuffer::commit: no staged step (call stage_picked first)");
+  check_step_fields(reward, term, trunc, bootstrap_value, valid_mask);
+  staged_ = false;
+  add_step_fields(reward, term, trunc, bootstrap_value, valid_mask);
+}
+
 void RolloutBuffer::add(const models::LlObs& o, const torch::Tensor& action, const torch::Tensor& log_prob,
                         const torch::Tensor& value, const torch::Tensor& reward, const torch::Tensor& term,
                         const torch::Tensor& trunc, const torch::Tensor& bootstrap_value,
@@ -60,11 +90,10 @@ void RolloutBuffer::add(const models::LlObs& o, const torch::Tensor& action, con
   check_tensor(action, "action", {n, action_dim_}, torch::kFloat32);
   check_tensor(log_prob, "log_prob", {n}, torch::kFloat32);
   check_tensor(value, "value", {n}, torch::kFloat32);
-  check_tensor(reward, "reward", {n}, torch::kFloat32);
-  check_tensor(term, "terminated", {n}, torch::kBool);
-  check_tensor(trunc, "truncated", {n}, torch::kBool);
+  check_step_fields(reward, term, trunc, bootstrap_value, valid_mask);
   torch::NoGradGuard no_grad;
   const int64_t t = size_;
+  staged_ = false;
   obs.ego[t].copy_(o.ego);
   obs.goal[t].copy_(o.goal);
   obs.ado[t].copy_(o.ado);
@@ -73,22 +102,38 @@ void RolloutBuffer::add(const models::LlObs& o, const torch::Tensor& action, con
   actions[t].copy_(action);
   log_probs[t].copy_(log_prob);
   values[t].copy_(value);
+  add_step_fields(reward, term, trunc, bootstrap_value, valid_mask);
+}
+
+void RolloutBuffer::check_step_fields(const torch::Tensor& reward, const torch::Tensor& term,
+                                      const torch::Tensor& trunc, const torch::Tensor& bootstrap_value,
+                                      const torch::Tensor& valid_mask) const {
+  const int64_t n = n_samples_;
+  check_tensor(reward, "reward", {n}, torch::kFloat32);
+  check_tensor(term, "terminated", {n}, torch::kBool);
+  check_tensor(trunc, "truncated", {n}, torch::kBool);
+  if (bootstrap_value.defined())
+    check_tensor(bootstrap_value, "bootstrap_value", {n}, torch::kFloat32);
+  else
+    TORCH_CHECK(!trunc.any().item<bool>(), "RolloutBuffer::add: truncated samples need a bootstrap_value");
+  if (valid_mask.defined()) check_tensor(valid_mask, "valid", {n}, torch::kBool);
+}
+
+void RolloutBuffer::add_step_fields(const torch::Tensor& reward, const torch::Tensor& term, const torch::Tensor& trunc,
+                                    const torch::Tensor& bootstrap_value, const torch::Tensor& valid_mask) {
+  const int64_t t = size_;
+  torch::NoGradGuard no_grad;
   rewards[t].copy_(reward);
   terminated[t].copy_(term);
   truncated[t].copy_(trunc);
-  if (bootstrap_value.defined()) {
-    check_tensor(bootstrap_value, "bootstrap_value", {n}, torch::kFloat32);
+  if (bootstrap_value.defined())
     bootstrap_values[t].copy_(bootstrap_value);
-  } else {
-    TORCH_CHECK(!trunc.any().item<bool>(), "RolloutBuffer::add: truncated samples need a bootstrap_value");
+  else
     bootstrap_values[t].zero_();
-  }
-  if (valid_mask.defined()) {
-    check_tensor(valid_mask, "valid", {n}, torch::kBool);
+  if (valid_mask.defined())
     valid[t].copy_(valid_mask);
-  } else {
+  else
     valid[t].fill_(true);
-  }
   ++size_;
   finished_ = false;
 }

@@ -41,6 +41,14 @@ class RolloutBuffer {
            const torch::Tensor& value, const torch::Tensor& reward, const torch::Tensor& terminated,
            const torch::Tensor& truncated, const torch::Tensor& bootstrap_value,
            const torch::Tensor& valid = torch::Tensor());
+  // add() in two parts, for samples that are rows of a wider acting batch: stage_picked() gathers
+  // rows `rows` (int64 [N]) of obs, action, log_prob and value straight into the next step's slot
+  // (before the env step overwrites what obs may view), commit() adds the step's other fields and
+  // makes the slot part of the buffer. A slot staged but never committed is overwritten by the next.
+  void stage_picked(const models::LlObs& obs, const torch::Tensor& action, const torch::Tensor& log_prob,
+                    const torch::Tensor& value, const torch::Tensor& rows);
+  void commit(const torch::Tensor& reward, const torch::Tensor& terminated, const torch::Tensor& truncated,
+              const torch::Tensor& bootstrap_value, const torch::Tensor& valid = torch::Tensor());
   // Runs GAE once the buffer is full; last_value [N] = V(o_T), the value after the last step.
   void finish(const torch::Tensor& last_value, double gamma, double gae_lambda);
   void clear() { size_ = 0; finished_ = false; }
@@ -57,9 +65,15 @@ class RolloutBuffer {
   torch::Tensor advantages, returns;  // filled by finish()
 
  private:
+  // add()'s fields other than the policy's outputs: checked before anything is written, then written.
+  void check_step_fields(const torch::Tensor& reward, const torch::Tensor& terminated, const torch::Tensor& truncated,
+                         const torch::Tensor& bootstrap_value, const torch::Tensor& valid) const;
+  void add_step_fields(const torch::Tensor& reward, const torch::Tensor& terminated, const torch::Tensor& truncated,
+                       const torch::Tensor& bootstrap_value, const torch::Tensor& valid);
   int64_t n_steps_, n_samples_, action_dim_;
   models::ObsDims dims_;
   int64_t size_ = 0;
+  bool staged_ = false;  // stage_picked() wrote the slot at size_
   bool finished_ = false;
 };
 

@@ -150,7 +150,7 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
     race::autopilot_actions(env, goal_lane_autopilot(p.config), actions, rows.data_ptr<std::int64_t>(), rows.numel());
     return;
   }
-  scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, actions);  // the Gaussian's mean
+  scatter_rows(rows, p.ll->act(obs, rows, gen, false).mean, actions);  // the Gaussian's mean
 }
 
 void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,

@@ -704,29 +704,23 @@ void Trainer::State::ll_step(bool learn) {
     // envs, the learner on the rest); the learner's normaliser sees the rows it flies.
     ll_rows.assign(owners());
     const torch::Tensor& mine = ll_rows.rows(0);
-    act = ppo->act(ll_rows.owns_all(0) ? obs : models::index_rows(obs, mine), gen, /*update_stats=*/learn);
+    act = ll_rows.owns_all(0) ? ppo->act(obs, gen, /*update_stats=*/learn) : ppo->act(obs, mine, gen, learn);
     scatter_rows(mine, act.action, actions.data_ptr<float>());
     if (ll_rows.rows(1).numel() > 0)
-      scatter_rows(ll_rows.rows(1), opp_ppo->act(models::index_rows(obs, ll_rows.rows(1)), gen, false).action,
-                   actions.data_ptr<float>());
+      scatter_rows(ll_rows.rows(1), opp_ppo->act(obs, ll_rows.rows(1), gen, false).action, actions.data_ptr<float>());
     work.ll_forward_rows += act.action.size(0) + ll_rows.rows(1).numel();
     work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
   }
   timing.inference += since(t_act);
   const auto learner = learner_index();  // before the step: sides change at resets
-  // Samples of the learner team, taken before the env overwrites its buffers: their positions
-  // in the learner's rows.
-  LlObs sample_obs;
-  torch::Tensor sample_action, sample_logp, sample_value;
+  // Samples of the learner team, taken before the env overwrites its buffers (act.obs may view
+  // them), gathered straight into the buffer's next slot: aircraft k's row in act's outputs.
   if (learn) {
     auto pos = torch::empty_like(learner);
     const std::int64_t* li = learner.data_ptr<std::int64_t>();
     std::int64_t* pi = pos.data_ptr<std::int64_t>();
     for (std::int64_t k = 0; k < learner.numel(); ++k) pi[k] = ll_rows.position(static_cast<int>(li[k]));
-    sample_obs = models::index_rows(act.obs, pos);
-    sample_action = act.action.index_select(0, pos);
-    sample_logp = act.log_prob.index_select(0, pos);
-    sample_value = act.value.index_select(0, pos);
+    buffer->stage_picked(act.obs, act.action, act.log_prob, act.value, pos);
   }
   {  // airspeed of the learner's aircraft still racing, before the step (a finished race resets)
     const std::int64_t* li = learner.data_ptr<std::int64_t>();
@@ -782,7 +776,7 @@ void Trainer::State::ll_step(bool learn) {
   torch::Tensor bootstrap;
   if (learn && any_trunc) bootstrap = ppo->value(models::index_rows(ll_view(true), learner));
   if (learn) {
-    buffer->add(sample_obs, sample_action, sample_logp, sample_value, reward, terminated, truncated, bootstrap, valid);
+    buffer->commit(reward, terminated, truncated, bootstrap, valid);
   }
   // Races that ended: results, closing HL transitions, a fresh matchup for the next race.
   const std::uint8_t* done = env->env_done();

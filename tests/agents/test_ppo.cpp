@@ -49,6 +49,38 @@ TEST(PpoLoss, HandComputedBatch) {
   EXPECT_NEAR(l.policy_loss.item<double>(), 0.5 * (-1.2 / std::sqrt(2.0) + 0.9 / std::sqrt(2.0)), 1e-5);
 }
 
+// A step staged from rows of a wider batch and committed is the step add() stores from the
+// gathered rows; a commit that fails its checks stores nothing, and one without a stage is refused.
+TEST(RolloutBuffer, StagedRowsAreTheGatheredStep) {
+  const models::ObsDims dims{5, 4, 3, 3};
+  auto gen = models::make_generator(21);
+  RolloutBuffer gathered(2, 4, dims), staged(2, 4, dims);
+  for (int64_t t = 0; t < 2; ++t) {
+    const int64_t b = 9;
+    const models::LlObs obs{torch::randn({b, 5}, gen), torch::randn({b, 3}, gen), torch::randn({b, 3, 4}, gen),
+                            torch::rand({b, 3}, gen) < 0.6, torch::randn({b, 3}, gen)};
+    const auto action = torch::randn({b, 3}, gen), log_prob = torch::randn({b}, gen), value = torch::randn({b}, gen);
+    const auto rows = torch::tensor({int64_t{7}, int64_t{2}, int64_t{2}, int64_t{5}});
+    const auto reward = torch::randn({4}, gen), no = torch::zeros({4}, torch::kBool);
+    const auto valid = torch::tensor({true, false, true, true});
+    gathered.add(models::index_rows(obs, rows), action.index_select(0, rows), log_prob.index_select(0, rows),
+                 value.index_select(0, rows), reward, no, no, torch::Tensor(), valid);
+    staged.stage_picked(obs, action, log_prob, value, rows);
+    EXPECT_THROW(staged.commit(reward, no, torch::ones({4}, torch::kBool), torch::Tensor(), valid), c10::Error);
+    EXPECT_EQ(staged.size(), t);  // the failed commit stored nothing; the stage stands
+    staged.commit(reward, no, no, torch::Tensor(), valid);
+  }
+  EXPECT_THROW(staged.commit(torch::zeros({4}), torch::zeros({4}, torch::kBool), torch::zeros({4}, torch::kBool),
+                             torch::Tensor()),
+               c10::Error);
+  for (const auto& [a, b] : {std::pair{gathered.obs.ego, staged.obs.ego}, {gathered.obs.goal, staged.obs.goal},
+                             {gathered.obs.ado, staged.obs.ado}, {gathered.obs.ado_alive, staged.obs.ado_alive},
+                             {gathered.obs.task, staged.obs.task}, {gathered.actions, staged.actions},
+                             {gathered.log_probs, staged.log_probs}, {gathered.values, staged.values},
+                             {gathered.rewards, staged.rewards}, {gathered.valid, staged.valid}})
+    EXPECT_TRUE(torch::equal(a, b));
+}
+
 TEST(Gae, TerminationAndTruncationHandComputed) {
   // Three columns: no episode end; terminated at t = 1; truncated at t = 1 with V(final) = 2.
   // r = 1, V = 0.5 everywhere, last value 0.5, gamma = lambda = 0.5 (gamma lambda = 0.25).
@@ -167,6 +199,47 @@ TEST(Ppo, ChunkedMinibatchesGiveTheSameUpdate) {
 
 // ll.inference eigen: act() and value() on Eigen kernels give the LibTorch path's numbers (to float
 // rounding) before an update, after it (the copied weights follow the update) and after a load.
+// A policy acting on some rows of a rollout's observation reads them in place: the same
+// normalised observation, statistics, actions and log-probabilities, bit for bit, as acting on a
+// gathered copy of those rows (both inference paths; rows in any order, repeated ones too).
+TEST(Ppo, ActingOnPickedRowsIsActingOnTheirCopy) {
+  models::ObsDims dims{5, 4, 3, 3};
+  for (bool eigen : {false, true}) {
+    PpoConfig cfg;
+    cfg.net.dims = dims;
+    cfg.eigen_inference = eigen;
+    cfg.total_updates = 1;
+    std::vector<std::unique_ptr<PpoAgent>> agents;
+    for (int k = 0; k < 2; ++k) {
+      torch::manual_seed(4);
+      agents.push_back(std::make_unique<PpoAgent>(cfg));
+    }
+    auto gen = models::make_generator(9);
+    for (int64_t b : {7, 300}) {  // 300 x 3 ado rows: above the normaliser's threading size
+      const models::LlObs obs{3.0 * torch::randn({b, 5}, gen) + 1.0, torch::randn({b, 3}, gen),
+                              2.0 * torch::randn({b, 3, 4}, gen), torch::rand({b, 3}, gen) < 0.7,
+                              torch::randn({b, 3}, gen)};
+      const auto rows = torch::cat({torch::randperm(b, gen, torch::kInt64).slice(0, 0, b - 2),
+                                    torch::tensor({int64_t{0}, int64_t{0}})});
+      for (bool update_stats : {true, false}) {
+        auto g0 = models::make_generator(3), g1 = models::make_generator(3);
+        const PpoAction want = agents[0]->act(models::index_rows(obs, rows), g0, update_stats);
+        const PpoAction got = agents[1]->act(obs, rows, g1, update_stats);
+        const std::string at = "eigen " + std::to_string(eigen) + " B " + std::to_string(b);
+        for (const auto& [x, y] : {std::pair{want.obs.ego, got.obs.ego}, {want.obs.goal, got.obs.goal},
+                                   {want.obs.ado, got.obs.ado}, {want.obs.task, got.obs.task},
+                                   {want.action, got.action}, {want.log_prob, got.log_prob}, {want.value, got.value}})
+          EXPECT_TRUE(torch::equal(x, y)) << at;
+        EXPECT_TRUE(torch::equal(want.obs.ado_alive, got.obs.ado_alive)) << at;
+        for (const auto& item : agents[0]->normalizer()->named_buffers())
+          EXPECT_TRUE(torch::equal(item.value(), agents[1]->normalizer()->named_buffers()[item.key()])) << item.key();
+      }
+    }
+    // The statistics did absorb both batches' picked rows (7 + 300, a repeated row twice).
+    EXPECT_NEAR(agents[0]->normalizer()->ego()->count(), 307.0, 1e-3);
+  }
+}
+
 TEST(Ppo, EigenInferenceFollowsUpdatesAndLoads) {
   models::ObsDims dims{5, 4, 3, 3};
   PpoConfig cfg;
