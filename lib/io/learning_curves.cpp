@@ -13,6 +13,8 @@
 #include <system_error>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include "io/csv_table.hpp"
 #include "io/plot.hpp"
 
@@ -261,6 +263,31 @@ bool write_learning_curves(const std::string& run_dir, std::string* message) {
 
   write_csv((dir / data_file).string(), header, columns);
   return render_plot(spec, (dir / "curves.gp").string(), message);
+}
+
+BackgroundCurves::~BackgroundCurves() { wait(); }
+
+void BackgroundCurves::start(const std::string& run_dir) {
+  wait();
+  busy_ = true;
+  worker_ = std::thread([this, run_dir] {
+    // Linux: the calling thread's niceness, which the gnuplot it starts inherits.
+    (void)setpriority(PRIO_PROCESS, 0, 10);
+    std::string message;
+    try {
+      if (!write_learning_curves(run_dir, &message)) problem_ = message;
+    } catch (const std::exception& e) {
+      problem_ = e.what();
+    }
+    busy_ = false;
+  });
+}
+
+std::string BackgroundCurves::wait() {
+  if (worker_.joinable()) worker_.join();
+  std::string problem;
+  problem.swap(problem_);
+  return problem;
 }
 
 }  // namespace f16race::io

@@ -19,7 +19,9 @@
 // A metric column that is missing, or has no finite value, is left out of the figure; empty,
 // nan and inf cells are skipped points. Rows without a finite env_steps are skipped. A last line
 // without its newline and with too few cells is a row still being appended and is ignored.
+#include <atomic>
 #include <string>
+#include <thread>
 
 namespace f16race::io {
 
@@ -33,5 +35,28 @@ inline constexpr int kLearningCurveWindow = 20;
 // when metrics.csv cannot be read or is malformed (no env_steps column, rows with the wrong
 // number of cells, non-numeric text).
 bool write_learning_curves(const std::string& run_dir, std::string* message);
+
+// write_learning_curves on a thread of its own, so that training never waits for gnuplot (~0.1-0.3
+// s a draw, ~3 % of a short 2-core run). The draw and its gnuplot run at nice 10: they take a core
+// from training only while the draw lasts, at a tenth of its share. One draw at a time.
+class BackgroundCurves {
+ public:
+  BackgroundCurves() = default;
+  BackgroundCurves(const BackgroundCurves&) = delete;
+  BackgroundCurves& operator=(const BackgroundCurves&) = delete;
+  ~BackgroundCurves();  // waits for a draw under way
+  // A draw is under way.
+  bool busy() const { return busy_.load(); }
+  // Starts a draw of `run_dir`'s curves (after waiting for the previous one).
+  void start(const std::string& run_dir);
+  // Waits for the draw under way, if any: "" when it made the figure (or there was none), else
+  // why not (write_learning_curves' message or exception).
+  std::string wait();
+
+ private:
+  std::thread worker_;
+  std::atomic<bool> busy_{false};
+  std::string problem_;  // written by the worker, read after join
+};
 
 }  // namespace f16race::io

@@ -325,3 +325,31 @@ TEST_F(LearningCurvesTest, FailedGnuplotKeepsThePreviousImage) {
 }
 
 }  // namespace
+
+// A draw beside training: the same files as a draw in line, busy until it is done, its problem
+// (a malformed metrics.csv naming the file) returned by wait(), which then says no more.
+TEST_F(LearningCurvesTest, BackgroundDrawWritesTheFiguresAndReportsItsProblem) {
+  write_metrics(metrics_text(kAllColumns, 30, synthetic_cell));
+  {
+    f16race::io::BackgroundCurves curves;
+    curves.start(dir_.string());
+    const std::string problem = curves.wait();
+    EXPECT_FALSE(curves.busy());
+    EXPECT_EQ(CsvTable::read((dir_ / "curves_data.csv").string()).rows(), 30u);
+    if (gnuplot_available()) {
+      EXPECT_EQ(problem, "");
+      EXPECT_GT(fs::file_size(dir_ / "curves.png"), 1000u);
+    } else {
+      EXPECT_NE(problem.find("gnuplot"), std::string::npos) << problem;
+    }
+    write_metrics("update,winrate\n1,0.5\n");  // no env_steps column
+    curves.start(dir_.string());
+    const std::string bad = curves.wait();
+    EXPECT_NE(bad.find((dir_ / "metrics.csv").string()), std::string::npos) << bad;
+    EXPECT_EQ(curves.wait(), "");  // reported once
+    fs::remove(dir_ / "curves_data.csv");
+    write_metrics(metrics_text(kAllColumns, 7, synthetic_cell));
+    curves.start(dir_.string());
+  }  // the destructor waits for the draw under way
+  EXPECT_EQ(CsvTable::read((dir_ / "curves_data.csv").string()).rows(), 7u);
+}
