@@ -1,5 +1,6 @@
 #include "race/race_config.hpp"
 
+#include "io/csv_table.hpp"
 #include "io/yaml_config.hpp"
 
 namespace f16race::race {
@@ -92,7 +93,7 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
   if (c.team_size < 1 || c.team_size > 8) fail("team_size must be in [1, 8] (1 vs 1 up to 8 vs 8)");
   if (c.n_env < 1) fail("n_env must be >= 1");
   if (c.dt_hl_s > c.time_limit_s)
-    fail("dt_hl_s (" + std::to_string(c.dt_hl_s) + ") must be <= time_limit_s (" + std::to_string(c.time_limit_s) +
+    fail("dt_hl_s (" + io::format_double(c.dt_hl_s) + ") must be <= time_limit_s (" + io::format_double(c.time_limit_s) +
          "): a race must see at least one high-level interval end");
   if (c.track.leg_min_ft > c.track.leg_max_ft) fail("track.leg_min_ft must be <= track.leg_max_ft");
   if (c.track.alt_min_ft >= c.track.alt_max_ft) fail("track.alt_min_ft must be < track.alt_max_ft");

@@ -164,7 +164,7 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
     throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
                           "train.hl_phase_updates must be > 0");
   if (c.pool.p_center_tail > 0.0 && c.loop.hl_tail_share == 0.0)
-    throw io::ConfigError(source + ": pool.p_center_tail = " + std::to_string(c.pool.p_center_tail) +
+    throw io::ConfigError(source + ": pool.p_center_tail = " + io::format_double(c.pool.p_center_tail) +
                           " applies to the HL-only tail, and train.hl_tail_share is 0 (no tail): set "
                           "train.hl_tail_share > 0, or use pool.p_center for the whole run");
   if (c.loop.hl_average_share > c.loop.hl_tail_share && c.loop.ll_pilot != LowLevelPilot::kAutopilot)
