@@ -268,7 +268,9 @@ bool write_learning_curves(const std::string& run_dir, std::string* message) {
 BackgroundCurves::~BackgroundCurves() { wait(); }
 
 void BackgroundCurves::start(const std::string& run_dir) {
-  wait();
+  // The previous draw ends first; a problem of it not yet read stays for wait() (the new draw only
+  // ever writes one of its own).
+  if (worker_.joinable()) worker_.join();
   busy_ = true;
   worker_ = std::thread([this, run_dir] {
     // Linux: the calling thread's niceness, which the gnuplot it starts inherits.

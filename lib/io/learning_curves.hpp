@@ -49,8 +49,9 @@ class BackgroundCurves {
   bool busy() const { return busy_.load(); }
   // Starts a draw of `run_dir`'s curves (after waiting for the previous one).
   void start(const std::string& run_dir);
-  // Waits for the draw under way, if any: "" when it made the figure (or there was none), else
-  // why not (write_learning_curves' message or exception).
+  // Waits for the draw under way, if any: "" when the draws since the last wait() made their
+  // figures (or there were none), else why the last failing one did not (write_learning_curves'
+  // message or exception).
   std::string wait();
 
  private:

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <unistd.h>
@@ -347,6 +349,12 @@ TEST_F(LearningCurvesTest, BackgroundDrawWritesTheFiguresAndReportsItsProblem) {
     const std::string bad = curves.wait();
     EXPECT_NE(bad.find((dir_ / "metrics.csv").string()), std::string::npos) << bad;
     EXPECT_EQ(curves.wait(), "");  // reported once
+    write_metrics("update,winrate\n1,0.5\n");
+    curves.start(dir_.string());
+    while (curves.busy()) std::this_thread::sleep_for(std::chrono::milliseconds(1));  // it has read the file
+    write_metrics(metrics_text(kAllColumns, 7, synthetic_cell));
+    curves.start(dir_.string());  // the failed draw's problem is not lost by the next start
+    EXPECT_NE(curves.wait().find("env_steps"), std::string::npos);
     fs::remove(dir_ / "curves_data.csv");
     write_metrics(metrics_text(kAllColumns, 7, synthetic_cell));
     curves.start(dir_.string());
