@@ -48,7 +48,21 @@ void RunningNormImpl::update_rows(const torch::Tensor& x, const torch::Tensor& k
   merge_moments(moments.data());
 }
 
+namespace {
+// Every picked row inside x [N, dim]: index in [0, N / group).
+void check_pick(const torch::Tensor& x, const RowPick& pick) {
+  const int64_t samples = x.size(0) / pick.group;
+  TORCH_CHECK(pick.group >= 1 && x.size(0) % pick.group == 0, "RunningNorm: ", x.size(0),
+              " rows are not whole groups of ", pick.group);
+  for (int64_t i = 0; i < pick.count; ++i)
+    TORCH_CHECK(pick.index[i] >= 0 && pick.index[i] < samples, "RunningNorm: picked row ", pick.index[i],
+                " outside the ", samples, " rows");
+}
+}  // namespace
+
 void RunningNormImpl::update_picked(const torch::Tensor& x, const torch::Tensor& keep, const RowPick& pick) {
+  check_tensor(x, "x", {-1, dim_}, torch::kFloat32);
+  check_pick(x, pick);
   std::vector<double> moments;
   batch_moments(x, keep, &moments, &pick);
   merge_moments(moments.data());
@@ -194,6 +208,7 @@ torch::Tensor RunningNormImpl::normalize_rows(const torch::Tensor& x, const torc
 torch::Tensor RunningNormImpl::normalize_picked(const torch::Tensor& x, const torch::Tensor& keep,
                                                 const RowPick& pick) const {
   check_tensor(x, "x", {-1, dim_}, torch::kFloat32);
+  check_pick(x, pick);
   return normalize_impl(x, keep, &pick);
 }
 
@@ -286,10 +301,8 @@ LlObs ObsNormalizerImpl::normalize(const LlObs& obs, const torch::Tensor& rows_i
   // Replicas hold batches back through hold_back's gathered path.
   if (update_stats && gather_) return normalize(index_rows(obs, rows_in), update_stats);
   const auto rows = rows_in.contiguous();
-  const int64_t n = rows.numel(), all = obs.ego.size(0);
+  const int64_t n = rows.numel();
   const int64_t* idx = rows.data_ptr<int64_t>();
-  for (int64_t i = 0; i < n; ++i)
-    TORCH_CHECK(idx[i] >= 0 && idx[i] < all, "ObsNormalizer: row ", idx[i], " outside the ", all, " rows");
   const RowPick pick{idx, n, 1}, pick_ado{idx, n, dims_.n_other};
   const auto ado = obs.ado.reshape({-1, dims_.d_ado}), alive = obs.ado_alive.reshape({-1});
   if (update_stats) {

@@ -237,6 +237,13 @@ TEST(Ppo, ActingOnPickedRowsIsActingOnTheirCopy) {
     }
     // The statistics did absorb both batches' picked rows (7 + 300, a repeated row twice).
     EXPECT_NEAR(agents[0]->normalizer()->ego()->count(), 307.0, 1e-3);
+    // A row outside the batch is refused before any statistic moves.
+    const models::LlObs small{torch::randn({3, 5}, gen), torch::randn({3, 3}, gen), torch::randn({3, 3, 4}, gen),
+                              torch::ones({3, 3}, torch::kBool), torch::randn({3, 3}, gen)};
+    auto g = models::make_generator(3);
+    for (const int64_t bad : {int64_t{3}, int64_t{-1}})
+      EXPECT_THROW(agents[1]->act(small, torch::tensor({int64_t{0}, bad}), g, true), c10::Error);
+    EXPECT_NEAR(agents[1]->normalizer()->ego()->count(), 307.0, 1e-3);
   }
 }
 
