@@ -166,7 +166,10 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
                 static_cast<long long>(sum.updates));
     throw ExitStatus{130};  // as a shell reports a command ended by SIGINT, after the checkpoint
   }
-  if (cfg.loop.hl_tail_members > 1) {
+  // --max-updates may end the run before its budget: its tail members (forked at the tail's
+  // start) train only after the run's own budget, when it is resumed to it.
+  const bool budget_reached = sum.env_steps >= cfg.loop.total_env_steps;
+  if (cfg.loop.hl_tail_members > 1 && budget_reached) {
     // The run's other tails, forked at its tail's first update: each as long as its own.
     trainer.reset();  // its lock stays until here; the members hold their own
     if (!quiet)
@@ -196,7 +199,11 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
     std::printf("high-level policy: the weight average of the critic over its last %lld ES updates "
                 "(train.hl_average_share)\n",
                 static_cast<long long>(sum.hl_average_count));
-  if (cfg.loop.hl_tail_members > 1)
+  if (!budget_reached)
+    std::printf("stopped by --max-updates at %lld of %lld env steps (checkpoint written); continue with --resume %s\n",
+                static_cast<long long>(sum.env_steps), static_cast<long long>(cfg.loop.total_env_steps),
+                run_dir.c_str());
+  else if (cfg.loop.hl_tail_members > 1)
     std::printf("high-level policy: greedy on the mean of %d tails' critics (the run's and %s/members/1..%d; "
                 "train.hl_tail_members)\n",
                 cfg.loop.hl_tail_members, run_dir.c_str(), cfg.loop.hl_tail_members - 1);

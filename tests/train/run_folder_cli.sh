@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The run folder from the command line (issue 15): a second writer is refused while the first
 # trains, SIGINT ends a run with status 130 after its checkpoint, a fresh run refuses a folder
-# without LATEST, and --overwrite moves the old run aside intact.
+# without LATEST, --overwrite moves the old run aside intact, and --max-updates stops early with status 0.
 # Usage: run_folder_cli.sh F16RACE_BINARY CONFIG WORK_DIR
 set -uo pipefail
 bin=$1 config=$2 work=$3
@@ -26,4 +26,10 @@ msg=$("$bin" train --config "$config" --run "$run" --seed 4 --quiet 2>&1); rc=$?
 "$bin" train --config "$config" --run "$run" --seed 4 --overwrite --max-updates 1 --quiet || fail "--overwrite"
 [ -f "$run.old-1/checkpoint/$latest/trainer.pt" ] || fail "--overwrite did not keep the old run in $run.old-1"
 grep -q "^seed: 4" "$run/config.yaml" || fail "--overwrite did not start the new run"
+# --max-updates before the budget: a checkpoint and status 0, the tail members left for --resume
+# (they once were trained at once and the run failed on the missing members/1 folder).
+msg=$("$bin" train --config "$config" --run "$work/m" --set train.hl_tail_members=2 --set train.hl_tail_share=0.5 --max-updates 1 2>&1); rc=$?
+[ "$rc" -eq 0 ] && [[ "$msg" == *"stopped by --max-updates at "*"continue with --resume $work/m"* ]] ||
+  fail "--max-updates with tail members: rc $rc: $msg"
+[ -f "$work/m/checkpoint/LATEST" ] && [ ! -e "$work/m/members" ] || fail "--max-updates: no checkpoint, or members trained"
 echo "OK"
