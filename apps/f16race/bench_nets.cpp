@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "io/provenance.hpp"
 #include "race/race_env.hpp"
 #include "models/attention_encoder.hpp"
 #include "models/hl_critic.hpp"
@@ -84,7 +85,9 @@ void run_bench_nets(const NetsBenchOptions& o) {
   if (!o.json) {
     std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads\n", o.samples, o.repeats,
                 torch::get_num_threads());
-    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s\n", peak_gflops);
+    const std::string blas = io::blas_core();
+    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s)\n", peak_gflops,
+                blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str());
     std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
                 "fwd+bwd us", "x peak");
   }
@@ -106,9 +109,10 @@ void run_bench_nets(const NetsBenchOptions& o) {
     if (o.json) {
       std::printf("{\"bench\": \"nets\", \"network\": \"%s\", \"samples\": %d, \"threads\": %d, "
                   "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
-                  "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g}\n",
+                  "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
+                  "\"blas_core\": \"%s\"}\n",
                   c.name.c_str(), o.samples, torch::get_num_threads(), static_cast<long long>(c.flops_per_sample),
-                  fwd_us, fwd_bwd_us, gflops, peak_gflops);
+                  fwd_us, fwd_bwd_us, gflops, peak_gflops, io::blas_core().c_str());
     } else {
       std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
                   gflops, fwd_bwd_us, gflops / peak_gflops);

@@ -3,9 +3,13 @@
 #include <malloc.h>
 #include <omp.h>
 
+#include <strings.h>
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <exception>
 #include <string>
@@ -23,6 +27,30 @@ static void single_threaded_blas() {
   if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(1);
 }
 
+// OpenBLAS picks its kernels from the CPU model when it loads, and takes its pre-AVX "Prescott"
+// set for a model it does not know (0.3.21 on Intel family 6 model 207): every LibTorch GEMM then
+// ran ~3x slower (bench nets, 1024^3 float product, 2 threads: 30 against 97 GFLOP/s with the
+// SkylakeX set; LL actor-critic forward+backward 20.6 -> 8.2 us/sample). Only OPENBLAS_CORETYPE,
+// read at load time, overrides that choice, so main sets it from the CPU's features and runs
+// itself again, once. A user's OPENBLAS_CORETYPE is left as it is.
+static void known_blas_kernels(char** argv) {
+  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
+  if (strcasecmp(f16race::io::blas_core().c_str(), "prescott") != 0) return;
+  __builtin_cpu_init();
+  const char* core = nullptr;
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512cd"))
+    core = "SkylakeX";
+  else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+    core = "Haswell";
+  else if (__builtin_cpu_supports("avx"))
+    core = "Sandybridge";
+  if (core == nullptr) return;  // Prescott is the right set for this CPU
+  if (setenv("OPENBLAS_CORETYPE", core, 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  unsetenv("OPENBLAS_CORETYPE");  // no re-run (no /proc?): go on with the slower kernels
+}
+
 // LibTorch allocates and frees the same large activation and gradient buffers on every PPO
 // minibatch and rollout step. glibc returns blocks above its mmap threshold (and the heap top
 // above the trim threshold) to the kernel at every free, so each step paid page faults and page
@@ -35,6 +63,7 @@ static void keep_freed_memory() {
 }
 
 int main(int argc, char** argv) {
+  known_blas_kernels(argv);
   keep_freed_memory();
   single_threaded_blas();
   CLI::App app{"f16race: simulate, race, train and evaluate teams of F-16 aircraft (AeroBench dynamics)"};

@@ -1,5 +1,7 @@
 #include "io/provenance.hpp"
 
+#include <dlfcn.h>
+
 #include <fstream>
 
 namespace f16race::io {
@@ -18,6 +20,14 @@ std::string cpu_model() {
   }
   if (name.empty()) return "unknown CPU";
   return family.empty() ? name : name + " (family " + family + " model " + model + ")";
+}
+
+std::string blas_core() {
+  using CoreName = char* (*)();
+  // Looked up, not linked: the project does not depend on which BLAS LibTorch's alternative is.
+  const auto f = reinterpret_cast<CoreName>(dlsym(RTLD_DEFAULT, "openblas_get_corename"));
+  const char* name = f != nullptr ? f() : nullptr;
+  return name != nullptr ? std::string(name) : std::string();
 }
 
 }  // namespace f16race::io

@@ -13,4 +13,8 @@ const char* build_commit();
 // as some virtual machines report only a vendor name, the family and model numbers.
 std::string cpu_model();
 
+// The kernel set OpenBLAS chose for this CPU ("SkylakeX", "Haswell", "Prescott" ...), which
+// decides how fast every LibTorch GEMM runs; "" when the BLAS in use is not OpenBLAS.
+std::string blas_core();
+
 }  // namespace f16race::io
