@@ -32,7 +32,7 @@ static void single_threaded_blas() {
 // ran ~3x slower (bench nets, 1024^3 float product, 2 threads: 30 against 97 GFLOP/s with the
 // SkylakeX set; LL actor-critic forward+backward 20.6 -> 8.2 us/sample). Only OPENBLAS_CORETYPE,
 // read at load time, overrides that choice, so main sets it from the CPU's features and runs
-// itself again, once. A user's OPENBLAS_CORETYPE is left as it is.
+// itself again, once (~0.4 s more start-up, there only). A user's OPENBLAS_CORETYPE is left as it is.
 static void known_blas_kernels(char** argv) {
   if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
   if (strcasecmp(f16race::io::blas_core().c_str(), "prescott") != 0) return;
@@ -46,9 +46,14 @@ static void known_blas_kernels(char** argv) {
   else if (__builtin_cpu_supports("avx"))
     core = "Sandybridge";
   if (core == nullptr) return;  // Prescott is the right set for this CPU
+  // The binary's own path, not /proc/self/exe, so that ps and top still show "f16race".
+  char self[4096];
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+  if (n <= 0) return;  // no /proc: go on with the slower kernels
+  self[n] = '\0';
   if (setenv("OPENBLAS_CORETYPE", core, 1) != 0) return;
-  execv("/proc/self/exe", argv);
-  unsetenv("OPENBLAS_CORETYPE");  // no re-run (no /proc?): go on with the slower kernels
+  execv(self, argv);
+  unsetenv("OPENBLAS_CORETYPE");  // the exec failed: the same, slower kernels
 }
 
 // LibTorch allocates and frees the same large activation and gradient buffers on every PPO
