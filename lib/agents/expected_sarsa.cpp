@@ -57,15 +57,23 @@ torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps) {
   return torch::einsum("nabc,na,nb,nc->n", {q.view({n, nb, nb, nb}), pi.select(1, 0), pi.select(1, 1), pi.select(1, 2)});
 }
 
+namespace {
+// The eps-greedy value over q's last dimension (the bins): (1 - eps) max + eps mean. eps is a
+// double or a float tensor broadcast against q with its last dimension reduced.
+template <class Eps>
+torch::Tensor egreedy_over_bins(const torch::Tensor& q, const Eps& eps) {
+  return (1.0 - eps) * std::get<0>(q.max(-1)) + eps * q.mean(-1);
+}
+}  // namespace
+
 torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps) {
   check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
-  return (1.0 - eps) * std::get<0>(q.max(2)) + eps * q.mean(2);
+  return egreedy_over_bins(q, eps);
 }
 
 torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps, const std::array<double, 3>& scale) {
   check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
-  const auto e = torch::tensor({eps * scale[0], eps * scale[1], eps * scale[2]}, torch::kFloat32);
-  return (1.0 - e) * std::get<0>(q.max(2)) + e * q.mean(2);
+  return egreedy_over_bins(q, torch::tensor({eps * scale[0], eps * scale[1], eps * scale[2]}, torch::kFloat32));
 }
 
 std::array<bool, 3> team_drawn_axes(const EsConfig& cfg) {
@@ -164,8 +172,7 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
       // The lane is the team's: eps-greedy over the members' mean lateral utilities.
       const auto q_y = next_out.q.select(1, 1).reshape({t, n_a, -1});              // [T, n_a, bins]
       const auto team_q_y = masked_team_mean(q_y, next_active).first.unsqueeze(1);  // [T, 1, bins]
-      const double e = next_epsilon * scale[1];
-      const auto lane = (1.0 - e) * std::get<0>(team_q_y.max(2)) + e * team_q_y.mean(2);  // [T, 1]
+      const auto lane = egreedy_over_bins(team_q_y, next_epsilon * scale[1]);  // [T, 1]
       team_next = torch::cat({team_next.narrow(1, 0, 1), lane, team_next.narrow(1, 2, 1)}, 1);
     }
     target.value = rule.per_axis_target ? team_reward.unsqueeze(1) + gamma * team_live.unsqueeze(1) * team_next
