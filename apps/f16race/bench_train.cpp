@@ -173,11 +173,13 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
     return;
   }
   torch::set_num_threads(omp_get_max_threads());
-  if (!o.json)
+  if (!o.json) {
+    const std::string blas = io::blas_core();
     std::printf("f16race bench train: %d runs of %lld updates per config (LL and HL phases as configured), %d "
                 "threads; %s, OpenBLAS kernels %s\n",
                 o.repeat, o.updates, omp_get_max_threads(), io::cpu_model().c_str(),
-                io::blas_core().empty() ? "- (not OpenBLAS)" : io::blas_core().c_str());
+                blas.empty() ? "- (not OpenBLAS)" : blas.c_str());
+  }
   for (const std::string& path : o.configs) {
     const train::TrainConfig cfg = train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path);
     // Per process, so two benches at once do not meet in one run folder.
