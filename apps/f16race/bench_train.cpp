@@ -252,7 +252,8 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld, "
                   "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
                   "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
-                  "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s]}\n",
+                  "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
+                  "\"cpu\": \"%s\", \"blas_core\": \"%s\"}\n",
                   path.c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
                   t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s, floor.ll_train_s,
                   floor.hl_forward_s, floor.hl_train_s, static_cast<long long>(floor.ll_forward_batch),
@@ -260,7 +261,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   static_cast<long long>(floor.hl_train_batch), ratio, runs.size(), list(rates, "%.6g").c_str(),
                   list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
                   list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
-                  list(run_io, "%.4g").c_str());
+                  list(run_io, "%.4g").c_str(), io::cpu_model().c_str(), io::blas_core().c_str());
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
       std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "
