@@ -82,10 +82,10 @@ void run_bench_nets(const NetsBenchOptions& o) {
 
   // The reference: what this LibTorch's float matrix product reaches here at these threads.
   const double peak_gflops = matmul_gflops(o.repeats);
+  const std::string blas = io::blas_core();
   if (!o.json) {
     std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads\n", o.samples, o.repeats,
                 torch::get_num_threads());
-    const std::string blas = io::blas_core();
     std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s)\n", peak_gflops,
                 blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str());
     std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
@@ -112,7 +112,7 @@ void run_bench_nets(const NetsBenchOptions& o) {
                   "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
                   "\"blas_core\": \"%s\"}\n",
                   c.name.c_str(), o.samples, torch::get_num_threads(), static_cast<long long>(c.flops_per_sample),
-                  fwd_us, fwd_bwd_us, gflops, peak_gflops, io::blas_core().c_str());
+                  fwd_us, fwd_bwd_us, gflops, peak_gflops, blas.c_str());
     } else {
       std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
                   gflops, fwd_bwd_us, gflops / peak_gflops);
