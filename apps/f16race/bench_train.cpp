@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "io/json_text.hpp"
 #include "io/provenance.hpp"
 #include "dist/process_group.hpp"
 #include "dist_options.hpp"
@@ -145,10 +146,10 @@ void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc
         per_rank += (r ? ", " : "") + std::to_string(all[3 * r]);
         comm += (r ? ", " : "") + std::to_string(all[3 * r + 1]);
       }
-      std::printf("{\"bench\": \"train\", \"config\": \"%s\", \"envs\": %d, \"ranks\": %d, \"threads_per_rank\": %d, "
+      std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"ranks\": %d, \"threads_per_rank\": %d, "
                   "\"aircraft_steps_per_s\": %.6g, \"per_rank_aircraft_steps_per_s\": [%s], "
                   "\"communication_share\": [%s]}\n",
-                  path.c_str(), cfg.race.n_env, group.size(), omp_get_max_threads(), rate, per_rank.c_str(), comm.c_str());
+                  io::json_string(path).c_str(), cfg.race.n_env, group.size(), omp_get_max_threads(), rate, per_rank.c_str(), comm.c_str());
     } else {
       std::printf("%s: %d envs x %d aircraft over %d ranks, %lld env steps in %.1f s -> %.0f aircraft-steps/s for the "
                   "group\n",
@@ -244,7 +245,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       return out;
     };
     if (o.json) {
-      std::printf("{\"bench\": \"train\", \"config\": \"%s\", \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
+      std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
                   "\"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
                   "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"total_s\": %.4g, "
                   "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
@@ -253,15 +254,15 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
                   "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
                   "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
-                  "\"cpu\": \"%s\", \"blas_core\": \"%s\"}\n",
-                  path.c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
+                  "\"cpu\": %s, \"blas_core\": %s}\n",
+                  io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
                   t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s, floor.ll_train_s,
                   floor.hl_forward_s, floor.hl_train_s, static_cast<long long>(floor.ll_forward_batch),
                   static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
                   static_cast<long long>(floor.hl_train_batch), ratio, runs.size(), list(rates, "%.6g").c_str(),
                   list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
                   list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
-                  list(run_io, "%.4g").c_str(), io::cpu_model().c_str(), io::blas_core().c_str());
+                  list(run_io, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(), io::json_string(io::blas_core()).c_str());
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
       std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "

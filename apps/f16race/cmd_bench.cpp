@@ -12,6 +12,7 @@
 
 #include "commands.hpp"
 #include "io/input_error.hpp"
+#include "io/json_text.hpp"
 #include "io/provenance.hpp"
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
@@ -105,9 +106,9 @@ void run_bench_sim(const SimBenchOptions& o) {
     for (int t : threads) {
       const double rate = bench_sim_case(model, o.aircraft, t, o);
       if (o.json) {
-        std::printf("{\"bench\": \"sim\", \"model\": \"%s\", \"law\": \"%s\", \"threads\": %d, \"aircraft\": %d, "
+        std::printf("{\"bench\": \"sim\", \"model\": %s, \"law\": %s, \"threads\": %d, \"aircraft\": %d, "
                     "\"substeps_per_s\": %.6g}\n",
-                    aero_model_name(model), o.law.c_str(), t, o.aircraft, rate);
+                    io::json_string(aero_model_name(model)).c_str(), io::json_string(o.law).c_str(), t, o.aircraft, rate);
       } else {
         std::printf("%-8s %8d %10d %22.4g\n", aero_model_name(model), t, o.aircraft, rate);
       }

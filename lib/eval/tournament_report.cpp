@@ -10,20 +10,16 @@
 #include "race/scripted_pilot.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
+#include "io/json_text.hpp"
 #include "io/plot.hpp"
 
 namespace f16race::eval {
 
 namespace fs = std::filesystem;
+using io::json_string;
 
 namespace {
 
-std::string json_escape(const std::string& s) {
-  std::string o;
-  for (char c : s) o += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
-  return o;
-}
-std::string json_string(const std::string& s) { return "\"" + json_escape(s) + "\""; }
 // JSON has no NaN: a statistic without data is null.
 std::string json_number(double v) { return std::isfinite(v) ? io::format_double(v) : "null"; }
 

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Every `bench ... --json` line is JSON a parser reads, also when a string in it (the config
+# path) holds a quote, a backslash or a tab: strings go through io::json_string.
+# Usage: bench_json.sh F16RACE_BINARY CONFIGS_DIR
+set -uo pipefail
+bin=$1
+configs=$2
+fail() { echo "FAIL: $*"; exit 1; }
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+weird="$dir/"$'we"ird\\ta\tb.yaml'
+cp "$configs/default.yaml" "$weird" || fail "cannot copy the config"
+check() {  # $1: what, stdin: the bench's output; every line starting with { must parse
+  python3 -c '
+import json, sys
+what, want = sys.argv[1], sys.argv[2]
+lines = [l for l in sys.stdin.read().splitlines() if l.startswith("{")]
+if not lines: sys.exit(what + ": no JSON line")
+for l in lines:
+    try: j = json.loads(l)
+    except ValueError as e: sys.exit(what + ": not JSON (" + str(e) + "): " + l)
+    if want and j.get("config") != want: sys.exit(what + ": config " + repr(j.get("config")) + " != " + repr(want))
+' "$1" "${2:-}" || exit 1
+}
+out=$("$bin" bench train --config "$weird" --updates 1 --repeat 1 --json --set race.n_env=2 2>&1) || fail "bench train: $out"
+check "bench train" "$weird" <<< "$out"
+out=$("$bin" bench nets --samples 16 --repeats 1 --json 2>&1) || fail "bench nets: $out"
+check "bench nets" <<< "$out"
+out=$("$bin" bench sim --aircraft 8 --substeps 10 --repeats 1 --threads 1 --json 2>&1) || fail "bench sim: $out"
+check "bench sim" <<< "$out"
+echo OK
