@@ -44,7 +44,7 @@ int64_t HlCriticImpl::flops_per_sample() const {
   return flops;
 }
 
-HlOutput HlCriticImpl::forward(const HlObs& obs) {
+HlOutput HlCriticImpl::forward(const HlObs& obs, bool with_q) {
   const int64_t b = check_obs(obs, cfg_.dims);
   std::vector<torch::Tensor> outs;
   for (std::size_t k = 0; k < encoders_.size(); ++k) {
@@ -63,7 +63,7 @@ HlOutput HlCriticImpl::forward(const HlObs& obs) {
   auto shape = action_shape;
   shape.push_back(cfg_.n_atoms);
   result.log_probs = torch::log_softmax(out.view(shape), -1);
-  result.q = (result.log_probs.exp() * atoms_).sum(-1);
+  if (with_q) result.q = (result.log_probs.exp() * atoms_).sum(-1);
   return result;
 }
 

@@ -43,7 +43,9 @@ struct HlOutput {
 class HlCriticImpl : public torch::nn::Module {
  public:
   explicit HlCriticImpl(const HlCriticConfig& cfg);
-  HlOutput forward(const HlObs& obs);
+  // with_q false (n_atoms > 1): log_probs only, q left undefined; a loss that reads only the
+  // distribution (the fused ES+D3 loss) skips q's exp, product and sum and their graph nodes.
+  HlOutput forward(const HlObs& obs, bool with_q = true);
   const HlCriticConfig& config() const { return cfg_; }
   int64_t n_joint_actions() const { return cfg_.n_bins * cfg_.n_bins * cfg_.n_bins; }
   // Forward FLOPs of one sample (encoder, trunk, head; see AttentionEncoderImpl::flops_per_sample).

@@ -477,9 +477,10 @@ EsStats EsAgent::update(const EsBatch& batch) {
         const auto rows_c = (k.teams.unsqueeze(1) * n_a + aircraft).reshape({-1});
         const EsTarget target_c{target.value.index_select(0, k.teams),
                                 target.dist.defined() ? target.dist.index_select(0, k.teams) : torch::Tensor()};
-        const auto out = critic_(models::index_rows(obs, rows_c));
+        const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
+        const auto out = critic_->forward(models::index_rows(obs, rows_c), /*with_q=*/!fused_d3);
         const double weight = n_chunks == 1 ? 1.0 : k.units / units;
-        if (cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0) {
+        if (fused_d3) {
           // The paper's ES+D3 loss as one node (agents/es_d3_fused_loss.hpp; es_loss is its oracle).
           const auto f = fused_es_d3_loss(out.log_probs, batch.actions.index_select(0, k.teams),
                                           active.index_select(0, k.teams), target_c.dist, target_c.value, support_,

@@ -210,6 +210,16 @@ TEST(HlCritic, ShapesOfEveryHead) {
     const auto z = torch::linspace(-5.0, 15.0, 51);
     EXPECT_LT(max_abs_diff(out.q, (probs * z).sum(-1)), 1e-5);
     EXPECT_LT(max_abs_diff(net->atoms(), z), 1e-6);
+    // Without q (the fused ES+D3 loss): the same distribution to the bit, no q.
+    const auto dist_only = net->forward(obs, /*with_q=*/false);
+    EXPECT_FALSE(dist_only.q.defined());
+    EXPECT_TRUE(torch::equal(dist_only.log_probs, out.log_probs));
+  }
+  {
+    HlCriticConfig plain = cfg;  // one atom: q is the output, asked for or not
+    plain.n_atoms = 1;
+    HlCritic net(plain);
+    EXPECT_TRUE(torch::equal(net->forward(obs, false).q, net(obs).q));
   }
   HlObs bad = obs;
   bad.prev_action = torch::zeros({b, 2});
