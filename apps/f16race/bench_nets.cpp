@@ -112,8 +112,9 @@ void run_bench_nets(const NetsBenchOptions& o) {
                   "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
                   "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
                   "\"blas_core\": %s}\n",
-                  io::json_string(c.name).c_str(), o.samples, torch::get_num_threads(), static_cast<long long>(c.flops_per_sample),
-                  fwd_us, fwd_bwd_us, gflops, peak_gflops, io::json_string(blas).c_str());
+                  io::json_string(c.name).c_str(), o.samples, torch::get_num_threads(),
+                  static_cast<long long>(c.flops_per_sample), fwd_us, fwd_bwd_us, gflops, peak_gflops,
+                  io::json_string(blas).c_str());
     } else {
       std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
                   gflops, fwd_bwd_us, gflops / peak_gflops);

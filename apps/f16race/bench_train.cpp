@@ -149,7 +149,8 @@ void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc
       std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"ranks\": %d, \"threads_per_rank\": %d, "
                   "\"aircraft_steps_per_s\": %.6g, \"per_rank_aircraft_steps_per_s\": [%s], "
                   "\"communication_share\": [%s]}\n",
-                  io::json_string(path).c_str(), cfg.race.n_env, group.size(), omp_get_max_threads(), rate, per_rank.c_str(), comm.c_str());
+                  io::json_string(path).c_str(), cfg.race.n_env, group.size(), omp_get_max_threads(), rate,
+                  per_rank.c_str(), comm.c_str());
     } else {
       std::printf("%s: %d envs x %d aircraft over %d ranks, %lld env steps in %.1f s -> %.0f aircraft-steps/s for the "
                   "group\n",
@@ -255,14 +256,16 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
                   "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
                   "\"cpu\": %s, \"blas_core\": %s}\n",
-                  io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(), rate, t.env,
-                  t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s, floor.ll_train_s,
-                  floor.hl_forward_s, floor.hl_train_s, static_cast<long long>(floor.ll_forward_batch),
-                  static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
-                  static_cast<long long>(floor.hl_train_batch), ratio, runs.size(), list(rates, "%.6g").c_str(),
+                  io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(),
+                  rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s,
+                  floor.ll_train_s, floor.hl_forward_s, floor.hl_train_s,
+                  static_cast<long long>(floor.ll_forward_batch), static_cast<long long>(floor.ll_train_batch),
+                  static_cast<long long>(floor.hl_forward_batch), static_cast<long long>(floor.hl_train_batch), ratio,
+                  runs.size(), list(rates, "%.6g").c_str(),
                   list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
                   list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
-                  list(run_io, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(), io::json_string(io::blas_core()).c_str());
+                  list(run_io, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
+                  io::json_string(io::blas_core()).c_str());
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
       std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "

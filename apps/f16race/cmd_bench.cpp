@@ -108,7 +108,8 @@ void run_bench_sim(const SimBenchOptions& o) {
       if (o.json) {
         std::printf("{\"bench\": \"sim\", \"model\": %s, \"law\": %s, \"threads\": %d, \"aircraft\": %d, "
                     "\"substeps_per_s\": %.6g}\n",
-                    io::json_string(aero_model_name(model)).c_str(), io::json_string(o.law).c_str(), t, o.aircraft, rate);
+                    io::json_string(aero_model_name(model)).c_str(), io::json_string(o.law).c_str(), t, o.aircraft,
+                    rate);
       } else {
         std::printf("%-8s %8d %10d %22.4g\n", aero_model_name(model), t, o.aircraft, rate);
       }
