@@ -7,6 +7,8 @@
 
 #include <omp.h>
 
+#include "models/kernels/normalize_row.hpp"
+
 namespace f16race::models {
 
 RunningNormImpl::RunningNormImpl(int64_t dim, double clip, double eps) : dim_(dim), clip_(clip), eps_(eps) {
@@ -224,27 +226,24 @@ torch::Tensor RunningNormImpl::normalize_impl(const torch::Tensor& x_in, const t
   const float* xp = x.data_ptr<float>();
   const bool* kp = keep.defined() ? keep.data_ptr<bool>() : nullptr;
   float* op = out.data_ptr<float>();
-  const double* mean = mean_.data_ptr<double>();
-  const double* var = var_.data_ptr<double>();
   std::vector<float> m(static_cast<std::size_t>(d)), s(static_cast<std::size_t>(d));
-  for (int64_t c = 0; c < d; ++c) {
-    m[c] = static_cast<float>(mean[c]);
-    s[c] = static_cast<float>(1.0 / std::sqrt(var[c] + eps_));
-  }
-  const float lo = static_cast<float>(-clip_), hi = static_cast<float>(clip_);
-  const float* mp = m.data();
-  const float* sp = s.data();
+  const kernels::NormTerms terms = float_terms(m.data(), s.data());
 #pragma omp parallel for schedule(static) if (rows * d >= kParallelElements && !omp_in_parallel())
   for (int64_t i = 0; i < rows; ++i) {
     const int64_t src = pick != nullptr ? pick->at(i) : i;
-    if (kp != nullptr && !kp[src]) {
-      for (int64_t c = 0; c < d; ++c) op[i * d + c] = 0.0f;
-      continue;
-    }
-    const float* xr = xp + src * d;
-    for (int64_t c = 0; c < d; ++c) op[i * d + c] = std::min(std::max((xr[c] - mp[c]) * sp[c], lo), hi);
+    kernels::normalize_row(terms, xp + src * d, kp == nullptr || kp[src], op + i * d);
   }
   return out;
+}
+
+kernels::NormTerms RunningNormImpl::float_terms(float* mean_out, float* inv_std_out) const {
+  const double* mean = mean_.data_ptr<double>();
+  const double* var = var_.data_ptr<double>();
+  for (int64_t c = 0; c < dim_; ++c) {
+    mean_out[c] = static_cast<float>(mean[c]);
+    inv_std_out[c] = static_cast<float>(1.0 / std::sqrt(var[c] + eps_));
+  }
+  return kernels::NormTerms{mean_out, inv_std_out, static_cast<float>(clip_), dim_};
 }
 
 ObsNormalizerImpl::ObsNormalizerImpl(const ObsDims& dims, double clip) : dims_(dims) {
@@ -281,36 +280,51 @@ HlObs ObsNormalizerImpl::normalize(const HlObs& obs, bool update_stats) {
 LlObs ObsNormalizerImpl::normalize(const LlObs& obs, bool update_stats) {
   check_obs(obs, dims_);
   torch::NoGradGuard no_grad;
-  if (update_stats && gather_) {
-    hold_back(obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task);
-    update_stats = false;
-  }
-  if (update_stats) {
+  if (update_stats) absorb(obs, torch::Tensor());
+  return {ego_->normalize(obs.ego), extra_->normalize(obs.goal), ado_(obs.ado, obs.ado_alive, false), obs.ado_alive,
+          task_->normalize(obs.task)};
+}
+
+void ObsNormalizerImpl::absorb(const LlObs& obs, const torch::Tensor& rows_in) {
+  check_obs(obs, dims_);
+  torch::NoGradGuard no_grad;
+  if (!rows_in.defined()) {
+    if (gather_) {
+      hold_back(obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task);
+      return;
+    }
     ego_->update(obs.ego);
     extra_->update(obs.goal);
     task_->update(obs.task);
+    ado_norm_->update_rows(obs.ado.reshape({-1, dims_.d_ado}), obs.ado_alive.reshape({-1}));
+    return;
   }
-  return {ego_->normalize(obs.ego), extra_->normalize(obs.goal), ado_(obs.ado, obs.ado_alive, update_stats),
-          obs.ado_alive, task_->normalize(obs.task)};
+  check_tensor(rows_in, "rows", {-1}, torch::kInt64);
+  // Replicas hold batches back through hold_back's gathered path.
+  if (gather_) {
+    const LlObs picked = index_rows(obs, rows_in);
+    hold_back(picked.ego, picked.goal, picked.ado, picked.ado_alive, picked.task);
+    return;
+  }
+  const auto rows = rows_in.contiguous();
+  const int64_t* idx = rows.data_ptr<int64_t>();
+  const RowPick pick{idx, rows.numel(), 1}, pick_ado{idx, rows.numel(), dims_.n_other};
+  ego_->update_picked(obs.ego, torch::Tensor(), pick);
+  extra_->update_picked(obs.goal, torch::Tensor(), pick);
+  task_->update_picked(obs.task, torch::Tensor(), pick);
+  ado_norm_->update_picked(obs.ado.reshape({-1, dims_.d_ado}), obs.ado_alive.reshape({-1}), pick_ado);
 }
 
 LlObs ObsNormalizerImpl::normalize(const LlObs& obs, const torch::Tensor& rows_in, bool update_stats) {
   check_obs(obs, dims_);
   check_tensor(rows_in, "rows", {-1}, torch::kInt64);
   torch::NoGradGuard no_grad;
-  // Replicas hold batches back through hold_back's gathered path.
-  if (update_stats && gather_) return normalize(index_rows(obs, rows_in), update_stats);
+  if (update_stats) absorb(obs, rows_in);
   const auto rows = rows_in.contiguous();
   const int64_t n = rows.numel();
   const int64_t* idx = rows.data_ptr<int64_t>();
   const RowPick pick{idx, n, 1}, pick_ado{idx, n, dims_.n_other};
   const auto ado = obs.ado.reshape({-1, dims_.d_ado}), alive = obs.ado_alive.reshape({-1});
-  if (update_stats) {
-    ego_->update_picked(obs.ego, torch::Tensor(), pick);
-    extra_->update_picked(obs.goal, torch::Tensor(), pick);
-    task_->update_picked(obs.task, torch::Tensor(), pick);
-    ado_norm_->update_picked(ado, alive, pick_ado);
-  }
   return {ego_->normalize_picked(obs.ego, torch::Tensor(), pick), extra_->normalize_picked(obs.goal, torch::Tensor(), pick),
           ado_norm_->normalize_picked(ado, alive, pick_ado).view({n, dims_.n_other, dims_.d_ado}),
           obs.ado_alive.index_select(0, rows), task_->normalize_picked(obs.task, torch::Tensor(), pick)};

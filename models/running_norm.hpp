@@ -12,6 +12,7 @@
 #include <functional>
 #include <vector>
 
+#include "models/kernels/normalize_row.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -48,6 +49,9 @@ class RunningNormImpl : public torch::nn::Module {
   const torch::Tensor& mean() const { return mean_; }
   // The float32 terms normalize() applies: (x - mean) * inv_std, clamped to +-clip.
   torch::Tensor mean_f32() const { return mean_.to(torch::kFloat32); }
+  // The same terms written into mean [dim] and inv_std [dim], as normalize() rounds them, for
+  // kernels::normalize_row (which normalize() applies row by row).
+  kernels::NormTerms float_terms(float* mean, float* inv_std) const;
   torch::Tensor inv_std_f32() const { return torch::rsqrt(var_ + eps_).to(torch::kFloat32); }
   double clip() const { return clip_; }
   const torch::Tensor& var() const { return var_; }
@@ -83,6 +87,9 @@ class ObsNormalizerImpl : public torch::nn::Module {
   // The same for the rows `rows` (int64 [R]) of obs, read in place: what normalize(index_rows(obs,
   // rows)) gives, without the gathered copy (the rollout's policies each fly a subset of rows).
   LlObs normalize(const LlObs& obs, const torch::Tensor& rows, bool update_stats);
+  // normalize(update_stats)'s first half: the statistics absorb obs's rows `rows` (int64 [R]; all
+  // rows when undefined), nothing normalised (LlEigenForward normalises in its blocks).
+  void absorb(const LlObs& obs, const torch::Tensor& rows);
   // Per field: ego, extra (prev_action for the HL, goal for the LL), ado, task.
   const RunningNorm& ego() const { return ego_; }
   const RunningNorm& extra() const { return extra_; }

@@ -107,16 +107,74 @@ PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool
   return act(raw, torch::Tensor(), generator, update_stats);
 }
 
+void PpoAgent::infer_raw_into(const models::LlObs& raw, const torch::Tensor& rows, const models::LlObs& out,
+                              torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw) {
+  if (eigen_stale_) {
+    eigen_.set_weights(net_->eigen_weights());
+    eigen_stale_ = false;
+  }
+  const auto ego = raw.ego.contiguous(), goal = raw.goal.contiguous(), ado = raw.ado.contiguous(),
+             alive = raw.ado_alive.contiguous(), task = raw.task.contiguous();
+  const auto index = rows.defined() ? rows.contiguous() : rows;
+  const auto& d = cfg_.net.dims;
+  norm_terms_.resize(static_cast<std::size_t>(2 * (d.d_ego + d.d_goal + d.d_ado + d.d_task)));
+  float* t = norm_terms_.data();
+  // Each field's float mean and inverse std side by side in the scratch.
+  auto terms = [&t](const models::RunningNorm& n) {
+    const auto r = n->float_terms(t, t + n->dim());
+    t += 2 * n->dim();
+    return r;
+  };
+  models::LlRawRows r;
+  r.ego = ego.data_ptr<float>();
+  r.goal = goal.data_ptr<float>();
+  r.ado = ado.data_ptr<float>();
+  r.ado_alive = alive.data_ptr<bool>();
+  r.task = task.data_ptr<float>();
+  r.index = index.defined() ? index.data_ptr<int64_t>() : nullptr;
+  r.ego_norm = terms(normalizer_->ego());
+  r.goal_norm = terms(normalizer_->extra());
+  r.ado_norm = terms(normalizer_->ado());
+  r.task_norm = terms(normalizer_->task());
+  r.ego_out = out.ego.data_ptr<float>();
+  r.goal_out = out.goal.data_ptr<float>();
+  r.ado_out = out.ado.data_ptr<float>();
+  r.ado_alive_out = out.ado_alive.data_ptr<bool>();
+  r.task_out = out.task.data_ptr<float>();
+  eigen_.forward(mean.size(0), r, mean.data_ptr<float>(), value.data_ptr<float>(), draw);
+}
+
 PpoAction PpoAgent::act(const models::LlObs& raw, const torch::Tensor& rows, at::Generator& generator,
                         bool update_stats) {
   torch::NoGradGuard no_grad;
   PpoAction a;
-  if (!rows.defined())
+  // Eigen inference on normalised observations: the statistics absorb the batch here, and the
+  // forward's blocks normalise their own rows on the threads (the serial normalisation and its
+  // tensors were ~3 % of a 32-env run); a.obs receives the same bits ObsNormalizer gives.
+  const bool fused = cfg_.eigen_inference && cfg_.normalize_obs;
+  if (fused) {
+    const auto& d = cfg_.net.dims;
+    const int64_t n = models::check_obs(raw, d);
+    int64_t b = n;
+    if (rows.defined()) {
+      models::check_tensor(rows, "rows", {-1}, torch::kInt64);
+      b = rows.numel();
+      const auto idx = rows.contiguous();
+      const int64_t* p = idx.data_ptr<int64_t>();
+      for (int64_t i = 0; i < b; ++i)
+        TORCH_CHECK(p[i] >= 0 && p[i] < n, "PpoAgent::act: row ", p[i], " outside the ", n, " rows");
+    }
+    if (update_stats) normalizer_->absorb(raw, rows);
+    a.obs = models::LlObs{torch::empty({b, d.d_ego}), torch::empty({b, d.d_goal}),
+                          torch::empty({b, d.n_other, d.d_ado}), torch::empty({b, d.n_other}, torch::kBool),
+                          torch::empty({b, d.d_task})};
+  } else if (!rows.defined()) {
     a.obs = normalize(raw, update_stats);
-  else if (cfg_.normalize_obs)
+  } else if (cfg_.normalize_obs) {
     a.obs = normalizer_->normalize(raw, rows, update_stats);
-  else
+  } else {
     a.obs = normalize(models::index_rows(raw, rows), false);
+  }
   if (cfg_.eigen_inference) {
     // The draw in the forward's blocks, on the threads (the torch ops below were ~4 % of a 32-env
     // run, on one thread); the same noise from the same generator, the same bits.
@@ -135,7 +193,10 @@ PpoAction PpoAgent::act(const models::LlObs& raw, const torch::Tensor& rows, at:
     draw.log_std = log_std.data_ptr<float>();
     draw.action = a.action.data_ptr<float>();
     draw.log_prob = a.log_prob.data_ptr<float>();
-    infer_into(a.obs, a.mean, a.value, &draw);
+    if (fused)
+      infer_raw_into(raw, rows, a.obs, a.mean, a.value, &draw);
+    else
+      infer_into(a.obs, a.mean, a.value, &draw);
     return a;
   }
   const auto [mean, value] = infer(a.obs);

@@ -135,6 +135,10 @@ class PpoAgent {
   std::pair<torch::Tensor, torch::Tensor> infer(const models::LlObs& obs);
   // The Eigen forward into mean [B, A] and value [B]; with `draw`, the actions sampled too.
   void infer_into(const models::LlObs& obs, torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw);
+  // The same from raw observations (rows `rows` of them, all when undefined), normalised with the
+  // current statistics into `out` (allocated, [B, ...]) in the forward's blocks.
+  void infer_raw_into(const models::LlObs& raw, const torch::Tensor& rows, const models::LlObs& out,
+                      torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw);
   void load_archive(torch::serialize::InputArchive& root);
   PpoConfig cfg_;
   Replicas replicas_;
@@ -145,6 +149,7 @@ class PpoAgent {
   int64_t update_count_ = 0;
   models::LlEigenForward eigen_;
   bool eigen_stale_ = true;  // the weights changed (update, load) since eigen_ copied them
+  std::vector<float> norm_terms_;  // infer_raw_into's float normalisation terms, reused
 };
 
 }  // namespace f16race::agents

@@ -144,14 +144,47 @@ void LlEigenForward::set_weights(const LlEigenWeights& w) {
 void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal, const float* ado,
                              const bool* ado_alive, const float* task, float* mean, float* value,
                              const GaussianDraw* draw) {
+  run_blocks(batch, nullptr, ego, goal, ado, ado_alive, task, mean, value, draw);
+}
+
+void LlEigenForward::forward(int64_t batch, const LlRawRows& raw, float* mean, float* value, const GaussianDraw* draw) {
+  run_blocks(batch, &raw, raw.ego_out, raw.goal_out, raw.ado_out, raw.ado_alive_out, raw.task_out, mean, value, draw);
+}
+
+namespace {
+// Rows [lo, lo + rows) of `raw` normalised into its outputs.
+void normalize_block(const LlRawRows& raw, int64_t n_other, int64_t lo, int64_t rows) {
+  const int64_t de = raw.ego_norm.d, dg = raw.goal_norm.d, da = raw.ado_norm.d, dt = raw.task_norm.d;
+  for (int64_t i = lo; i < lo + rows; ++i) {
+    const int64_t src = raw.index != nullptr ? raw.index[i] : i;
+    kernels::normalize_row(raw.ego_norm, raw.ego + src * de, true, raw.ego_out + i * de);
+    kernels::normalize_row(raw.goal_norm, raw.goal + src * dg, true, raw.goal_out + i * dg);
+    for (int64_t j = 0; j < n_other; ++j) {
+      const bool alive = raw.ado_alive[src * n_other + j];
+      raw.ado_alive_out[i * n_other + j] = alive;
+      kernels::normalize_row(raw.ado_norm, raw.ado + (src * n_other + j) * da, alive,
+                             raw.ado_out + (i * n_other + j) * da);
+    }
+    kernels::normalize_row(raw.task_norm, raw.task + src * dt, true, raw.task_out + i * dt);
+  }
+}
+}  // namespace
+
+void LlEigenForward::run_blocks(int64_t batch, const LlRawRows* raw, const float* ego, const float* goal,
+                                const float* ado, const bool* ado_alive, const float* task, float* mean, float* value,
+                                const GaussianDraw* draw) {
   if (!impl_) throw std::logic_error("LlEigenForward::forward before set_weights");
   Impl& m = *impl_;
+  if (raw != nullptr && (raw->ego_norm.d != m.d_ego || raw->goal_norm.d != m.d_goal || raw->ado_norm.d != m.d_ado ||
+                         raw->task_norm.d != m.d_task))
+    throw std::invalid_argument("LlEigenForward::forward: the normalisation terms' widths are not the network's inputs'");
   const int64_t n_blocks = (batch + kBlockRows - 1) / kBlockRows;
   const int threads = static_cast<int>(std::min<int64_t>(omp_get_max_threads(), n_blocks));
   if (static_cast<int>(m.scratch.size()) < std::max(threads, 1)) m.scratch.resize(static_cast<std::size_t>(std::max(threads, 1)));
   const int64_t n = m.n_other, a = m.actor.back().weight.rows();
   auto block = [&](int64_t k, Scratch& sc) {
     const int64_t lo = k * kBlockRows, rows = std::min(kBlockRows, batch - lo);
+    if (raw != nullptr) normalize_block(*raw, n, lo, rows);
     m.forward_block(sc, rows, ego + lo * m.d_ego, goal + lo * m.d_goal, ado + lo * n * m.d_ado, ado_alive + lo * n,
                     task + lo * m.d_task, mean + lo * a, value + lo);
     if (draw != nullptr) sample_rows(*draw, lo, rows, a, mean);

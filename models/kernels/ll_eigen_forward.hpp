@@ -14,6 +14,8 @@
 #include <memory>
 #include <vector>
 
+#include "models/kernels/normalize_row.hpp"
+
 namespace f16race::models {
 
 // One Linear layer: y = x W^T + b.
@@ -41,6 +43,29 @@ struct GaussianDraw {
   float* log_prob = nullptr;       // [B]
 };
 
+// Raw observations and the statistics that normalise them, for a forward that normalises its
+// rows in its blocks on the threads (RunningNorm's arithmetic, kernels::normalize_row) and hands
+// the normalised rows back: what ObsNormalizer::normalize(obs, rows) and forward() do one after the
+// other, the same bits, without the serial pass and its tensors between them.
+struct LlRawRows {
+  // Raw, row-major and contiguous over all rows of the batch they come from: ego [N, d_ego], goal
+  // [N, d_goal], ado [N, n_other, d_ado], ado_alive [N, n_other], task [N, d_task].
+  const float* ego = nullptr;
+  const float* goal = nullptr;
+  const float* ado = nullptr;
+  const bool* ado_alive = nullptr;
+  const float* task = nullptr;
+  const int64_t* index = nullptr;  // [B] the rows taken, in [0, N); nullptr: rows 0..B-1
+  kernels::NormTerms ego_norm, goal_norm, ado_norm, task_norm;
+  // The B normalised rows, written (a dead aircraft's ado row is zeros): ego [B, d_ego], goal
+  // [B, d_goal], ado [B, n_other, d_ado], ado_alive [B, n_other], task [B, d_task].
+  float* ego_out = nullptr;
+  float* goal_out = nullptr;
+  float* ado_out = nullptr;
+  bool* ado_alive_out = nullptr;
+  float* task_out = nullptr;
+};
+
 class LlEigenForward {
  public:
   LlEigenForward();
@@ -59,8 +84,14 @@ class LlEigenForward {
   // With `draw`, each block also samples its rows' actions (see GaussianDraw).
   void forward(int64_t batch, const float* ego, const float* goal, const float* ado, const bool* ado_alive,
                const float* task, float* mean, float* value, const GaussianDraw* draw = nullptr);
+  // The same on B raw rows: each block normalises its rows into `raw`'s outputs first.
+  void forward(int64_t batch, const LlRawRows& raw, float* mean, float* value, const GaussianDraw* draw = nullptr);
 
  private:
+  // Both forwards: the blocks over the threads, each normalising its rows first when raw is given
+  // (the other pointers then are raw's outputs).
+  void run_blocks(int64_t batch, const LlRawRows* raw, const float* ego, const float* goal, const float* ado,
+                  const bool* ado_alive, const float* task, float* mean, float* value, const GaussianDraw* draw);
   struct Impl;  // Eigen weights and scratch, made and freed only in ll_eigen_forward.cpp
   std::unique_ptr<Impl> impl_;
 };

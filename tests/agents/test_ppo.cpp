@@ -14,6 +14,7 @@
 
 #include "agents/ppo.hpp"
 #include "agents/rollout_buffer.hpp"
+#include "models/kernels/ll_eigen_forward.hpp"
 
 namespace f16race::agents {
 namespace {
@@ -245,6 +246,60 @@ TEST(Ppo, ActingOnPickedRowsIsActingOnTheirCopy) {
       EXPECT_THROW(agents[1]->act(small, torch::tensor({int64_t{0}, bad}), g, true), c10::Error);
     EXPECT_NEAR(agents[1]->normalizer()->ego()->count(), 307.0, 1e-3);
   }
+}
+
+// ll.inference eigen normalises the rows in the forward's blocks (PpoAgent::act): the observation
+// it hands back and the statistics are ObsNormalizer's, bit for bit, and mean and value are the
+// Eigen forward's on that observation; all rows or picked ones, at 1 and 2 threads, outliers clipped.
+TEST(Ppo, EigenActNormalisesAsTheNormaliser) {
+  models::ObsDims dims{5, 4, 3, 3};
+  const int threads = omp_get_max_threads();
+  for (int t : {1, 2}) {
+    omp_set_num_threads(t);
+    PpoConfig cfg;
+    cfg.net.dims = dims;
+    cfg.total_updates = 1;
+    cfg.obs_clip = 3.0;
+    torch::manual_seed(4);
+    PpoAgent agent(cfg);
+    models::ObsNormalizer reference(dims, cfg.obs_clip);
+    models::LlEigenForward forward;
+    forward.set_weights(agent.net()->eigen_weights());
+    auto gen = models::make_generator(9);
+    for (int64_t b : {7, 300}) {
+      models::LlObs obs{3.0 * torch::randn({b, 5}, gen) + 1.0, torch::randn({b, 3}, gen),
+                        2.0 * torch::randn({b, 3, 4}, gen), torch::rand({b, 3}, gen) < 0.7, torch::randn({b, 3}, gen)};
+      obs.ego[0][1] = 1e4f;  // beyond the clip either side
+      obs.ado[1][0][2] = -1e4f;
+      const auto rows = torch::cat({torch::randperm(b, gen, torch::kInt64).slice(0, 0, b - 2),
+                                    torch::tensor({int64_t{0}, int64_t{1}})});
+      for (const auto& pick : {torch::Tensor(), rows}) {
+        for (bool update_stats : {true, false}) {
+          auto g = models::make_generator(3);
+          const PpoAction got = pick.defined() ? agent.act(obs, pick, g, update_stats) : agent.act(obs, g, update_stats);
+          const models::LlObs want =
+              pick.defined() ? reference->normalize(obs, pick, update_stats) : reference->normalize(obs, update_stats);
+          const std::string at = std::to_string(t) + " threads, B " + std::to_string(b) + (pick.defined() ? " picked" : "");
+          for (const auto& [x, y] : {std::pair{want.ego, got.obs.ego}, {want.goal, got.obs.goal},
+                                     {want.ado, got.obs.ado}, {want.task, got.obs.task}})
+            EXPECT_TRUE(torch::equal(x, y)) << at;
+          EXPECT_TRUE(torch::equal(want.ado_alive, got.obs.ado_alive)) << at;
+          // The outlier, clipped (a batch of 7 cannot hold a row 3 std from its own mean).
+          if (b == 300) EXPECT_EQ(got.obs.ego.max().item<float>(), 3.0f) << at;
+          const int64_t n = want.ego.size(0);
+          auto mean = torch::empty({n, cfg.net.action_dim}), value = torch::empty({n});
+          forward.forward(n, want.ego.data_ptr<float>(), want.goal.data_ptr<float>(), want.ado.data_ptr<float>(),
+                          want.ado_alive.data_ptr<bool>(), want.task.data_ptr<float>(), mean.data_ptr<float>(),
+                          value.data_ptr<float>());
+          EXPECT_TRUE(torch::equal(mean, got.mean)) << at;
+          EXPECT_TRUE(torch::equal(value, got.value)) << at;
+          for (const auto& item : reference->named_buffers())
+            EXPECT_TRUE(torch::equal(item.value(), agent.normalizer()->named_buffers()[item.key()])) << item.key();
+        }
+      }
+    }
+  }
+  omp_set_num_threads(threads);
 }
 
 TEST(Ppo, EigenInferenceFollowsUpdatesAndLoads) {
