@@ -109,4 +109,39 @@ torch::Tensor AttentionEncoderImpl::forward(const torch::Tensor& ego, const torc
   return out_proj_(attended) * any_alive;  // drop the output bias too: exact zeros if nobody is alive
 }
 
+DenseLayer dense_layer(const torch::nn::Linear& layer) {
+  const auto w = layer->weight.detach().to(torch::kFloat32).contiguous();
+  const auto b = layer->bias.detach().to(torch::kFloat32).contiguous();
+  DenseLayer d;
+  d.out = w.size(0);
+  d.in = w.size(1);
+  d.weight.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
+  d.bias.assign(b.data_ptr<float>(), b.data_ptr<float>() + b.numel());
+  return d;
+}
+
+std::vector<DenseLayer> dense_layers(const torch::nn::Sequential& mlp) {
+  std::vector<DenseLayer> layers;
+  for (std::size_t i = 0; i < mlp->size(); ++i)
+    if (auto linear = std::dynamic_pointer_cast<torch::nn::LinearImpl>(mlp->ptr(i)))
+      layers.push_back(dense_layer(torch::nn::Linear(linear)));
+  return layers;
+}
+
+AttentionMlpWeights encoder_weights(const AttentionEncoder& encoder, const ObsDims& dims) {
+  AttentionMlpWeights w;
+  w.d_ego = dims.d_ego;
+  w.d_goal = dims.d_goal;
+  w.d_ado = dims.d_ado;
+  w.n_other = dims.n_other;
+  w.d_task = dims.d_task;
+  w.d_model = encoder->config().d_model;
+  w.n_heads = encoder->config().n_heads;
+  w.q = dense_layer(encoder->q_proj());
+  w.k = dense_layer(encoder->k_proj());
+  w.v = dense_layer(encoder->v_proj());
+  w.out = dense_layer(encoder->out_proj());
+  return w;
+}
+
 }  // namespace f16race::models

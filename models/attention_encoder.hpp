@@ -7,6 +7,9 @@
 //     -> [B, d_model]; exactly 0 for a row with no alive aircraft.
 #include <torch/torch.h>
 
+#include <vector>
+
+#include "models/kernels/attention_mlp_forward.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -40,7 +43,7 @@ class AttentionEncoderImpl : public torch::nn::Module {
   // weighted sum, output projection. For `bench nets` / `bench train` GFLOP/s.
   int64_t flops_per_sample() const;
 
-  // The projections, read by LlActorCriticImpl::eigen_weights.
+  // The projections, read by encoder_weights.
   const torch::nn::Linear& q_proj() const { return q_proj_; }
   const torch::nn::Linear& k_proj() const { return k_proj_; }
   const torch::nn::Linear& v_proj() const { return v_proj_; }
@@ -51,5 +54,12 @@ class AttentionEncoderImpl : public torch::nn::Module {
   torch::nn::Linear q_proj_{nullptr}, k_proj_{nullptr}, v_proj_{nullptr}, out_proj_{nullptr};
 };
 TORCH_MODULE(AttentionEncoder);
+
+// Weights copied out of LibTorch modules for AttentionMlpForward (float, row-major).
+DenseLayer dense_layer(const torch::nn::Linear& layer);
+std::vector<DenseLayer> dense_layers(const torch::nn::Sequential& mlp);  // its Linear layers, in order
+// The encoder's part of a network's AttentionMlpWeights: sizes (d_goal: the width of the input
+// between ego and the encoding) and projections; the MLPs are the caller's.
+AttentionMlpWeights encoder_weights(const AttentionEncoder& encoder, const ObsDims& dims);
 
 }  // namespace f16race::models

@@ -52,7 +52,11 @@ HlOutput HlCriticImpl::forward(const HlObs& obs, bool with_q) {
     outs.push_back(heads_[k](trunks_[k]->forward(torch::cat({obs.ego, obs.prev_action, encoded, obs.task}, 1))));
   }
   // [B, 3 * n_bins * K]: axis-major, as the single head writes it
-  auto out = outs.size() == 1 ? outs[0] : torch::cat(outs, 1);
+  return from_head(outs.size() == 1 ? outs[0] : torch::cat(outs, 1), with_q);
+}
+
+HlOutput HlCriticImpl::from_head(const torch::Tensor& out, bool with_q) const {
+  const int64_t b = out.size(0);
   const std::vector<int64_t> action_shape =
       cfg_.decoupled ? std::vector<int64_t>{b, 3, cfg_.n_bins} : std::vector<int64_t>{b, n_joint_actions()};
   HlOutput result;
@@ -65,6 +69,19 @@ HlOutput HlCriticImpl::forward(const HlObs& obs, bool with_q) {
   result.log_probs = torch::log_softmax(out.view(shape), -1);
   if (with_q) result.q = (result.log_probs.exp() * atoms_).sum(-1);
   return result;
+}
+
+AttentionMlpWeights HlCriticImpl::eigen_weights() const {
+  TORCH_CHECK(has_eigen_weights(), "HlCritic::eigen_weights: one critic per goal axis has no single-branch copy");
+  AttentionMlpWeights w = encoder_weights(encoders_[0], cfg_.dims);
+  w.mlp = dense_layers(trunks_[0]);
+  w.mlp.push_back(dense_layer(heads_[0]));
+  w.activation = Activation::kRelu;
+  return w;
+}
+
+int64_t HlCriticImpl::head_width() const {
+  return (cfg_.decoupled ? 3 * cfg_.n_bins : n_joint_actions()) * cfg_.n_atoms;
 }
 
 }  // namespace f16race::models

@@ -52,6 +52,14 @@ class HlCriticImpl : public torch::nn::Module {
   int64_t flops_per_sample() const;
   // Atom values z_k = v_min + k (v_max - v_min) / (K - 1), [n_atoms] (a buffer, saved with the net).
   const torch::Tensor& atoms() const { return atoms_; }
+  // The last step of forward(): q (and log_probs) from the heads' output [B, head_width()]
+  // (axis-major, atoms innermost), for an output computed elsewhere (AttentionMlpForward).
+  HlOutput from_head(const torch::Tensor& out, bool with_q = true) const;
+  int64_t head_width() const;
+  // The network as AttentionMlpForward runs it (ReLU trunk and head as its one MLP): for one shared
+  // branch only, not per_axis.
+  bool has_eigen_weights() const { return !cfg_.per_axis; }
+  AttentionMlpWeights eigen_weights() const;
 
  private:
   HlCriticConfig cfg_;

@@ -64,44 +64,11 @@ LlOutput LlActorCriticImpl::forward(const LlObs& obs) {
   return out;
 }
 
-namespace {
-
-DenseLayer dense_of(const torch::nn::Linear& layer) {
-  const auto w = layer->weight.detach().to(torch::kFloat32).contiguous();
-  const auto b = layer->bias.detach().to(torch::kFloat32).contiguous();
-  DenseLayer d;
-  d.out = w.size(0);
-  d.in = w.size(1);
-  d.weight.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
-  d.bias.assign(b.data_ptr<float>(), b.data_ptr<float>() + b.numel());
-  return d;
-}
-
-std::vector<DenseLayer> dense_of(const torch::nn::Sequential& mlp) {
-  std::vector<DenseLayer> layers;
-  for (std::size_t i = 0; i < mlp->size(); ++i)
-    if (auto linear = std::dynamic_pointer_cast<torch::nn::LinearImpl>(mlp->ptr(i)))
-      layers.push_back(dense_of(torch::nn::Linear(linear)));
-  return layers;
-}
-
-}  // namespace
-
-LlEigenWeights LlActorCriticImpl::eigen_weights() const {
-  LlEigenWeights w;
-  w.d_ego = cfg_.dims.d_ego;
-  w.d_goal = cfg_.dims.d_goal;
-  w.d_ado = cfg_.dims.d_ado;
-  w.n_other = cfg_.dims.n_other;
-  w.d_task = cfg_.dims.d_task;
-  w.d_model = cfg_.d_model;
-  w.n_heads = cfg_.n_heads;
-  w.q = dense_of(encoder_->q_proj());
-  w.k = dense_of(encoder_->k_proj());
-  w.v = dense_of(encoder_->v_proj());
-  w.out = dense_of(encoder_->out_proj());
-  w.actor = dense_of(actor_);
-  w.critic = dense_of(critic_);
+AttentionMlpWeights LlActorCriticImpl::eigen_weights() const {
+  AttentionMlpWeights w = encoder_weights(encoder_, cfg_.dims);
+  w.mlp = dense_layers(actor_);
+  w.value_mlp = dense_layers(critic_);
+  w.activation = Activation::kTanh;
   return w;
 }
 

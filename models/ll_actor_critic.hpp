@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "models/attention_encoder.hpp"
-#include "models/kernels/ll_eigen_forward.hpp"
+#include "models/kernels/attention_mlp_forward.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -38,8 +38,8 @@ class LlActorCriticImpl : public torch::nn::Module {
   const LlActorCriticConfig& config() const { return cfg_; }
   // Forward FLOPs of one sample (encoder, actor and critic; see AttentionEncoderImpl::flops_per_sample).
   int64_t flops_per_sample() const;
-  // A float copy of the weights for LlEigenForward (no-grad inference without LibTorch ops).
-  LlEigenWeights eigen_weights() const;
+  // A float copy of the weights for AttentionMlpForward (no-grad inference without LibTorch ops).
+  AttentionMlpWeights eigen_weights() const;
   const torch::Tensor& log_std() const { return log_std_; }  // [action_dim]
 
  private:

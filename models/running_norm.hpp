@@ -88,7 +88,7 @@ class ObsNormalizerImpl : public torch::nn::Module {
   // rows)) gives, without the gathered copy (the rollout's policies each fly a subset of rows).
   LlObs normalize(const LlObs& obs, const torch::Tensor& rows, bool update_stats);
   // normalize(update_stats)'s first half: the statistics absorb obs's rows `rows` (int64 [R]; all
-  // rows when undefined), nothing normalised (LlEigenForward normalises in its blocks).
+  // rows when undefined), nothing normalised (AttentionMlpForward normalises in its blocks).
   void absorb(const LlObs& obs, const torch::Tensor& rows);
   // Per field: ego, extra (prev_action for the HL, goal for the LL), ado, task.
   const RunningNorm& ego() const { return ego_; }

@@ -121,18 +121,32 @@ void run_bench_nets(const NetsBenchOptions& o) {
     }
     std::fflush(stdout);
   }
-  // The LL forward on the Eigen kernels (ll.inference eigen, rollouts only): forward alone.
-  const double eigen_us = 1e6 * measure_ll_cost(lc, b, o.repeats, /*eigen_forward=*/true).forward_s;
-  const double eigen_gflops = static_cast<double>(ll_net->flops_per_sample()) / (eigen_us * 1e3);
-  if (o.json)
-    std::printf("{\"bench\": \"nets\", \"network\": \"ll_actor_critic_eigen\", \"samples\": %d, \"threads\": %d, "
-                "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, "
-                "\"matmul_gflops\": %.6g}\n",
-                o.samples, torch::get_num_threads(), static_cast<long long>(ll_net->flops_per_sample()), eigen_us,
-                eigen_gflops, peak_gflops);
-  else
-    std::printf("%-20s %12.1f %12.4f %10.1f %12s %10.2f\n", "ll_actor_critic_eig", 1e-3 * ll_net->flops_per_sample(),
-                eigen_us, eigen_gflops, "-", eigen_gflops / peak_gflops);
+  // The forwards on the Eigen kernels (ll.inference and hl.inference eigen, rollouts only):
+  // forward alone. The HL one for the shared es_d1/es_d2 critic.
+  hc.n_atoms = 1;
+  const struct {
+    const char* name;
+    const char* short_name;
+    std::int64_t flops;
+    double us;
+  } eigen_cases[] = {
+      {"ll_actor_critic_eigen", "ll_actor_critic_eig", ll_net->flops_per_sample(),
+       1e6 * measure_ll_cost(lc, b, o.repeats, /*eigen_forward=*/true).forward_s},
+      {"hl_critic_es_d1_d2_eigen", "hl_critic_d1_d2_eig", hl_decoupled->flops_per_sample(),
+       1e6 * measure_hl_cost(hc, b, o.repeats, 1, /*eigen_forward=*/true).forward_s},
+  };
+  for (const auto& e : eigen_cases) {
+    const double eigen_gflops = static_cast<double>(e.flops) / (e.us * 1e3);
+    if (o.json)
+      std::printf("{\"bench\": \"nets\", \"network\": \"%s\", \"samples\": %d, \"threads\": %d, "
+                  "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, "
+                  "\"matmul_gflops\": %.6g}\n",
+                  e.name, o.samples, torch::get_num_threads(), static_cast<long long>(e.flops), e.us, eigen_gflops,
+                  peak_gflops);
+    else
+      std::printf("%-20s %12.1f %12.4f %10.1f %12s %10.2f\n", e.short_name, 1e-3 * e.flops, e.us, eigen_gflops, "-",
+                  eigen_gflops / peak_gflops);
+  }
 }
 
 }  // namespace

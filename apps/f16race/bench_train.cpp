@@ -75,7 +75,7 @@ FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::Netwo
   if (const std::int64_t b = mean_batch(w.ll_train_rows, w.ll_train_calls); b > 0)
     c.ll_train = measure_ll_cost(lc, b, kRepeats, false, concurrent).forward_backward_s;
   if (const std::int64_t b = mean_batch(w.hl_forward_rows, w.hl_forward_calls); b > 0)
-    c.hl_forward = measure_hl_cost(hc, b, kRepeats).forward_s;
+    c.hl_forward = measure_hl_cost(hc, b, kRepeats, 1, cfg.hl.eigen_inference).forward_s;
   // ES steps' chunks (hl.minibatch_chunks) run concurrently too.
   const std::int64_t hl_chunks_per_step =
       w.hl_train_steps > 0 ? std::max<std::int64_t>(1, w.hl_train_calls / w.hl_train_steps) : 1;

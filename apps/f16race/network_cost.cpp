@@ -88,7 +88,7 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
   SampleCost c = measure_cost<models::LlActorCritic, models::LlObs>(net, obs, loss_of, batch, repeats);
   const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
   if (eigen_forward) {
-    models::LlEigenForward fast;
+    models::AttentionMlpForward fast;
     fast.set_weights(net->eigen_weights());
     auto mean = torch::empty({batch, cfg.action_dim}), value = torch::empty({batch});
     c.forward_s = time_median_s(
@@ -105,7 +105,8 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
   return c;
 }
 
-SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent) {
+SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent,
+                           bool eigen_forward) {
   auto gen = models::make_generator(1);
   const models::HlObs obs = random_hl_obs(cfg.dims, batch, gen);
   models::HlCritic net(cfg);
@@ -114,6 +115,25 @@ SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch
     return out.log_probs.defined() ? out.log_probs.sum() : out.q.sum();
   };
   SampleCost c = measure_cost<models::HlCritic, models::HlObs>(net, obs, loss_of, batch, repeats);
+  if (eigen_forward && net->has_eigen_weights()) {
+    // As EsAgent::q_values runs it: the Eigen forward into the heads' output, q from it.
+    const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
+    models::AttentionMlpForward fast;
+    fast.set_weights(net->eigen_weights());
+    auto head = torch::empty({batch, net->head_width()});
+    torch::NoGradGuard no_grad;
+    c.forward_s = time_median_s(
+                      [&]() {
+                        for (std::int64_t k = 0; k < calls; ++k) {
+                          fast.forward(batch, obs.ego.data_ptr<float>(), obs.prev_action.data_ptr<float>(),
+                                       obs.ado.data_ptr<float>(), obs.ado_alive.data_ptr<bool>(),
+                                       obs.task.data_ptr<float>(), head.data_ptr<float>(), nullptr);
+                          net->from_head(head);
+                        }
+                      },
+                      repeats) /
+                  static_cast<double>(calls * batch);
+  }
   if (concurrent > 1) c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
   return c;
 }

@@ -34,8 +34,10 @@ struct SampleCost {
 // PpoAgent::update runs the chunks of a minibatch (per-sample cost = wall time / all samples).
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
                            bool eigen_forward = false, int concurrent = 1);
-// HL: `concurrent` as for the LL (EsAgent::update's chunks of a gradient step).
-SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent = 1);
+// HL: `concurrent` as for the LL (EsAgent::update's chunks of a gradient step); `eigen_forward`
+// prices the forward on the Eigen kernels (hl.inference eigen; a per_axis critic stays on LibTorch).
+SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent = 1,
+                           bool eigen_forward = false);
 
 // GFLOP/s of a 1024 x 1024 x 1024 float matrix product at the current torch thread count: the
 // peak this LibTorch build reaches on this machine, the reference for the networks' GFLOP/s.

@@ -309,6 +309,7 @@ void EsAgent::act_with_average() {
   torch::NoGradGuard no_grad;
   auto params = critic_->parameters();
   for (std::size_t k = 0; k < params.size(); ++k) params[k].copy_(average_[k]);
+  eigen_key_.clear();
 }
 
 models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats) {
@@ -321,8 +322,21 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
 
 torch::Tensor EsAgent::q_values(const models::HlObs& obs) {
   torch::NoGradGuard no_grad;
-  models::check_obs(obs, cfg_.dims);
-  return critic_(prepare(obs, false)).q;
+  const int64_t b = models::check_obs(obs, cfg_.dims);
+  if (!cfg_.eigen_inference || !critic_->has_eigen_weights()) return critic_(prepare(obs, false)).q;
+  std::vector<std::pair<const void*, uint32_t>> key;
+  for (const auto& p : critic_->parameters()) key.emplace_back(p.data_ptr(), p._version());
+  if (key != eigen_key_) {
+    eigen_.set_weights(critic_->eigen_weights());
+    eigen_key_ = std::move(key);
+  }
+  const models::HlObs n = prepare(obs, false);
+  const auto ego = n.ego.contiguous(), prev = n.prev_action.contiguous(), ado = n.ado.contiguous(),
+             alive = n.ado_alive.contiguous(), task = n.task.contiguous();
+  auto head = torch::empty({b, critic_->head_width()});
+  eigen_.forward(b, ego.data_ptr<float>(), prev.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
+                 task.data_ptr<float>(), head.data_ptr<float>(), nullptr);
+  return critic_->from_head(head).q;
 }
 
 EsAction EsAgent::choose(const torch::Tensor& q, double epsilon, at::Generator& generator,
@@ -529,6 +543,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     }
   }
   ++update_count_;
+  eigen_key_.clear();  // the Adam kernel writes the weights in place without a version bump
   stats.update_index = update_count_;
   if (update_count_ % cfg_.target_update_interval == 0) {
     sync_target();
@@ -582,6 +597,7 @@ void EsAgent::load_archive(torch::serialize::InputArchive& root) {
   TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: the file holds variant ", es_variant_name(variant),
               ", this agent is ", es_variant_name(cfg_.variant));
   read_sub_archive(root, "critic", *critic_);
+  eigen_key_.clear();
   read_sub_archive(root, "target", *target_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
   torch::Tensor count;

@@ -33,11 +33,13 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "agents/c51.hpp"
 #include "agents/replicas.hpp"
 #include "models/hl_critic.hpp"
+#include "models/kernels/attention_mlp_forward.hpp"
 #include "models/obs.hpp"
 #include "models/running_norm.hpp"
 
@@ -115,6 +117,11 @@ struct EsConfig {
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order
+  // The decisions' action values (act, q_values): the critic on Eigen float kernels
+  // (models/kernels/attention_mlp_forward.hpp, equal to HlCritic::forward to float rounding; the
+  // decisions come a few at a time, where LibTorch's per-op cost is most of the price), or
+  // LibTorch's ops (hl.inference: torch). per_axis critics and all training use LibTorch.
+  bool eigen_inference = true;
 };
 
 models::HlCriticConfig es_critic_config(const EsConfig& cfg);
@@ -286,6 +293,12 @@ class EsAgent {
   // global generator in the middle of a run.
   std::vector<torch::Tensor> average_;
   int64_t average_count_ = 0;
+  // The online critic for q_values on Eigen kernels, and which weights it holds: each parameter's
+  // storage and version counter, compared at every call (a LibTorch in-place write through
+  // critic() moves one); cleared where this class writes the weights (the optimiser step's kernel
+  // writes them without a version bump), a load and the average.
+  models::AttentionMlpForward eigen_;
+  std::vector<std::pair<const void*, uint32_t>> eigen_key_;
 };
 
 }  // namespace f16race::agents

@@ -53,7 +53,7 @@ struct PpoConfig {
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order
   // No-grad forward passes of act() and value(): the same network on Eigen float kernels
-  // (models/kernels/ll_eigen_forward.hpp, equal to LibTorch's to float rounding; faster at rollout
+  // (models/kernels/attention_mlp_forward.hpp, equal to LibTorch's to float rounding; faster at rollout
   // batch sizes, README Performance), or LibTorch's ops (ll.inference: torch). Training always
   // uses LibTorch.
   bool eigen_inference = true;
@@ -147,7 +147,7 @@ class PpoAgent {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
-  models::LlEigenForward eigen_;
+  models::AttentionMlpForward eigen_;
   bool eigen_stale_ = true;  // the weights changed (update, load) since eigen_ copied them
   std::vector<float> norm_terms_;  // infer_raw_into's float normalisation terms, reused
 };

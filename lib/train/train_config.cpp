@@ -96,6 +96,9 @@ void bind_hl(R& r, agents::EsConfig* c) {
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
   read_i64(r, "n_minibatches", &c->n_minibatches, 1, 100000);
   read_i64(r, "minibatch_chunks", &c->minibatch_chunks, 1, 4096);
+  std::string inference = c->eigen_inference ? "eigen" : "torch";
+  r.read("inference", &inference, {"torch", "eigen"});
+  c->eigen_inference = inference == "eigen";
   r.read("learning_rate", &c->learning_rate, 0.0, 1.0);
   r.read("max_grad_norm", &c->max_grad_norm, 0.0, 1e6);
   r.read("huber_delta", &c->huber_delta, 1e-6, 1e6);

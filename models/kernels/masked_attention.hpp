@@ -4,7 +4,7 @@
 // LibTorch composes it from ~10 elementwise ops on [B, N, H, dh] tensors, each allocating and
 // streaming its own intermediate; here it is one pass, forward and backward, with no allocation.
 // Used by the encoder's autograd function (training and LibTorch inference) and by
-// LlEigenForward; compiled with the simulator's instruction-set flags (dh = 16 floats is one
+// AttentionMlpForward; compiled with the simulator's instruction-set flags (dh = 16 floats is one
 // AVX-512 vector). Rows are independent, so any split of [0, B) over threads gives the same bits.
 #include <cstdint>
 

@@ -1,8 +1,8 @@
 #pragma once
 // One observation row normalised with RunningNorm's statistics, in float:
 // clamp((x - mean) * inv_std, -clip, clip) per feature. The one place of that arithmetic, for
-// RunningNorm's own normalisation and for LlEigenForward, which normalises its blocks' rows on the
-// threads (models/running_norm.hpp, models/kernels/ll_eigen_forward.hpp).
+// RunningNorm's own normalisation and for AttentionMlpForward, which normalises its blocks' rows on the
+// threads (models/running_norm.hpp, models/kernels/attention_mlp_forward.hpp).
 #include <cstdint>
 
 namespace f16race::models::kernels {

@@ -14,7 +14,7 @@
 
 #include "agents/ppo.hpp"
 #include "agents/rollout_buffer.hpp"
-#include "models/kernels/ll_eigen_forward.hpp"
+#include "models/kernels/attention_mlp_forward.hpp"
 
 namespace f16race::agents {
 namespace {
@@ -263,7 +263,7 @@ TEST(Ppo, EigenActNormalisesAsTheNormaliser) {
     torch::manual_seed(4);
     PpoAgent agent(cfg);
     models::ObsNormalizer reference(dims, cfg.obs_clip);
-    models::LlEigenForward forward;
+    models::AttentionMlpForward forward;
     forward.set_weights(agent.net()->eigen_weights());
     auto gen = models::make_generator(9);
     for (int64_t b : {7, 300}) {

@@ -102,6 +102,10 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_EQ(read_train_config(YAML::Load("hl: {agent: es_d2, explore: team_y, team_explore_scale: 0.25}"), "cfg.yaml")
                 .hl.team_explore_scale,
             0.25);
+  EXPECT_NE(error_of("hl: {inference: fast}").find("hl.inference: 'fast' is not one of: torch, eigen"),
+            std::string::npos);
+  EXPECT_FALSE(read_train_config(YAML::Load("hl: {inference: torch}"), "cfg.yaml").hl.eigen_inference);
+  EXPECT_TRUE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.eigen_inference);
   EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
             std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8) must be <= time_limit_s (5)"),

@@ -1,11 +1,13 @@
 #pragma once
-// The low-level actor-critic's forward pass for no-grad inference, on Eigen float kernels instead
-// of LibTorch ops: the same network (attention encoder, tanh MLPs for actor and critic; see
-// models/ll_actor_critic.hpp) with its weights copied out of the LibTorch module. At rollout
-// batch sizes (hundreds of rows) LibTorch spends more time per call in dispatch and allocation
-// of ~30 small ops than in arithmetic; this does the same arithmetic in a handful of GEMMs and
-// plain loops over preallocated scratch. Held equal to LlActorCritic::forward by
-// tests/models/test_ll_eigen_forward.
+// The forward pass of an attention encoder followed by MLPs on [ego, goal or prev_action, encoded,
+// task], for no-grad inference on Eigen float kernels instead of LibTorch ops, with the weights
+// copied out of the LibTorch module. Two networks have this shape: the low-level actor-critic
+// (tanh MLPs for the action mean and the value; models/ll_actor_critic.hpp) and the high-level
+// critic with one shared branch (a ReLU trunk and its head, no value MLP; models/hl_critic.hpp).
+// At rollout batch sizes (a few to hundreds of rows) LibTorch spends more time per call in
+// dispatch and allocation of ~30 small ops than in arithmetic; this does the same arithmetic in a
+// handful of GEMMs and plain loops over preallocated scratch. Held equal to LlActorCritic::forward
+// and HlCritic::forward by tests/models/test_attention_mlp_forward.
 //
 // No Eigen type crosses this header: the kernels are compiled with the simulator's instruction-set
 // flags (AVX-512 where there is one), which change Eigen's alignment and allocation scheme, so an
@@ -25,10 +27,16 @@ struct DenseLayer {
   std::vector<float> bias;    // [out]
 };
 
-struct LlEigenWeights {
+// Between an MLP's layers (none after its last).
+enum class Activation { kTanh, kRelu };
+
+struct AttentionMlpWeights {
   int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
-  DenseLayer q, k, v, out;                 // attention encoder projections
-  std::vector<DenseLayer> actor, critic;   // tanh between layers, none after the last
+  DenseLayer q, k, v, out;  // attention encoder projections
+  // The output MLP (LL: the action mean; HL: trunk and head) and the value MLP ending in one unit
+  // (LL only; empty: no value).
+  std::vector<DenseLayer> mlp, value_mlp;
+  Activation activation = Activation::kTanh;
 };
 
 // The Gaussian policy's draw for each row, done by the block that computed the row's mean:
@@ -66,21 +74,22 @@ struct LlRawRows {
   float* task_out = nullptr;
 };
 
-class LlEigenForward {
+class AttentionMlpForward {
  public:
-  LlEigenForward();
-  ~LlEigenForward();
-  LlEigenForward(const LlEigenForward&) = delete;
-  LlEigenForward& operator=(const LlEigenForward&) = delete;
+  AttentionMlpForward();
+  ~AttentionMlpForward();
+  AttentionMlpForward(const AttentionMlpForward&) = delete;
+  AttentionMlpForward& operator=(const AttentionMlpForward&) = delete;
 
   // Takes the weights; checks that the layer shapes chain (throws std::invalid_argument and keeps
   // the previous weights).
-  void set_weights(const LlEigenWeights& weights);
+  void set_weights(const AttentionMlpWeights& weights);
   bool ready() const;
 
   // Normalised observations, row-major and contiguous: ego [B, d_ego], goal [B, d_goal],
-  // ado [B, n_other, d_ado], ado_alive [B, n_other], task [B, d_task]. Writes mean [B, A] and
-  // value [B]. Scratch grows to the largest B seen and is reused.
+  // ado [B, n_other, d_ado], ado_alive [B, n_other], task [B, d_task]. Writes mean [B, A] (the
+  // output MLP's) and value [B] (the value MLP's; not with none, or value null). Scratch grows to
+  // the largest B seen and is reused.
   // With `draw`, each block also samples its rows' actions (see GaussianDraw).
   void forward(int64_t batch, const float* ego, const float* goal, const float* ado, const bool* ado_alive,
                const float* task, float* mean, float* value, const GaussianDraw* draw = nullptr);
@@ -92,7 +101,7 @@ class LlEigenForward {
   // (the other pointers then are raw's outputs).
   void run_blocks(int64_t batch, const LlRawRows* raw, const float* ego, const float* goal, const float* ado,
                   const bool* ado_alive, const float* task, float* mean, float* value, const GaussianDraw* draw);
-  struct Impl;  // Eigen weights and scratch, made and freed only in ll_eigen_forward.cpp
+  struct Impl;  // Eigen weights and scratch, made and freed only in attention_mlp_forward.cpp
   std::unique_ptr<Impl> impl_;
 };
 

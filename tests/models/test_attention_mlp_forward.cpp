@@ -1,13 +1,17 @@
-// The Eigen forward pass of the low-level actor-critic is held equal to the LibTorch one: random
-// weights (biases too), random observations with some aircraft dead and some samples with nobody
-// alive, several batch sizes, two network shapes.
+// The Eigen forward pass of the low-level actor-critic and of the high-level critic is held equal
+// to the LibTorch one: random weights (biases too), random observations with some aircraft dead
+// and some samples with nobody alive, several batch sizes, several network shapes.
 #include <gtest/gtest.h>
 #include <omp.h>
 #include <torch/torch.h>
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
+#include <string>
 
-#include "models/kernels/ll_eigen_forward.hpp"
+#include "models/kernels/attention_mlp_forward.hpp"
+#include "models/hl_critic.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
 
@@ -21,12 +25,12 @@ LlObs random_obs(at::Generator& g, const ObsDims& d, int64_t b) {
   return o;
 }
 
-void randomize(LlActorCriticImpl& net, at::Generator& g) {
+void randomize(torch::nn::Module& net, at::Generator& g) {
   torch::NoGradGuard no_grad;
   for (auto& p : net.parameters()) p.copy_(0.3 * torch::randn(p.sizes(), g));
 }
 
-TEST(LlEigenForward, EqualsTheLibTorchForwardToFloatRounding) {
+TEST(AttentionMlpForward, EqualsTheLibTorchForwardToFloatRounding) {
   at::Generator g = make_generator(11);
   for (const auto& [hidden, heads] : {std::pair{std::vector<int64_t>{64, 64}, 4}, {std::vector<int64_t>{32, 16, 8}, 2}}) {
     LlActorCriticConfig cfg;
@@ -36,7 +40,7 @@ TEST(LlEigenForward, EqualsTheLibTorchForwardToFloatRounding) {
     cfg.d_model = 16 * heads;
     LlActorCritic net(cfg);
     randomize(*net, g);
-    LlEigenForward fast;
+    AttentionMlpForward fast;
     fast.set_weights(net->eigen_weights());
     for (int64_t b : {1, 5, 256, 1000}) {
       const LlObs obs = random_obs(g, cfg.dims, b);
@@ -54,14 +58,68 @@ TEST(LlEigenForward, EqualsTheLibTorchForwardToFloatRounding) {
   }
 }
 
+// The HL critic (ReLU trunk and head, no value MLP) through the same kernels, q from the heads'
+// output by HlCritic::from_head: the joint (es), decoupled (es_d1/es_d2) and C51 (es_d3) heads,
+// at 1 and 2 threads. A per_axis critic has three branches and no single copy.
+TEST(AttentionMlpForward, HlCriticEqualsTheLibTorchForwardToFloatRounding) {
+  at::Generator g = make_generator(13);
+  const int threads = omp_get_max_threads();
+  for (const auto& [decoupled, atoms] : {std::pair{false, int64_t{1}}, {true, int64_t{1}}, {true, int64_t{51}}}) {
+    HlCriticConfig cfg;
+    cfg.dims = ObsDims{22, 3, 24, 7};
+    cfg.decoupled = decoupled;
+    cfg.n_atoms = atoms;
+    HlCritic net(cfg);
+    randomize(*net, g);
+    ASSERT_TRUE(net->has_eigen_weights());
+    AttentionMlpForward fast;
+    fast.set_weights(net->eigen_weights());
+    for (int t : {1, 2}) {
+      omp_set_num_threads(t);
+      for (int64_t b : {1, 4, 11, 300}) {
+        const LlObs o = random_obs(g, cfg.dims, b);
+        const HlObs obs{o.ego, o.goal, o.ado, o.ado_alive, o.task};
+        torch::NoGradGuard no_grad;
+        const HlOutput want = net(obs);
+        auto head = torch::empty({b, net->head_width()});
+        fast.forward(b, obs.ego.data_ptr<float>(), obs.prev_action.data_ptr<float>(), obs.ado.data_ptr<float>(),
+                     obs.ado_alive.data_ptr<bool>(), obs.task.data_ptr<float>(), head.data_ptr<float>(), nullptr);
+        const HlOutput got = net->from_head(head);
+        ASSERT_EQ(got.q.sizes(), want.q.sizes());
+        const std::string at = "decoupled " + std::to_string(decoupled) + " atoms " + std::to_string(atoms) +
+                               " B " + std::to_string(b) + " threads " + std::to_string(t);
+        // ReLU keeps these random weights' outputs at O(10-100): float rounding relative to the
+        // heads' output, ~1e-6 per layer. log_softmax moves by at most twice the logits' error, and
+        // a C51 mean sum_k z_k p_k by at most max|z| times the probabilities' summed change.
+        const double head_scale = head.abs().max().item<double>(), tol = 1e-5 * head_scale;
+        EXPECT_GT(want.q.abs().max().item<double>(), 0.1) << at;  // not a vacuous comparison of zeros
+        if (atoms == 1) {
+          EXPECT_LT((got.q - want.q).abs().max().item<double>(), tol) << at << ", |head| " << head_scale;
+        } else {
+          const double z_max = std::max(std::abs(cfg.v_min), std::abs(cfg.v_max));
+          EXPECT_LT((got.log_probs - want.log_probs).abs().max().item<double>(), 2 * tol) << at;
+          EXPECT_LT((got.q - want.q).abs().max().item<double>(), z_max * 4 * tol) << at << ", |head| " << head_scale;
+        }
+      }
+    }
+  }
+  omp_set_num_threads(threads);
+  HlCriticConfig per_axis;
+  per_axis.dims = ObsDims{22, 3, 24, 7};
+  per_axis.per_axis = true;
+  HlCritic three(per_axis);
+  EXPECT_FALSE(three->has_eigen_weights());
+  EXPECT_THROW(three->eigen_weights(), c10::Error);
+}
+
 // Rows go in fixed blocks over the OpenMP threads: the same bits at 1 and 2 threads.
-TEST(LlEigenForward, SameBitsAtAnyThreadCount) {
+TEST(AttentionMlpForward, SameBitsAtAnyThreadCount) {
   at::Generator g = make_generator(12);
   LlActorCriticConfig cfg;
   cfg.dims = ObsDims{22, 8, 24, 7};
   LlActorCritic net(cfg);
   randomize(*net, g);
-  LlEigenForward fast;
+  AttentionMlpForward fast;
   fast.set_weights(net->eigen_weights());
   const int64_t b = 777;  // 12 full blocks and a partial one
   const LlObs obs = random_obs(g, cfg.dims, b);
@@ -83,14 +141,14 @@ TEST(LlEigenForward, SameBitsAtAnyThreadCount) {
 // The draw done in the forward's blocks is PpoAgent::act's torch ops, bit for bit: action =
 // mean + noise * exp(log_std) and gaussian_log_prob, for several log_std, batch sizes and 1 and
 // 2 threads (the rollout's samples, and so every PPO update, must not change with the path).
-TEST(LlEigenForward, DrawInTheBlocksIsTheTorchOpsBitForBit) {
+TEST(AttentionMlpForward, DrawInTheBlocksIsTheTorchOpsBitForBit) {
   at::Generator g = make_generator(13);
   LlActorCriticConfig cfg;
   cfg.dims = ObsDims{22, 8, 24, 7};
   cfg.action_dim = 4;
   LlActorCritic net(cfg);
   randomize(*net, g);
-  LlEigenForward fast;
+  AttentionMlpForward fast;
   fast.set_weights(net->eigen_weights());
   for (const double scale : {0.0, 0.7, 2.5}) {
     const auto log_std = (scale * torch::randn({4}, g) - 1.0).to(torch::kFloat32).contiguous();
@@ -126,14 +184,14 @@ TEST(LlEigenForward, DrawInTheBlocksIsTheTorchOpsBitForBit) {
   omp_set_num_threads(2);
 }
 
-TEST(LlEigenForward, RefusesWeightsThatDoNotChain) {
+TEST(AttentionMlpForward, RefusesWeightsThatDoNotChain) {
   LlActorCriticConfig cfg;
   cfg.dims = ObsDims{22, 8, 24, 7};
   LlActorCritic net(cfg);
-  LlEigenWeights w = net->eigen_weights();
-  w.actor[1].in = 63;  // the actor's second layer no longer takes the first one's 64 outputs
-  w.actor[1].weight.resize(64 * 63);
-  LlEigenForward fast;
+  AttentionMlpWeights w = net->eigen_weights();
+  w.mlp[1].in = 63;  // the action MLP's second layer no longer takes the first one's 64 outputs
+  w.mlp[1].weight.resize(64 * 63);
+  AttentionMlpForward fast;
   EXPECT_THROW(fast.set_weights(w), std::invalid_argument);
   EXPECT_FALSE(fast.ready());
 }

@@ -1,4 +1,4 @@
-#include "models/kernels/ll_eigen_forward.hpp"
+#include "models/kernels/attention_mlp_forward.hpp"
 
 #include "models/kernels/masked_attention.hpp"
 
@@ -23,13 +23,13 @@ struct Dense {
 void check_layer(const DenseLayer& l, int64_t in, const std::string& name) {
   if (l.in != in || l.out <= 0 || static_cast<int64_t>(l.weight.size()) != l.out * l.in ||
       static_cast<int64_t>(l.bias.size()) != l.out)
-    throw std::invalid_argument("LlEigenForward: layer " + name + " is [" + std::to_string(l.out) + ", " +
+    throw std::invalid_argument("AttentionMlpForward: layer " + name + " is [" + std::to_string(l.out) + ", " +
                                 std::to_string(l.in) + "] with " + std::to_string(l.weight.size()) + " weights and " +
                                 std::to_string(l.bias.size()) + " biases, expected input width " + std::to_string(in));
 }
 
 int64_t check_mlp(const std::vector<DenseLayer>& layers, int64_t in, const std::string& name) {
-  if (layers.empty()) throw std::invalid_argument("LlEigenForward: " + name + " has no layer");
+  if (layers.empty()) throw std::invalid_argument("AttentionMlpForward: " + name + " has no layer");
   for (std::size_t i = 0; i < layers.size(); ++i) {
     check_layer(layers[i], in, name + "." + std::to_string(i));
     in = layers[i].out;
@@ -53,7 +53,7 @@ struct Scratch {
   RowMatrixF q_, k_, v_, attended_, encoded_, x_, h0_, h1_, y_;  // [rows, *] or [rows * n_other, *]
   std::vector<float> weights_;                                    // [rows, H, n_other]
 
-  void mlp(const std::vector<Dense>& layers, RowMatrixF* result) {
+  void mlp(const std::vector<Dense>& layers, Activation activation, RowMatrixF* result) {
     const RowMatrixF* in = &x_;
     RowMatrixF* bufs[2] = {&h0_, &h1_};
     for (std::size_t i = 0; i < layers.size(); ++i) {
@@ -62,7 +62,8 @@ struct Scratch {
       dst->resize(in->rows(), layers[i].weight.rows());
       dst->noalias() = *in * layers[i].weight.transpose();
       dst->rowwise() += layers[i].bias;
-      if (!last) *dst = dst->array().tanh().matrix();
+      if (!last && activation == Activation::kTanh) *dst = dst->array().tanh().matrix();
+      if (!last && activation == Activation::kRelu) *dst = dst->cwiseMax(0.0f);
       in = dst;
     }
   }
@@ -75,7 +76,7 @@ constexpr int64_t kBlockRows = 32;
 // Rows [lo, lo + rows): what PpoAgent::act's torch ops compute, operation for operation in float
 // (mean + noise * std; z = (action - mean) * inv_std; -0.5 z z - log_std - log(2 pi) / 2, summed
 // over the action as LibTorch sums 4 floats: in order). A draw of 4 actions per row is held equal to
-// those ops bit for bit by tests/models/test_ll_eigen_forward. No fused multiply-adds: GCC contracts
+// those ops bit for bit by tests/models/test_attention_mlp_forward. No fused multiply-adds: GCC contracts
 // a + b * c in C++ by default, and LibTorch rounds the product and the sum apart.
 __attribute__((optimize("fp-contract=off"))) void sample_rows(const GaussianDraw& d, int64_t lo, int64_t rows, int64_t a, const float* mean) {
   const float half_log_2pi = static_cast<float>(0.5 * std::log(2.0 * M_PI));
@@ -96,34 +97,36 @@ __attribute__((optimize("fp-contract=off"))) void sample_rows(const GaussianDraw
 
 }  // namespace
 
-struct LlEigenForward::Impl {
+struct AttentionMlpForward::Impl {
   int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
   Dense q, k, v, out;
-  std::vector<Dense> actor, critic;
+  std::vector<Dense> mlp, value_mlp;
+  Activation activation = Activation::kTanh;
   std::vector<Scratch> scratch;  // one per OpenMP thread
 
   void forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
                      const bool* ado_alive, const float* task, float* mean, float* value) const;
 };
 
-LlEigenForward::LlEigenForward() = default;
-LlEigenForward::~LlEigenForward() = default;
+AttentionMlpForward::AttentionMlpForward() = default;
+AttentionMlpForward::~AttentionMlpForward() = default;
 
-bool LlEigenForward::ready() const { return impl_ != nullptr; }
+bool AttentionMlpForward::ready() const { return impl_ != nullptr; }
 
-void LlEigenForward::set_weights(const LlEigenWeights& w) {
+void AttentionMlpForward::set_weights(const AttentionMlpWeights& w) {
   if (w.n_heads <= 0 || w.d_model % w.n_heads != 0 || w.n_other <= 0 || w.n_other > kernels::kMaxOther)
-    throw std::invalid_argument("LlEigenForward: d_model must be a multiple of n_heads > 0, 0 < n_other <= " +
+    throw std::invalid_argument("AttentionMlpForward: d_model must be a multiple of n_heads > 0, 0 < n_other <= " +
                                 std::to_string(kernels::kMaxOther));
   check_layer(w.q, w.d_ego, "q");
   check_layer(w.k, w.d_ado, "k");
   check_layer(w.v, w.d_ado, "v");
   check_layer(w.out, w.d_model, "out");
   if (w.q.out != w.d_model || w.k.out != w.d_model || w.v.out != w.d_model || w.out.out != w.d_model)
-    throw std::invalid_argument("LlEigenForward: attention projections must be d_model wide");
+    throw std::invalid_argument("AttentionMlpForward: attention projections must be d_model wide");
   const int64_t in = w.d_ego + w.d_goal + w.d_model + w.d_task;
-  check_mlp(w.actor, in, "actor");
-  if (check_mlp(w.critic, in, "critic") != 1) throw std::invalid_argument("LlEigenForward: critic must end in 1 unit");
+  check_mlp(w.mlp, in, "mlp");
+  if (!w.value_mlp.empty() && check_mlp(w.value_mlp, in, "value_mlp") != 1)
+    throw std::invalid_argument("AttentionMlpForward: value_mlp must end in 1 unit");
   auto impl = impl_ ? std::move(impl_) : std::make_unique<Impl>();  // keeps the scratch of an earlier copy
   impl->d_ego = w.d_ego;
   impl->d_goal = w.d_goal;
@@ -136,18 +139,19 @@ void LlEigenForward::set_weights(const LlEigenWeights& w) {
   impl->k = dense_of(w.k);
   impl->v = dense_of(w.v);
   impl->out = dense_of(w.out);
-  impl->actor = dense_of(w.actor);
-  impl->critic = dense_of(w.critic);
+  impl->mlp = dense_of(w.mlp);
+  impl->value_mlp = w.value_mlp.empty() ? std::vector<Dense>() : dense_of(w.value_mlp);
+  impl->activation = w.activation;
   impl_ = std::move(impl);
 }
 
-void LlEigenForward::forward(int64_t batch, const float* ego, const float* goal, const float* ado,
+void AttentionMlpForward::forward(int64_t batch, const float* ego, const float* goal, const float* ado,
                              const bool* ado_alive, const float* task, float* mean, float* value,
                              const GaussianDraw* draw) {
   run_blocks(batch, nullptr, ego, goal, ado, ado_alive, task, mean, value, draw);
 }
 
-void LlEigenForward::forward(int64_t batch, const LlRawRows& raw, float* mean, float* value, const GaussianDraw* draw) {
+void AttentionMlpForward::forward(int64_t batch, const LlRawRows& raw, float* mean, float* value, const GaussianDraw* draw) {
   run_blocks(batch, &raw, raw.ego_out, raw.goal_out, raw.ado_out, raw.ado_alive_out, raw.task_out, mean, value, draw);
 }
 
@@ -170,23 +174,23 @@ void normalize_block(const LlRawRows& raw, int64_t n_other, int64_t lo, int64_t 
 }
 }  // namespace
 
-void LlEigenForward::run_blocks(int64_t batch, const LlRawRows* raw, const float* ego, const float* goal,
+void AttentionMlpForward::run_blocks(int64_t batch, const LlRawRows* raw, const float* ego, const float* goal,
                                 const float* ado, const bool* ado_alive, const float* task, float* mean, float* value,
                                 const GaussianDraw* draw) {
-  if (!impl_) throw std::logic_error("LlEigenForward::forward before set_weights");
+  if (!impl_) throw std::logic_error("AttentionMlpForward::forward before set_weights");
   Impl& m = *impl_;
   if (raw != nullptr && (raw->ego_norm.d != m.d_ego || raw->goal_norm.d != m.d_goal || raw->ado_norm.d != m.d_ado ||
                          raw->task_norm.d != m.d_task))
-    throw std::invalid_argument("LlEigenForward::forward: the normalisation terms' widths are not the network's inputs'");
+    throw std::invalid_argument("AttentionMlpForward::forward: the normalisation terms' widths are not the network's inputs'");
   const int64_t n_blocks = (batch + kBlockRows - 1) / kBlockRows;
   const int threads = static_cast<int>(std::min<int64_t>(omp_get_max_threads(), n_blocks));
   if (static_cast<int>(m.scratch.size()) < std::max(threads, 1)) m.scratch.resize(static_cast<std::size_t>(std::max(threads, 1)));
-  const int64_t n = m.n_other, a = m.actor.back().weight.rows();
+  const int64_t n = m.n_other, a = m.mlp.back().weight.rows();
   auto block = [&](int64_t k, Scratch& sc) {
     const int64_t lo = k * kBlockRows, rows = std::min(kBlockRows, batch - lo);
     if (raw != nullptr) normalize_block(*raw, n, lo, rows);
     m.forward_block(sc, rows, ego + lo * m.d_ego, goal + lo * m.d_goal, ado + lo * n * m.d_ado, ado_alive + lo * n,
-                    task + lo * m.d_task, mean + lo * a, value + lo);
+                    task + lo * m.d_task, mean + lo * a, value != nullptr ? value + lo : nullptr);
     if (draw != nullptr) sample_rows(*draw, lo, rows, a, mean);
   };
   if (threads <= 1) {
@@ -200,7 +204,7 @@ void LlEigenForward::run_blocks(int64_t batch, const LlRawRows* raw, const float
   for (int64_t k = 0; k < n_blocks; ++k) block(k, m.scratch[static_cast<std::size_t>(omp_get_thread_num())]);
 }
 
-void LlEigenForward::Impl::forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
+void AttentionMlpForward::Impl::forward_block(Scratch& m, int64_t b, const float* ego, const float* goal, const float* ado,
                                          const bool* ado_alive, const float* task, float* mean, float* value) const {
   const int64_t n = n_other, d = d_model, h = n_heads;
   using CMap = Eigen::Map<const RowMatrixF>;
@@ -235,9 +239,10 @@ void LlEigenForward::Impl::forward_block(Scratch& m, int64_t b, const float* ego
   m.x_.middleCols(d_ego + d_goal, d) = m.encoded_;
   m.x_.rightCols(d_task) = CMap(task, b, d_task);
 
-  m.mlp(actor, &m.y_);
+  m.mlp(mlp, activation, &m.y_);
   Eigen::Map<RowMatrixF>(mean, b, m.y_.cols()) = m.y_;
-  m.mlp(critic, &m.y_);
+  if (value_mlp.empty() || value == nullptr) return;
+  m.mlp(value_mlp, activation, &m.y_);
   Eigen::Map<Eigen::VectorXf>(value, b) = m.y_.col(0);
 }
 
