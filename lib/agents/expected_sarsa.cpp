@@ -309,7 +309,6 @@ void EsAgent::act_with_average() {
   torch::NoGradGuard no_grad;
   auto params = critic_->parameters();
   for (std::size_t k = 0; k < params.size(); ++k) params[k].copy_(average_[k]);
-  eigen_key_.clear();
 }
 
 models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats) {
@@ -543,7 +542,6 @@ EsStats EsAgent::update(const EsBatch& batch) {
     }
   }
   ++update_count_;
-  eigen_key_.clear();  // the Adam kernel writes the weights in place without a version bump
   stats.update_index = update_count_;
   if (update_count_ % cfg_.target_update_interval == 0) {
     sync_target();
@@ -597,7 +595,6 @@ void EsAgent::load_archive(torch::serialize::InputArchive& root) {
   TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: the file holds variant ", es_variant_name(variant),
               ", this agent is ", es_variant_name(cfg_.variant));
   read_sub_archive(root, "critic", *critic_);
-  eigen_key_.clear();
   read_sub_archive(root, "target", *target_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
   torch::Tensor count;

@@ -294,9 +294,8 @@ class EsAgent {
   std::vector<torch::Tensor> average_;
   int64_t average_count_ = 0;
   // The online critic for q_values on Eigen kernels, and which weights it holds: each parameter's
-  // storage and version counter, compared at every call (a LibTorch in-place write through
-  // critic() moves one); cleared where this class writes the weights (the optimiser step's kernel
-  // writes them without a version bump), a load and the average.
+  // storage and version counter, compared at every call. Every write moves one: the optimiser
+  // step (clip_and_adam_step bumps the version), a load, the average, a write through critic().
   models::AttentionMlpForward eigen_;
   std::vector<std::pair<const void*, uint32_t>> eigen_key_;
 };

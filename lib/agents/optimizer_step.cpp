@@ -94,6 +94,9 @@ double clip_and_adam_step(torch::optim::Adam& opt, double max_grad_norm) {
       TORCH_CHECK(data.is_contiguous(), "clip_and_adam_step: a parameter is not contiguous");
       kernels::adam_update(s, g.data_ptr<float>(), st.exp_avg().data_ptr<float>(), st.exp_avg_sq().data_ptr<float>(),
                            data.data_ptr<float>(), p.numel());
+      // An in-place write like LibTorch's own: the version counter moves, so whatever keys on it
+      // (autograd's saved tensors, EsAgent's Eigen copy of the critic) sees the new weights.
+      p.unsafeGetTensorImpl()->bump_version();
     }
   }
   return norm;
