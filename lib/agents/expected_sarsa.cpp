@@ -6,7 +6,7 @@
 
 #include "agents/checkpoint.hpp"
 #include "agents/concurrent_chunks.hpp"
-#include "agents/es_d3_fused_loss.hpp"
+#include "agents/es_fused_loss.hpp"
 #include "agents/optimizer_step.hpp"
 
 namespace f16race::agents {
@@ -459,6 +459,9 @@ EsStats EsAgent::update(const EsBatch& batch) {
   double loss_sum = 0.0, q_sum = 0.0, td_sum = 0.0;
   int64_t n_steps = 0;
   const auto aircraft = torch::arange(n_a, torch::kInt64);
+  const auto active_contiguous = active.contiguous();
+  const bool* active_host = active_contiguous.data_ptr<bool>();
+  const bool team_units = es_is_team(cfg_.variant);
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(t, generator_, torch::kInt64);
     for (const auto& teams : perm.tensor_split(cfg_.n_minibatches)) {
@@ -476,9 +479,15 @@ EsStats EsAgent::update(const EsBatch& batch) {
       double units = 0.0;
       for (int64_t c = 0; c < n_chunks; ++c) {
         Chunk& k = chunks[static_cast<std::size_t>(c)];
-        k.teams = teams.slice(0, m * c / n_chunks, m * (c + 1) / n_chunks);
-        const auto act = active.index_select(0, k.teams);
-        k.units = (es_is_team(cfg_.variant) ? act.any(1) : act).sum().item<double>();
+        const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
+        k.teams = teams.slice(0, lo, hi);
+        // Counted on the host (a team counts once when any member is active, else each active member).
+        const int64_t* team = teams.data_ptr<int64_t>();
+        for (int64_t r = lo; r < hi; ++r) {
+          int64_t members = 0;
+          for (int64_t i = 0; i < n_a; ++i) members += active_host[team[r] * n_a + i] ? 1 : 0;
+          k.units += static_cast<double>(team_units ? (members > 0 ? 1 : 0) : members);
+        }
         units += k.units;
       }
       const std::vector<torch::Tensor> params = critic_->parameters();
@@ -491,13 +500,18 @@ EsStats EsAgent::update(const EsBatch& batch) {
         const EsTarget target_c{target.value.index_select(0, k.teams),
                                 target.dist.defined() ? target.dist.index_select(0, k.teams) : torch::Tensor()};
         const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
+        const bool fused_d2 = cfg_.variant == EsVariant::kEsD2 && !cfg_.per_axis_target;
         const auto out = critic_->forward(models::index_rows(obs, rows_c), /*with_q=*/!fused_d3);
         const double weight = n_chunks == 1 ? 1.0 : k.units / units;
-        if (fused_d3) {
-          // The paper's ES+D3 loss as one node (agents/es_d3_fused_loss.hpp; es_loss is its oracle).
-          const auto f = fused_es_d3_loss(out.log_probs, batch.actions.index_select(0, k.teams),
-                                          active.index_select(0, k.teams), target_c.dist, target_c.value, support_,
-                                          weight);
+        if (fused_d2 || fused_d3) {
+          // The paper's ES+D2 and ES+D3 losses as one node each (agents/es_fused_loss.hpp; es_loss
+          // is their oracle).
+          const auto chunk_actions = batch.actions.index_select(0, k.teams);
+          const auto chunk_active = active.index_select(0, k.teams);
+          const auto f = fused_d2 ? fused_es_d2_loss(out.q, chunk_actions, chunk_active, target_c.value,
+                                                     cfg_.huber_delta, weight)
+                                  : fused_es_d3_loss(out.log_probs, chunk_actions, chunk_active, target_c.dist,
+                                                     target_c.value, support_, weight);
           k.grads = torch::autograd::grad({f.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
                                           /*create_graph=*/false, /*allow_unused=*/true);
           k.loss = f.loss, k.q = f.q, k.td = f.td;

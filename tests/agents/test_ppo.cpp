@@ -285,7 +285,9 @@ TEST(Ppo, EigenActNormalisesAsTheNormaliser) {
             EXPECT_TRUE(torch::equal(x, y)) << at;
           EXPECT_TRUE(torch::equal(want.ado_alive, got.obs.ado_alive)) << at;
           // The outlier, clipped (a batch of 7 cannot hold a row 3 std from its own mean).
-          if (b == 300) EXPECT_EQ(got.obs.ego.max().item<float>(), 3.0f) << at;
+          if (b == 300) {
+            EXPECT_EQ(got.obs.ego.max().item<float>(), 3.0f) << at;
+          }
           const int64_t n = want.ego.size(0);
           auto mean = torch::empty({n, cfg.net.action_dim}), value = torch::empty({n});
           forward.forward(n, want.ego.data_ptr<float>(), want.goal.data_ptr<float>(), want.ado.data_ptr<float>(),
