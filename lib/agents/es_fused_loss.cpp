@@ -21,6 +21,16 @@ int64_t valid_teams(const bool* act, int64_t t, int64_t n_a) {
   return n;
 }
 
+// A team-loss node's outputs: weight * loss (the differentiable scalar) and the unweighted loss, q
+// and td as a float64 [3] without gradient; `grad` (d weight * loss / d input) is saved for backward.
+torch::autograd::variable_list team_loss_outputs(torch::autograd::AutogradContext* ctx, const torch::Tensor& grad,
+                                                 double loss, double q, double td, double inv_valid, double weight) {
+  auto stats = torch::tensor({loss * inv_valid, q * inv_valid, td * inv_valid}, torch::kFloat64);
+  ctx->mark_non_differentiable({stats});
+  ctx->save_for_backward({grad});
+  return {torch::tensor(static_cast<float>(weight * loss * inv_valid)), stats};
+}
+
 // Huber's loss and its derivative in the residual d, as torch::huber_loss computes them (the
 // quadratic branch up to and including |d| = delta).
 double huber(double d, double delta) {
@@ -71,10 +81,7 @@ class EsD2LossNode : public torch::autograd::Function<EsD2LossNode> {
         for (int64_t j = 0; j < 3; ++j) g[at(team, i, j)] = gi;
       }
     }
-    auto stats = torch::tensor({loss * inv_valid, q_sum * inv_valid, td * inv_valid}, torch::kFloat64);
-    ctx->mark_non_differentiable({stats});
-    ctx->save_for_backward({grad});
-    return {torch::tensor(static_cast<float>(weight * loss * inv_valid)), stats};
+    return team_loss_outputs(ctx, grad, loss, q_sum, td, inv_valid, weight);
   }
 
   static torch::autograd::variable_list backward(torch::autograd::AutogradContext* ctx,
@@ -147,10 +154,7 @@ class EsD3LossNode : public torch::autograd::Function<EsD3LossNode> {
         }
       }
     }
-    auto stats = torch::tensor({loss * inv_valid, q * inv_valid, td * inv_valid}, torch::kFloat64);
-    ctx->mark_non_differentiable({stats});
-    ctx->save_for_backward({grad});
-    return {torch::tensor(static_cast<float>(weight * loss * inv_valid)), stats};
+    return team_loss_outputs(ctx, grad, loss, q, td, inv_valid, weight);
   }
 
   static torch::autograd::variable_list backward(torch::autograd::AutogradContext* ctx,

@@ -298,6 +298,16 @@ struct Trainer::State {
   void fork_tail_members();
   void hl_decisions();
   void close_open(int env, bool done, const HlObs& next_rows, const torch::Tensor& next_active);
+  // Waits for the curves draw under way and keeps why it failed, if it did, for the summary.
+  void collect_curves() {
+    if (std::string problem = curves.wait(); !problem.empty()) curves_problem = problem;
+  }
+  // Starts a draw of the run's curves once the one under way has ended.
+  void redraw_curves(std::chrono::steady_clock::time_point now) {
+    collect_curves();
+    curves_drawn_at = now;
+    curves.start(run_dir);
+  }
   void ll_step(bool learn);
   void ppo_update();
   void es_update();
@@ -1090,11 +1100,7 @@ void Trainer::State::save_checkpoint(bool last) {
   // both are done before this returns (one draw path; the overlap saves little: 32-env bench
   // train on the Intel VM, gnuplot 0.09-0.15 s, the files 6-7 ms). metrics.csv holds the last row.
   const auto now = std::chrono::steady_clock::now();
-  if (last) {
-    if (std::string problem = curves.wait(); !problem.empty()) curves_problem = problem;
-    curves_drawn_at = now;
-    curves.start(run_dir);
-  }
+  if (last) redraw_curves(now);
   const std::string previous = latest_checkpoint_name(run_dir);
   // A checkpoint that cannot be completed (full disk) is removed whole; LATEST still names the
   // previous one, which stays intact.
@@ -1125,14 +1131,12 @@ void Trainer::State::save_checkpoint(bool last) {
   // 0.03 s without); one still under way skips a draw; the last (started above) is waited for.
   constexpr auto kCurvesEvery = std::chrono::seconds(30);
   if (last) {
-    if (std::string problem = curves.wait(); !problem.empty()) curves_problem = problem;
+    collect_curves();
     return;
   }
   if (curves_drawn_at && now - *curves_drawn_at < kCurvesEvery) return;
   if (curves.busy()) return;
-  if (std::string problem = curves.wait(); !problem.empty()) curves_problem = problem;
-  curves_drawn_at = now;
-  curves.start(run_dir);
+  redraw_curves(now);
 }
 
 std::string latest_checkpoint_name(const std::string& run_dir) {
