@@ -45,7 +45,7 @@ int64_t HlCriticImpl::flops_per_sample() const {
 }
 
 HlOutput HlCriticImpl::forward(const HlObs& obs, bool with_q) {
-  const int64_t b = check_obs(obs, cfg_.dims);
+  check_obs(obs, cfg_.dims);
   std::vector<torch::Tensor> outs;
   for (std::size_t k = 0; k < encoders_.size(); ++k) {
     const auto encoded = encoders_[k](obs.ego, obs.ado, obs.ado_alive);

@@ -56,6 +56,36 @@ LlObs index_rows(const LlObs& o, const torch::Tensor& i) {
           o.ado_alive.index_select(0, i), o.task.index_select(0, i)};
 }
 
+std::vector<int64_t> alive_per_row(const torch::Tensor& ado_alive) {
+  check_tensor(ado_alive, "ado_alive", {-1, -1}, torch::kBool);
+  const auto a = ado_alive.contiguous();
+  const int64_t b = a.size(0), n = a.size(1);
+  const bool* p = a.data_ptr<bool>();
+  std::vector<int64_t> count(static_cast<std::size_t>(b), 0);
+  for (int64_t i = 0; i < b; ++i)
+    for (int64_t j = 0; j < n; ++j) count[static_cast<std::size_t>(i)] += p[i * n + j] ? 1 : 0;
+  return count;
+}
+
+int64_t count_alive(const torch::Tensor& ado_alive, const torch::Tensor& index) {
+  const std::vector<int64_t> per_row = alive_per_row(ado_alive);
+  if (!index.defined()) {
+    int64_t total = 0;
+    for (const int64_t c : per_row) total += c;
+    return total;
+  }
+  check_tensor(index, "index", {-1}, torch::kInt64);
+  const auto idx = index.contiguous();
+  const int64_t* p = idx.data_ptr<int64_t>();
+  int64_t total = 0;
+  for (int64_t k = 0; k < idx.numel(); ++k) {
+    TORCH_CHECK(p[k] >= 0 && p[k] < static_cast<int64_t>(per_row.size()), "count_alive: row ", p[k], " outside the ",
+                per_row.size(), " rows");
+    total += per_row[static_cast<std::size_t>(p[k])];
+  }
+  return total;
+}
+
 HlObs flatten2(const HlObs& o) {
   return {o.ego.flatten(0, 1), o.prev_action.flatten(0, 1), o.ado.flatten(0, 1), o.ado_alive.flatten(0, 1),
           o.task.flatten(0, 1)};

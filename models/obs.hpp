@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <initializer_list>
+#include <vector>
 
 namespace f16race::models {
 
@@ -46,6 +47,12 @@ int64_t check_obs(const LlObs& obs, const ObsDims& dims);
 // Rows `index` (int64 [M]) of every field.
 HlObs index_rows(const HlObs& obs, const torch::Tensor& index);
 LlObs index_rows(const LlObs& obs, const torch::Tensor& index);
+
+// Other aircraft alive in each row of ado_alive (bool [B, n_other]), in plain loops (no LibTorch
+// op per call): what the attention core's cost depends on, counted for `bench train`'s floor.
+std::vector<int64_t> alive_per_row(const torch::Tensor& ado_alive);
+// Their sum over the rows `index` (int64 [M]; undefined: all rows).
+int64_t count_alive(const torch::Tensor& ado_alive, const torch::Tensor& index = torch::Tensor());
 
 // Merges the two leading dimensions ([T, n, ...] -> [T*n, ...]) of every field.
 HlObs flatten2(const HlObs& obs);

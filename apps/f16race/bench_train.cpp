@@ -47,6 +47,8 @@ struct TrainBenchOptions {
 struct NetworkFloor {
   double ll_forward_s = 0, ll_train_s = 0, hl_forward_s = 0, hl_train_s = 0, total_s = 0;
   std::int64_t ll_forward_batch = 0, ll_train_batch = 0, hl_forward_batch = 0, hl_train_batch = 0;
+  // Of the other aircraft in each part's rows, alive: the random rows the costs are timed on have it.
+  double ll_forward_alive = 0, ll_train_alive = 0, hl_forward_alive = 0, hl_train_alive = 0;
 };
 
 // Seconds per row of each network part at the run's mean batches (medians of 5 timings).
@@ -58,8 +60,26 @@ std::int64_t mean_batch(std::int64_t rows, std::int64_t calls) {
   return calls > 0 ? std::max<std::int64_t>(1, (rows + calls / 2) / calls) : 0;
 }
 
+// Alive share of the other aircraft over `rows` rows holding `alive` of them.
+double alive_share(std::int64_t alive, std::int64_t rows, std::int64_t n_other) {
+  return rows > 0 && n_other > 0 ? static_cast<double>(alive) / static_cast<double>(rows * n_other) : kDefaultAliveShare;
+}
+
+struct AliveShares {
+  double ll_forward, ll_train, hl_forward, hl_train;
+};
+
+AliveShares alive_shares(const train::TrainConfig& cfg, const train::NetworkWork& w) {
+  const std::int64_t n = train::obs_dims(cfg.race).n_other;
+  return {alive_share(w.ll_forward_alive, w.ll_forward_rows, n), alive_share(w.ll_train_alive, w.ll_train_rows, n),
+          alive_share(w.hl_forward_alive, w.hl_forward_rows, n), alive_share(w.hl_train_alive, w.hl_train_rows, n)};
+}
+
+// The costs are timed on random rows with the run's alive shares: the attention core skips the
+// dead, and a run's rows (~0.9 alive at 32 envs) cost more than bench nets' 0.7.
 FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::NetworkWork& w) {
   constexpr int kRepeats = 5;
+  const AliveShares alive = alive_shares(cfg, w);
   models::LlActorCriticConfig lc = cfg.ll.net;
   lc.dims = train::obs_dims(cfg.race);
   agents::EsConfig ec = cfg.hl;
@@ -68,28 +88,34 @@ FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::Netwo
   const models::HlCriticConfig hc = agents::es_critic_config(ec);
   FloorCosts c;
   if (const std::int64_t b = mean_batch(w.ll_forward_rows, w.ll_forward_calls); b > 0)
-    c.ll_forward = measure_ll_cost(lc, b, kRepeats, cfg.ll.eigen_inference).forward_s;
+    c.ll_forward = measure_ll_cost(lc, b, kRepeats, cfg.ll.eigen_inference, 1, alive.ll_forward).forward_s;
   // A minibatch's chunks run concurrently on the OpenMP threads (PpoAgent::update): priced so.
   const std::int64_t chunks_per_step = w.ll_train_steps > 0 ? std::max<std::int64_t>(1, w.ll_train_calls / w.ll_train_steps) : 1;
   const int concurrent = static_cast<int>(std::min<std::int64_t>(omp_get_max_threads(), chunks_per_step));
   if (const std::int64_t b = mean_batch(w.ll_train_rows, w.ll_train_calls); b > 0)
-    c.ll_train = measure_ll_cost(lc, b, kRepeats, false, concurrent).forward_backward_s;
+    c.ll_train = measure_ll_cost(lc, b, kRepeats, false, concurrent, alive.ll_train).forward_backward_s;
   if (const std::int64_t b = mean_batch(w.hl_forward_rows, w.hl_forward_calls); b > 0)
-    c.hl_forward = measure_hl_cost(hc, b, kRepeats, 1, cfg.hl.eigen_inference).forward_s;
+    c.hl_forward = measure_hl_cost(hc, b, kRepeats, 1, cfg.hl.eigen_inference, alive.hl_forward).forward_s;
   // ES steps' chunks (hl.minibatch_chunks) run concurrently too.
   const std::int64_t hl_chunks_per_step =
       w.hl_train_steps > 0 ? std::max<std::int64_t>(1, w.hl_train_calls / w.hl_train_steps) : 1;
   const int hl_concurrent = static_cast<int>(std::min<std::int64_t>(omp_get_max_threads(), hl_chunks_per_step));
   if (const std::int64_t b = mean_batch(w.hl_train_rows, w.hl_train_calls); b > 0)
-    c.hl_train = measure_hl_cost(hc, b, kRepeats, hl_concurrent).forward_backward_s;
+    c.hl_train = measure_hl_cost(hc, b, kRepeats, hl_concurrent, false, alive.hl_train).forward_backward_s;
   return c;
 }
 
 // The run's work priced at the mean of two cost measurements, one before and one after it: the
 // VM's speed drifts by tens of percent within minutes, so both sides of end to end / floor must
 // see the same stretch of time.
-NetworkFloor price_floor(const train::NetworkWork& w, const FloorCosts& before, const FloorCosts& after) {
+NetworkFloor price_floor(const train::TrainConfig& cfg, const train::NetworkWork& w, const FloorCosts& before,
+                         const FloorCosts& after) {
   NetworkFloor f;
+  const AliveShares alive = alive_shares(cfg, w);
+  f.ll_forward_alive = alive.ll_forward;
+  f.ll_train_alive = alive.ll_train;
+  f.hl_forward_alive = alive.hl_forward;
+  f.hl_train_alive = alive.hl_train;
   f.ll_forward_batch = mean_batch(w.ll_forward_rows, w.ll_forward_calls);
   f.ll_train_batch = mean_batch(w.ll_train_rows, w.ll_train_calls);
   f.hl_forward_batch = mean_batch(w.hl_forward_rows, w.hl_forward_calls);
@@ -207,7 +233,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       }
       std::filesystem::remove_all(dir);
       const FloorCosts costs = measure_floor_costs(cfg, m.s.work);
-      m.floor = price_floor(m.s.work, k == 0 ? costs : previous, costs);
+      m.floor = price_floor(cfg, m.s.work, k == 0 ? costs : previous, costs);
       previous = costs;
       m.rate = static_cast<double>(m.s.env_steps) * n_agent / m.s.time.total;
       m.floor_rate = static_cast<double>(m.s.env_steps) * n_agent / m.floor.total_s;
@@ -252,6 +278,8 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
                   "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
                   "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld, "
+                  "\"ll_forward_alive_share\": %.4g, \"ll_train_alive_share\": %.4g, \"hl_forward_alive_share\": %.4g, "
+                  "\"hl_train_alive_share\": %.4g, "
                   "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
                   "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
                   "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
@@ -260,7 +288,8 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s,
                   floor.ll_train_s, floor.hl_forward_s, floor.hl_train_s,
                   static_cast<long long>(floor.ll_forward_batch), static_cast<long long>(floor.ll_train_batch),
-                  static_cast<long long>(floor.hl_forward_batch), static_cast<long long>(floor.hl_train_batch), ratio,
+                  static_cast<long long>(floor.hl_forward_batch), static_cast<long long>(floor.hl_train_batch),
+                  floor.ll_forward_alive, floor.ll_train_alive, floor.hl_forward_alive, floor.hl_train_alive, ratio,
                   runs.size(), list(rates, "%.6g").c_str(),
                   list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
                   list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
@@ -280,11 +309,13 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   floor_rate, ratio, list(ratios, "%.2f").c_str());
       std::printf("  median run (%.1f s): %.0f aircraft-steps/s against its floor %.0f: %.1f s of network time at "
                   "mean batches LL %lld / PPO %lld / HL %lld / ES %lld -- LL forward %.1f s, PPO %.1f s, HL forward "
-                  "%.1f s, ES %.1f s\n",
+                  "%.1f s, ES %.1f s; other aircraft alive in those rows %.2f / %.2f / %.2f / %.2f, as in the random "
+                  "rows timed\n",
                   t.total, mid.rate, mid.floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
                   static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
                   static_cast<long long>(floor.hl_train_batch), floor.ll_forward_s, floor.ll_train_s,
-                  floor.hl_forward_s, floor.hl_train_s);
+                  floor.hl_forward_s, floor.hl_train_s, floor.ll_forward_alive, floor.ll_train_alive,
+                  floor.hl_forward_alive, floor.hl_train_alive);
     }
     std::fflush(stdout);
   }

@@ -22,10 +22,10 @@ double time_median_s(const std::function<void()>& f, int repeats) {
   return median_of(s);
 }
 
-models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen) {
+models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen, double alive_share) {
   const auto normal = [&](std::vector<int64_t> s) { return torch::randn(s, gen, torch::kFloat32); };
   return models::HlObs{normal({b, dims.d_ego}), normal({b, 3}), normal({b, dims.n_other, dims.d_ado}),
-                       torch::rand({b, dims.n_other}, gen) < 0.7, normal({b, dims.d_task})};
+                       torch::rand({b, dims.n_other}, gen) < alive_share, normal({b, dims.d_task})};
 }
 
 namespace {
@@ -76,9 +76,9 @@ double concurrent_forward_backward_s(Net& net, const Obs& obs, const LossOf& los
 }  // namespace
 
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
-                           bool eigen_forward, int concurrent) {
+                           bool eigen_forward, int concurrent, double alive_share) {
   auto gen = models::make_generator(1);
-  const models::HlObs h = random_hl_obs(cfg.dims, batch, gen);
+  const models::HlObs h = random_hl_obs(cfg.dims, batch, gen, alive_share);
   const models::LlObs obs{h.ego, h.prev_action, h.ado, h.ado_alive, h.task};
   models::LlActorCritic net(cfg);
   const auto loss_of = [](models::LlActorCritic& n, const models::LlObs& o) {
@@ -106,9 +106,9 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
 }
 
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent,
-                           bool eigen_forward) {
+                           bool eigen_forward, double alive_share) {
   auto gen = models::make_generator(1);
-  const models::HlObs obs = random_hl_obs(cfg.dims, batch, gen);
+  const models::HlObs obs = random_hl_obs(cfg.dims, batch, gen, alive_share);
   models::HlCritic net(cfg);
   const auto loss_of = [](models::HlCritic& n, const models::HlObs& o) {
     const auto out = n(o);

@@ -17,8 +17,11 @@ double median_of(std::vector<double> v);
 // Median seconds of `f` over `repeats` timed runs after one warm-up run.
 double time_median_s(const std::function<void()>& f, int repeats);
 
-// Random observations of b samples (normal features, 30 % of the other aircraft dead).
-models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen);
+// Random observations of b samples: normal features, each other aircraft alive with probability
+// `alive_share` (bench nets: 0.7; bench train: the share its run's rows had).
+constexpr double kDefaultAliveShare = 0.7;
+models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen,
+                            double alive_share = kDefaultAliveShare);
 
 // Seconds per sample, medians: a no-grad forward, and a forward plus backward of the sum of the
 // outputs (the network part of a PPO or ES minibatch step, without loss terms or optimiser).
@@ -32,12 +35,13 @@ struct SampleCost {
 // LL options: `eigen_forward` prices the forward on the Eigen kernels (ll.inference eigen);
 // `concurrent` > 1 times that many forward+backward passes at once on the OpenMP threads, as
 // PpoAgent::update runs the chunks of a minibatch (per-sample cost = wall time / all samples).
+// `alive_share`: of the other aircraft in the random rows (the attention core skips the dead).
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
-                           bool eigen_forward = false, int concurrent = 1);
+                           bool eigen_forward = false, int concurrent = 1, double alive_share = kDefaultAliveShare);
 // HL: `concurrent` as for the LL (EsAgent::update's chunks of a gradient step); `eigen_forward`
 // prices the forward on the Eigen kernels (hl.inference eigen; a per_axis critic stays on LibTorch).
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent = 1,
-                           bool eigen_forward = false);
+                           bool eigen_forward = false, double alive_share = kDefaultAliveShare);
 
 // GFLOP/s of a 1024 x 1024 x 1024 float matrix product at the current torch thread count: the
 // peak this LibTorch build reaches on this machine, the reference for the networks' GFLOP/s.

@@ -462,6 +462,12 @@ EsStats EsAgent::update(const EsBatch& batch) {
   const auto active_contiguous = active.contiguous();
   const bool* active_host = active_contiguous.data_ptr<bool>();
   const bool team_units = es_is_team(cfg_.variant);
+  // Other aircraft alive per team (its n_a rows): the passes' alive share, for bench train's floor.
+  std::vector<int64_t> team_alive(static_cast<std::size_t>(t), 0);
+  {
+    const std::vector<int64_t> per_row = models::alive_per_row(flat_obs.ado_alive);
+    for (int64_t r = 0; r < t * n_a; ++r) team_alive[static_cast<std::size_t>(r / n_a)] += per_row[static_cast<std::size_t>(r)];
+  }
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(t, generator_, torch::kInt64);
     for (const auto& teams : perm.tensor_split(cfg_.n_minibatches)) {
@@ -528,6 +534,8 @@ EsStats EsAgent::update(const EsBatch& batch) {
         k.td = masked_mean((l.prediction - target_c.value).abs(), l.valid).item<double>();
       });
       stats.train_rows += m * n_a;
+      const int64_t* picked = teams.data_ptr<int64_t>();
+      for (int64_t r = 0; r < m; ++r) stats.train_alive += team_alive[static_cast<std::size_t>(picked[r])];
       for (const Chunk& k : chunks) stats.train_passes += k.grads.empty() ? 0 : 1;
       double loss = 0.0, q = 0.0, td = 0.0;
       std::vector<const std::vector<torch::Tensor>*> chunk_grads;
@@ -564,6 +572,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
   const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
   stats.grad_steps = n_steps;
   stats.forward_rows = 2 * t * n_a;  // the target network on next_obs, the online one on obs
+  stats.forward_alive = models::count_alive(flat_obs.ado_alive) + models::count_alive(batch.next_obs.ado_alive.reshape({-1, cfg_.dims.n_other}));
   stats.loss = loss_sum / n;
   stats.q_mean = q_sum / n;
   stats.td_abs_mean = td_sum / n;

@@ -155,6 +155,8 @@ struct EsStats {
   int64_t train_rows = 0;    // aircraft rows through forward+backward, summed over its steps
   int64_t train_passes = 0;  // forward+backward passes (a step's chunks with valid units)
   int64_t forward_rows = 0;  // aircraft rows through no-grad forwards (target, diagnostics)
+  int64_t train_alive = 0;   // other aircraft alive in the train rows (bench train's floor)
+  int64_t forward_alive = 0; // and in the forward rows
   bool target_synced = false;
   // Diagnostics of the online critic on the batch before the update (rows that took the
   // decision). Does the high level choose anything, and do its targets fit its critic?

@@ -249,6 +249,14 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   // Advantages are normalised over the whole minibatch (CleanRL), before it is cut into chunks.
   PpoConfig chunk_cfg = cfg_;
   chunk_cfg.normalize_advantages = false;
+  // Other aircraft alive per valid sample (position in `rows`): the passes' alive share, which
+  // bench train's floor prices them at.
+  std::vector<int64_t> valid_alive(static_cast<std::size_t>(batch));
+  {
+    const std::vector<int64_t> per_row = models::alive_per_row(buffer_obs.ado_alive);
+    const int64_t* r = rows.data_ptr<int64_t>();
+    for (int64_t i = 0; i < batch; ++i) valid_alive[static_cast<std::size_t>(i)] = per_row[static_cast<std::size_t>(r[i])];
+  }
   int64_t n_steps = 0;
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(batch, generator_, torch::kInt64);
@@ -333,6 +341,8 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
       stats.train_passes += n_chunks;
       clip_and_adam_step(*optimizer_, cfg_.max_grad_norm);
       stats.train_rows += m;
+      const int64_t* picked = mb.data_ptr<int64_t>();
+      for (int64_t i = 0; i < m; ++i) stats.train_alive += valid_alive[static_cast<std::size_t>(picked[i])];
       ++n_steps;
     }
   }

@@ -94,6 +94,7 @@ struct PpoStats {
   int64_t grad_steps = 0;    // minibatch steps of this update
   int64_t train_rows = 0;    // samples through forward+backward, summed over its minibatches
   int64_t train_passes = 0;  // forward+backward passes (chunks of at most max_chunk_rows)
+  int64_t train_alive = 0;   // other aircraft alive in those samples (bench train's floor)
 };
 
 class PpoAgent {

@@ -662,6 +662,7 @@ void Trainer::State::hl_decisions() {
     const torch::Tensor team = groups ? rows.div(ts, "floor") : torch::Tensor();
     scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen, team).bins, b);
     work.hl_forward_rows += rows.numel();
+    work.hl_forward_alive += models::count_alive(obs.ado_alive, rows);
     work.hl_forward_calls += 1;
   }
   timing.inference += since(t_act);
@@ -722,6 +723,8 @@ void Trainer::State::ll_step(bool learn) {
     if (ll_rows.rows(1).numel() > 0)
       scatter_rows(ll_rows.rows(1), opp_ppo->act(obs, ll_rows.rows(1), gen, false).action, actions.data_ptr<float>());
     work.ll_forward_rows += act.action.size(0) + ll_rows.rows(1).numel();
+    work.ll_forward_alive += models::count_alive(obs.ado_alive, ll_rows.owns_all(0) ? torch::Tensor() : mine) +
+                            (ll_rows.rows(1).numel() > 0 ? models::count_alive(obs.ado_alive, ll_rows.rows(1)) : 0);
     work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
   }
   timing.inference += since(t_act);
@@ -820,11 +823,14 @@ void Trainer::State::ll_step(bool learn) {
 
 void Trainer::State::ppo_update() {
   const auto t = Clock::now();
-  buffer->finish(ppo->value(models::index_rows(ll_view(false), learner_index())), cfg.ll.gamma, cfg.ll.gae_lambda);
+  const LlObs last = models::index_rows(ll_view(false), learner_index());
+  buffer->finish(ppo->value(last), cfg.ll.gamma, cfg.ll.gae_lambda);
   last_ppo = ppo->update(*buffer);
   work.ll_forward_rows += static_cast<std::int64_t>(n_env) * ts;  // the bootstrap values above
+  work.ll_forward_alive += models::count_alive(last.ado_alive);
   work.ll_forward_calls += 1;
   work.ll_train_rows += last_ppo.train_rows;
+  work.ll_train_alive += last_ppo.train_alive;
   work.ll_train_calls += last_ppo.train_passes;
   work.ll_train_steps += last_ppo.grad_steps;
   buffer->clear();
@@ -872,6 +878,8 @@ void Trainer::State::es_update() {
   if (in_hl_average()) es->add_to_average();
   hl_grad_steps += last_es.grad_steps;
   work.hl_forward_rows += last_es.forward_rows;
+  work.hl_forward_alive += last_es.forward_alive;
+  work.hl_train_alive += last_es.train_alive;
   work.hl_forward_calls += 2;
   work.hl_train_rows += last_es.train_rows;
   work.hl_train_calls += last_es.train_passes;

@@ -113,6 +113,9 @@ struct NetworkWork {
   std::int64_t hl_forward_rows = 0, hl_forward_calls = 0;  // HL no-grad: decisions, ES targets and diagnostics
   std::int64_t hl_train_rows = 0, hl_train_calls = 0;      // ES minibatch chunks, forward+backward
   std::int64_t hl_train_steps = 0;                          // ES gradient steps (their chunks run concurrently)
+  // Other aircraft alive, summed over the rows above: the attention core skips the dead, so the
+  // floor prices each part at its rows' alive share (alive / (rows * n_other)).
+  std::int64_t ll_forward_alive = 0, ll_train_alive = 0, hl_forward_alive = 0, hl_train_alive = 0;
 };
 
 struct TrainSummary {

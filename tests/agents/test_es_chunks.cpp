@@ -40,6 +40,12 @@ TEST(EsChunks, ChunkedStepsGiveTheSameUpdateForEveryVariant) {
       const EsStats s = at[t - 1]->update(batch);
       EXPECT_EQ(s.grad_steps, one_stats.grad_steps);
       EXPECT_EQ(s.train_passes, 3 * one_stats.grad_steps) << es_variant_name(v);
+      // bench train's floor prices the passes at their rows' alive share: every team once an epoch.
+      const int64_t alive = batch.obs.ado_alive.sum().item<int64_t>();
+      ASSERT_GT(alive, 0);
+      ASSERT_LT(alive, batch.obs.ado_alive.numel());
+      EXPECT_EQ(s.train_alive, cfg.n_epochs * alive) << es_variant_name(v);
+      EXPECT_EQ(s.forward_alive, alive + batch.next_obs.ado_alive.sum().item<int64_t>()) << es_variant_name(v);
       EXPECT_NEAR(s.loss, one_stats.loss, 1e-5 * std::max(1.0, std::abs(one_stats.loss))) << es_variant_name(v);
       if (first == nullptr) first = at[t - 1].get();
     }

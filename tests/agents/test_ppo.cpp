@@ -142,6 +142,43 @@ TEST(Ppo, InvalidSamplesAreLeftOutOfTheUpdate) {
   for (const auto& item : agents[0]->net()->named_parameters()) EXPECT_TRUE(item.value().equal(p1[item.key()]));
 }
 
+TEST(Ppo, CountsTheAliveOthersOfItsTrainingSamples) {
+  // bench train prices PPO's passes at their rows' alive share: the valid samples only, each once
+  // per epoch. Rows of 3 others, alive in a pattern; every fourth sample did not act.
+  models::ObsDims dims{3, 2, 1, 3};
+  PpoConfig cfg;
+  cfg.net.dims = dims;
+  cfg.n_steps = 6;
+  cfg.n_epochs = 3;
+  cfg.n_minibatches = 2;
+  cfg.total_updates = 1;
+  auto gen = models::make_generator(9);
+  RolloutBuffer buffer(cfg.n_steps, 8, dims);
+  int64_t alive_valid = 0;
+  for (int64_t t = 0; t < cfg.n_steps; ++t) {
+    auto alive = torch::zeros({8, 3}, torch::kBool);
+    auto valid = torch::ones({8}, torch::kBool);
+    for (int64_t i = 0; i < 8; ++i) {
+      for (int64_t j = 0; j < 3; ++j) alive[i][j] = (t + i + j) % 3 != 0;
+      valid[i] = (t * 8 + i) % 4 != 3;
+      if (valid[i].item<bool>()) alive_valid += alive[i].sum().item<int64_t>();
+    }
+    const auto obs = models::LlObs{torch::randn({8, 3}, gen, torch::kFloat32), torch::randn({8, 3}, gen, torch::kFloat32),
+                                   torch::randn({8, 3, 2}, gen, torch::kFloat32), alive,
+                                   torch::randn({8, 1}, gen, torch::kFloat32)};
+    buffer.add(obs, torch::randn({8, 3}, gen, torch::kFloat32), torch::randn({8}, gen, torch::kFloat32),
+               torch::randn({8}, gen, torch::kFloat32), torch::randn({8}, gen, torch::kFloat32),
+               torch::zeros({8}, torch::kBool), torch::zeros({8}, torch::kBool), torch::Tensor(), valid);
+  }
+  buffer.finish(torch::zeros({8}), cfg.gamma, cfg.gae_lambda);
+  torch::manual_seed(2);
+  PpoAgent agent(cfg);
+  const PpoStats s = agent.update(buffer);
+  EXPECT_EQ(s.train_rows, 3 * 36);
+  EXPECT_EQ(s.train_alive, 3 * alive_valid);
+  EXPECT_LT(s.train_alive, 3 * s.train_rows);  // some dead: the pattern is not all alive
+}
+
 TEST(Ppo, ChunkedMinibatchesGiveTheSameUpdate) {
   // One buffer, three agents from the same initialisation: one pass per minibatch, chunks of at
   // most 7 rows (uneven cuts of 24-row minibatches), and a chunk limit above the minibatch size.

@@ -20,6 +20,10 @@ for l in lines:
     try: j = json.loads(l)
     except ValueError as e: sys.exit(what + ": not JSON (" + str(e) + "): " + l)
     if want and j.get("config") != want: sys.exit(what + ": config " + repr(j.get("config")) + " != " + repr(want))
+    if j.get("bench") == "train":  # the floor is timed on rows with the alive shares of the run
+        for k in ("ll_forward_alive_share", "ll_train_alive_share", "hl_forward_alive_share", "hl_train_alive_share"):
+            if not 0.0 <= j.get(k, -1.0) <= 1.0: sys.exit(what + ": " + k + " = " + repr(j.get(k)))
+        if j["ll_forward_alive_share"] <= 0.0: sys.exit(what + ": no other aircraft alive in the LL rows")
 ' "$1" "${2:-}" || exit 1
 }
 out=$("$bin" bench train --config "$weird" --updates 1 --repeat 1 --json --set race.n_env=2 2>&1) || fail "bench train: $out"

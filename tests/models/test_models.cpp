@@ -408,6 +408,19 @@ void check_round_trip(Net& a, Net& b) {
   for (const auto& item : a->named_buffers()) EXPECT_TRUE(item.value().equal(b->named_buffers()[item.key()]));
 }
 
+TEST(Obs, CountsAliveOthersPerRowAndOverPickedRows) {
+  // [4 rows, 3 others]: 2, 0, 3 and 1 alive.
+  const auto alive = torch::tensor({1, 0, 1, 0, 0, 0, 1, 1, 1, 0, 1, 0}, torch::kBool).view({4, 3});
+  EXPECT_EQ(alive_per_row(alive), (std::vector<int64_t>{2, 0, 3, 1}));
+  EXPECT_EQ(count_alive(alive), 6);
+  EXPECT_EQ(count_alive(alive, torch::tensor({2, 2, 3}, torch::kInt64)), 7);  // a row picked twice counts twice
+  EXPECT_EQ(count_alive(alive, torch::empty({0}, torch::kInt64)), 0);
+  EXPECT_EQ(count_alive(alive.t().contiguous().t()), 6);  // a strided view: read as its values
+  EXPECT_THROW(count_alive(alive, torch::tensor({4}, torch::kInt64)), c10::Error);
+  EXPECT_THROW(count_alive(alive, torch::tensor({-1}, torch::kInt64)), c10::Error);
+  EXPECT_THROW(alive_per_row(alive.to(torch::kFloat32)), c10::Error);
+}
+
 TEST(Models, SaveLoadRoundTripGivesIdenticalOutputs) {
   const auto d = stand_in_dims();
   Rng r(12);
