@@ -282,6 +282,9 @@ EsAgent::EsAgent(const EsConfig& cfg)
   sync_target();
   optimizer_ = std::make_unique<torch::optim::Adam>(
       critic_->parameters(), torch::optim::AdamOptions(cfg.learning_rate).eps(cfg.adam_eps));
+  // A per_axis critic has no single-branch copy: it stays on LibTorch.
+  if (cfg.eigen_inference && critic_->has_eigen_weights())
+    eigen_.follow(critic_->parameters(), [critic = critic_] { return critic->eigen_weights(); });
 }
 
 void EsAgent::sync_target() {
@@ -322,18 +325,12 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
 torch::Tensor EsAgent::q_values(const models::HlObs& obs) {
   torch::NoGradGuard no_grad;
   const int64_t b = models::check_obs(obs, cfg_.dims);
-  if (!cfg_.eigen_inference || !critic_->has_eigen_weights()) return critic_(prepare(obs, false)).q;
-  std::vector<std::pair<const void*, uint32_t>> key;
-  for (const auto& p : critic_->parameters()) key.emplace_back(p.data_ptr(), p._version());
-  if (key != eigen_key_) {
-    eigen_.set_weights(critic_->eigen_weights());
-    eigen_key_ = std::move(key);
-  }
+  if (!eigen_.following()) return critic_(prepare(obs, false)).q;
   const models::HlObs n = prepare(obs, false);
   const auto ego = n.ego.contiguous(), prev = n.prev_action.contiguous(), ado = n.ado.contiguous(),
              alive = n.ado_alive.contiguous(), task = n.task.contiguous();
   auto head = torch::empty({b, critic_->head_width()});
-  eigen_.forward(b, ego.data_ptr<float>(), prev.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
+  eigen_.current().forward(b, ego.data_ptr<float>(), prev.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
                  task.data_ptr<float>(), head.data_ptr<float>(), nullptr);
   return critic_->from_head(head).q;
 }

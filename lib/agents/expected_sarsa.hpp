@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "agents/c51.hpp"
+#include "agents/eigen_mirror.hpp"
 #include "agents/replicas.hpp"
 #include "models/hl_critic.hpp"
 #include "models/kernels/attention_mlp_forward.hpp"
@@ -295,11 +296,9 @@ class EsAgent {
   // global generator in the middle of a run.
   std::vector<torch::Tensor> average_;
   int64_t average_count_ = 0;
-  // The online critic for q_values on Eigen kernels, and which weights it holds: each parameter's
-  // storage and version counter, compared at every call. Every write moves one: the optimiser
-  // step (clip_and_adam_step bumps the version), a load, the average, a write through critic().
-  models::AttentionMlpForward eigen_;
-  std::vector<std::pair<const void*, uint32_t>> eigen_key_;
+  // The online critic for q_values on Eigen kernels; it follows every write to the critic's
+  // weights (an optimiser step, a load, the average, a write through critic()).
+  EigenMirror eigen_;
 };
 
 }  // namespace f16race::agents

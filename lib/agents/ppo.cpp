@@ -66,6 +66,7 @@ PpoAgent::PpoAgent(const PpoConfig& cfg) : cfg_(cfg), generator_(models::make_ge
               "PpoConfig: n_steps, n_minibatches, n_epochs must be > 0");
   TORCH_CHECK(!cfg.anneal_lr || cfg.total_updates > 0, "PpoConfig: anneal_lr needs total_updates > 0");
   net_ = models::LlActorCritic(cfg.net);
+  if (cfg.eigen_inference) eigen_.follow(net_->parameters(), [net = net_] { return net->eigen_weights(); });
   normalizer_ = models::ObsNormalizer(cfg.net.dims, cfg.obs_clip);
   optimizer_ = std::make_unique<torch::optim::Adam>(net_->parameters(),
                                                     torch::optim::AdamOptions(cfg.learning_rate).eps(cfg.adam_eps));
@@ -93,13 +94,9 @@ std::pair<torch::Tensor, torch::Tensor> PpoAgent::infer(const models::LlObs& obs
 
 void PpoAgent::infer_into(const models::LlObs& obs, torch::Tensor& mean, torch::Tensor& value,
                           const models::GaussianDraw* draw) {
-  if (eigen_stale_) {
-    eigen_.set_weights(net_->eigen_weights());
-    eigen_stale_ = false;
-  }
   const auto ego = obs.ego.contiguous(), goal = obs.goal.contiguous(), ado = obs.ado.contiguous(),
              alive = obs.ado_alive.contiguous(), task = obs.task.contiguous();
-  eigen_.forward(mean.size(0), ego.data_ptr<float>(), goal.data_ptr<float>(), ado.data_ptr<float>(),
+  eigen_.current().forward(mean.size(0), ego.data_ptr<float>(), goal.data_ptr<float>(), ado.data_ptr<float>(),
                  alive.data_ptr<bool>(), task.data_ptr<float>(), mean.data_ptr<float>(), value.data_ptr<float>(), draw);
 }
 
@@ -109,10 +106,6 @@ PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool
 
 void PpoAgent::infer_raw_into(const models::LlObs& raw, const torch::Tensor& rows, const models::LlObs& out,
                               torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw) {
-  if (eigen_stale_) {
-    eigen_.set_weights(net_->eigen_weights());
-    eigen_stale_ = false;
-  }
   const auto ego = raw.ego.contiguous(), goal = raw.goal.contiguous(), ado = raw.ado.contiguous(),
              alive = raw.ado_alive.contiguous(), task = raw.task.contiguous();
   const auto index = rows.defined() ? rows.contiguous() : rows;
@@ -141,7 +134,7 @@ void PpoAgent::infer_raw_into(const models::LlObs& raw, const torch::Tensor& row
   r.ado_out = out.ado.data_ptr<float>();
   r.ado_alive_out = out.ado_alive.data_ptr<bool>();
   r.task_out = out.task.data_ptr<float>();
-  eigen_.forward(mean.size(0), r, mean.data_ptr<float>(), value.data_ptr<float>(), draw);
+  eigen_.current().forward(mean.size(0), r, mean.data_ptr<float>(), value.data_ptr<float>(), draw);
 }
 
 PpoAction PpoAgent::act(const models::LlObs& raw, const torch::Tensor& rows, at::Generator& generator,
@@ -357,7 +350,6 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   stats.explained_variance =
       var_returns > 0.0 ? 1.0 - (returns - old_values).var(/*unbiased=*/false).item<double>() / var_returns : 0.0;
   ++update_count_;
-  eigen_stale_ = true;
   stats.update_index = update_count_;
   return stats;
 }
@@ -389,7 +381,6 @@ void PpoAgent::load_bytes(const std::string& bytes) {
 void PpoAgent::load_archive(torch::serialize::InputArchive& root) {
   read_sub_archive(root, "net", *net_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
-  eigen_stale_ = true;
 }
 
 }  // namespace f16race::agents

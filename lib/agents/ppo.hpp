@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 
+#include "agents/eigen_mirror.hpp"
 #include "agents/replicas.hpp"
 #include "agents/rollout_buffer.hpp"
 #include "models/ll_actor_critic.hpp"
@@ -148,8 +149,7 @@ class PpoAgent {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
-  models::AttentionMlpForward eigen_;
-  bool eigen_stale_ = true;  // the weights changed (update, load) since eigen_ copied them
+  EigenMirror eigen_;  // the network on Eigen kernels for the rollout (cfg_.eigen_inference)
   std::vector<float> norm_terms_;  // infer_raw_into's float normalisation terms, reused
 };
 

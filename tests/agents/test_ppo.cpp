@@ -341,7 +341,9 @@ TEST(Ppo, EigenActNormalisesAsTheNormaliser) {
   omp_set_num_threads(threads);
 }
 
-TEST(Ppo, EigenInferenceFollowsUpdatesAndLoads) {
+// The Eigen copy follows every write to the weights (agents/eigen_mirror.hpp): an update, a load,
+// and a write through net() that no agent method saw.
+TEST(Ppo, EigenInferenceFollowsEveryWeightChange) {
   models::ObsDims dims{5, 4, 3, 3};
   PpoConfig cfg;
   cfg.net.dims = dims;
@@ -392,6 +394,13 @@ TEST(Ppo, EigenInferenceFollowsUpdatesAndLoads) {
   auto g0 = models::make_generator(3);
   EXPECT_LT((loaded.act(probe, g0, false).mean - after).abs().max().item<double>(), 1e-5) << "after a load";
   std::remove(path.c_str());
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& a : agents)
+      for (auto& p : a->net()->parameters()) p.mul_(0.5);
+  }
+  const auto halved = same_act(probe, "after an in-place write");
+  EXPECT_GT((halved - after).abs().max().item<double>(), 1e-3);
 }
 
 // Obs sizes of the toy tasks: 3D position as ego, goal 3, one (dead) other aircraft, 1 task feature.
