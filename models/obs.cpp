@@ -68,20 +68,26 @@ std::vector<int64_t> alive_per_row(const torch::Tensor& ado_alive) {
 }
 
 int64_t count_alive(const torch::Tensor& ado_alive, const torch::Tensor& index) {
-  const std::vector<int64_t> per_row = alive_per_row(ado_alive);
+  check_tensor(ado_alive, "ado_alive", {-1, -1}, torch::kBool);
+  const auto a = ado_alive.contiguous();
+  const int64_t b = a.size(0), n = a.size(1);
+  const bool* p = a.data_ptr<bool>();
+  const auto row_alive = [&](int64_t i) {
+    int64_t c = 0;
+    for (int64_t j = 0; j < n; ++j) c += p[i * n + j] ? 1 : 0;
+    return c;
+  };
+  int64_t total = 0;
   if (!index.defined()) {
-    int64_t total = 0;
-    for (const int64_t c : per_row) total += c;
+    for (int64_t i = 0; i < b; ++i) total += row_alive(i);
     return total;
   }
   check_tensor(index, "index", {-1}, torch::kInt64);
   const auto idx = index.contiguous();
-  const int64_t* p = idx.data_ptr<int64_t>();
-  int64_t total = 0;
+  const int64_t* r = idx.data_ptr<int64_t>();
   for (int64_t k = 0; k < idx.numel(); ++k) {
-    TORCH_CHECK(p[k] >= 0 && p[k] < static_cast<int64_t>(per_row.size()), "count_alive: row ", p[k], " outside the ",
-                per_row.size(), " rows");
-    total += per_row[static_cast<std::size_t>(p[k])];
+    TORCH_CHECK(r[k] >= 0 && r[k] < b, "count_alive: row ", r[k], " outside the ", b, " rows");
+    total += row_alive(r[k]);
   }
   return total;
 }
