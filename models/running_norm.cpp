@@ -78,35 +78,45 @@ void RunningNormImpl::batch_moments(const torch::Tensor& x_in, const torch::Tens
   const int64_t rows = pick != nullptr ? pick->rows() : x.size(0), d = dim_;
   const float* x0 = x.data_ptr<float>();
   const bool* k0 = keep.defined() ? keep.data_ptr<bool>() : nullptr;
-  // Row i of the batch: x's row i, or the i-th picked row (read in place, in the same order).
-  const auto row = [&](int64_t i) { return x0 + (pick != nullptr ? pick->at(i) : i) * d; };
-  const auto kept = [&](int64_t i) { return k0 == nullptr || k0[pick != nullptr ? pick->at(i) : i]; };
+  // f(r) for x's row r of every batch row, in batch order: x's rows, or the picked ones read in
+  // place (index[k] * group + j), walked without RowPick::at's division per row.
+  const auto for_each_kept = [&](const auto& f) {
+    const auto visit = [&](int64_t r) {
+      if (k0 == nullptr || k0[r]) f(r);
+    };
+    if (pick == nullptr) {
+      for (int64_t r = 0; r < rows; ++r) visit(r);
+      return;
+    }
+    for (int64_t k = 0; k < pick->count; ++k)
+      for (int64_t r = pick->index[k] * pick->group, end = r + pick->group; r < end; ++r) visit(r);
+  };
   const std::size_t at = out->size();
   out->resize(at + 1 + 2 * static_cast<std::size_t>(d), 0.0);
   double* batch_mean = out->data() + at + 1;
   double* batch_m2 = batch_mean + d;
   int64_t n = 0;
-  for (int64_t i = 0; i < rows; ++i) n += kept(i) ? 1 : 0;
+  for_each_kept([&n](int64_t) { ++n; });
   (*out)[at] = static_cast<double>(n);
   if (n == 0) return;
   over_column_shares(rows, d, [&](int64_t c0, int64_t c1) {
     // Each thread sums into its own buffer (the shared arrays' neighbouring columns would sit in
     // one cache line written by both threads), from 0 in row order as before: the same bits.
     std::vector<double> sum(static_cast<std::size_t>(c1 - c0), 0.0), m2(sum.size(), 0.0);
-    for (int64_t i = 0; i < rows; ++i) {
-      if (!kept(i)) continue;
-      const float* xr = row(i);
-      for (int64_t c = c0; c < c1; ++c) sum[c - c0] += xr[c];
-    }
-    for (int64_t c = c0; c < c1; ++c) sum[c - c0] /= static_cast<double>(n);
-    for (int64_t i = 0; i < rows; ++i) {  // second pass: squared deviations about the batch mean
-      if (!kept(i)) continue;
-      const float* xr = row(i);
+    double* s = sum.data();
+    double* q = m2.data();
+    for_each_kept([&](int64_t r) {
+      const float* xr = x0 + r * d;
+      for (int64_t c = c0; c < c1; ++c) s[c - c0] += xr[c];
+    });
+    for (int64_t c = c0; c < c1; ++c) s[c - c0] /= static_cast<double>(n);
+    for_each_kept([&](int64_t r) {  // second pass: squared deviations about the batch mean
+      const float* xr = x0 + r * d;
       for (int64_t c = c0; c < c1; ++c) {
-        const double dev = xr[c] - sum[c - c0];
-        m2[c - c0] += dev * dev;
+        const double dev = xr[c] - s[c - c0];
+        q[c - c0] += dev * dev;
       }
-    }
+    });
     std::copy(sum.begin(), sum.end(), batch_mean + c0);
     std::copy(m2.begin(), m2.end(), batch_m2 + c0);
   });
