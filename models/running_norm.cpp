@@ -340,4 +340,64 @@ LlObs ObsNormalizerImpl::normalize(const LlObs& obs, const torch::Tensor& rows_i
           obs.ado_alive.index_select(0, rows), task_->normalize_picked(obs.task, torch::Tensor(), pick)};
 }
 
+LlRawRows ObsNormalizerImpl::raw_fields(const std::array<const torch::Tensor*, 5>& raw, const torch::Tensor& rows,
+                                        const std::array<const torch::Tensor*, 5>& out, std::vector<float>* terms) const {
+  const char* names[5] = {"ego", "extra", "ado", "ado_alive", "task"};
+  for (int f = 0; f < 5; ++f) {
+    TORCH_CHECK(raw[f]->is_contiguous(), "ObsNormalizer::raw_rows: raw ", names[f], " must be contiguous");
+    TORCH_CHECK(out[f]->is_contiguous(), "ObsNormalizer::raw_rows: out ", names[f], " must be contiguous");
+  }
+  const int64_t n = raw[0]->size(0), b = rows.defined() ? rows.numel() : n;
+  TORCH_CHECK(out[0]->size(0) == b, "ObsNormalizer::raw_rows: out holds ", out[0]->size(0), " rows for ", b);
+  LlRawRows r;
+  if (rows.defined()) {
+    check_tensor(rows, "rows", {-1}, torch::kInt64);
+    TORCH_CHECK(rows.is_contiguous(), "ObsNormalizer::raw_rows: rows must be contiguous");
+    const int64_t* p = rows.data_ptr<int64_t>();
+    for (int64_t i = 0; i < b; ++i)
+      TORCH_CHECK(p[i] >= 0 && p[i] < n, "ObsNormalizer::raw_rows: row ", p[i], " outside the ", n, " rows");
+    r.index = p;
+  }
+  // Each field's float mean and inverse std side by side in the scratch, sized once here so the
+  // pointers stay valid.
+  terms->resize(static_cast<std::size_t>(2 * (dims_.d_ego + dims_.d_goal + dims_.d_ado + dims_.d_task)));
+  float* t = terms->data();
+  const auto next = [&t](const RunningNorm& norm) {
+    const kernels::NormTerms k = norm->float_terms(t, t + norm->dim());
+    t += 2 * norm->dim();
+    return k;
+  };
+  r.ego_norm = next(ego_);
+  r.goal_norm = next(extra_);
+  r.ado_norm = next(ado_norm_);
+  r.task_norm = next(task_);
+  r.ego = raw[0]->data_ptr<float>();
+  r.goal = raw[1]->data_ptr<float>();
+  r.ado = raw[2]->data_ptr<float>();
+  r.ado_alive = raw[3]->data_ptr<bool>();
+  r.task = raw[4]->data_ptr<float>();
+  r.ego_out = out[0]->data_ptr<float>();
+  r.goal_out = out[1]->data_ptr<float>();
+  r.ado_out = out[2]->data_ptr<float>();
+  r.ado_alive_out = out[3]->data_ptr<bool>();
+  r.task_out = out[4]->data_ptr<float>();
+  return r;
+}
+
+LlRawRows ObsNormalizerImpl::raw_rows(const LlObs& raw, const torch::Tensor& rows, const LlObs& out,
+                                      std::vector<float>* terms) const {
+  check_obs(raw, dims_);
+  check_obs(out, dims_);
+  return raw_fields({&raw.ego, &raw.goal, &raw.ado, &raw.ado_alive, &raw.task}, rows,
+                    {&out.ego, &out.goal, &out.ado, &out.ado_alive, &out.task}, terms);
+}
+
+LlRawRows ObsNormalizerImpl::raw_rows(const HlObs& raw, const torch::Tensor& rows, const HlObs& out,
+                                      std::vector<float>* terms) const {
+  check_obs(raw, dims_);
+  check_obs(out, dims_);
+  return raw_fields({&raw.ego, &raw.prev_action, &raw.ado, &raw.ado_alive, &raw.task}, rows,
+                    {&out.ego, &out.prev_action, &out.ado, &out.ado_alive, &out.task}, terms);
+}
+
 }  // namespace f16race::models

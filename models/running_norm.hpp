@@ -9,9 +9,11 @@
 //                      alive rows only and dead rows normalise to 0.
 #include <torch/torch.h>
 
+#include <array>
 #include <functional>
 #include <vector>
 
+#include "models/kernels/attention_mlp_forward.hpp"
 #include "models/kernels/normalize_row.hpp"
 #include "models/obs.hpp"
 
@@ -90,6 +92,13 @@ class ObsNormalizerImpl : public torch::nn::Module {
   // normalize(update_stats)'s first half: the statistics absorb obs's rows `rows` (int64 [R]; all
   // rows when undefined), nothing normalised (AttentionMlpForward normalises in its blocks).
   void absorb(const LlObs& obs, const torch::Tensor& rows);
+  // The rows `rows` (int64 [B], contiguous; undefined: all rows) of a raw observation, as
+  // AttentionMlpForward reads them to normalise them in its blocks with these statistics (rounded
+  // to float into *terms) into `out` (B rows, allocated by the caller). Every tensor must be
+  // contiguous (checked) and, with *terms, outlive the forward. The one place both agents' raw
+  // rollout forwards are set up (PpoAgent's actions, EsAgent's decisions).
+  LlRawRows raw_rows(const LlObs& raw, const torch::Tensor& rows, const LlObs& out, std::vector<float>* terms) const;
+  LlRawRows raw_rows(const HlObs& raw, const torch::Tensor& rows, const HlObs& out, std::vector<float>* terms) const;
   // Per field: ego, extra (prev_action for the HL, goal for the LL), ado, task.
   const RunningNorm& ego() const { return ego_; }
   const RunningNorm& extra() const { return extra_; }
@@ -98,6 +107,9 @@ class ObsNormalizerImpl : public torch::nn::Module {
 
  private:
   torch::Tensor ado_(const torch::Tensor& ado, const torch::Tensor& alive, bool update_stats);
+  // raw_rows over the five fields (ego, extra, ado, alive, task) of either level.
+  LlRawRows raw_fields(const std::array<const torch::Tensor*, 5>& raw, const torch::Tensor& rows,
+                       const std::array<const torch::Tensor*, 5>& out, std::vector<float>* terms) const;
 
   // A batch of the four fields into `pending_` (replicas).
   void hold_back(const torch::Tensor& ego, const torch::Tensor& extra, const torch::Tensor& ado,

@@ -322,6 +322,32 @@ EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& g
   return choose(q_values(obs), epsilon, generator, group);
 }
 
+EsAction EsAgent::act(const models::HlObs& obs, const torch::Tensor& rows, double epsilon, at::Generator& generator,
+                      const torch::Tensor& group) {
+  return choose(q_values(obs, rows), epsilon, generator, group);
+}
+
+torch::Tensor EsAgent::q_values(const models::HlObs& obs, const torch::Tensor& rows) {
+  if (!eigen_.following() || !cfg_.normalize_obs) return q_values(models::index_rows(obs, rows));
+  torch::NoGradGuard no_grad;
+  models::check_obs(obs, cfg_.dims);
+  check_tensor(rows, "rows", {-1}, torch::kInt64);
+  const int64_t b = rows.numel();
+  const auto& d = cfg_.dims;
+  // The picked rows, normalised by the forward's blocks into `normalised` (the same float
+  // arithmetic as the normaliser's: kernels::normalize_row), then the same forward as q_values.
+  const models::HlObs fields{obs.ego.contiguous(), obs.prev_action.contiguous(), obs.ado.contiguous(),
+                             obs.ado_alive.contiguous(), obs.task.contiguous()};
+  const models::HlObs normalised{torch::empty({b, d.d_ego}), torch::empty({b, d.d_prev_action}),
+                                 torch::empty({b, d.n_other, d.d_ado}), torch::empty({b, d.n_other}, torch::kBool),
+                                 torch::empty({b, d.d_task})};
+  const auto index = rows.contiguous();
+  const models::LlRawRows r = normalizer_->raw_rows(fields, index, normalised, &norm_terms_);
+  auto head = torch::empty({b, critic_->head_width()});
+  eigen_.current().forward(b, r, head.data_ptr<float>(), nullptr);
+  return critic_->from_head(head).q;
+}
+
 torch::Tensor EsAgent::q_values(const models::HlObs& obs) {
   torch::NoGradGuard no_grad;
   const int64_t b = models::check_obs(obs, cfg_.dims);

@@ -247,9 +247,15 @@ class EsAgent {
   // and its rows share the lateral bin, greedy and explored (a per-team draw on that axis).
   EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator,
                const torch::Tensor& group = torch::Tensor());
+  // The same for the rows `rows` (int64 [R]) of obs, read in place: act(index_rows(obs, rows))
+  // bit for bit (the Eigen path normalises the picked rows in the forward's blocks, without the
+  // gathered copy); `group` has R rows.
+  EsAction act(const models::HlObs& obs, const torch::Tensor& rows, double epsilon, at::Generator& generator,
+               const torch::Tensor& group = torch::Tensor());
   // act() in two halves: the critic's action values on `obs` (EsAction::q's shape; no gradients),
   // and the eps-greedy choice on given values of that shape (an ensemble's mean, or q_values').
   torch::Tensor q_values(const models::HlObs& obs);
+  torch::Tensor q_values(const models::HlObs& obs, const torch::Tensor& rows);
   EsAction choose(const torch::Tensor& q, double epsilon, at::Generator& generator,
                   const torch::Tensor& group = torch::Tensor()) const;
   // With replicas set (issue 18), every rank calls update() at the same point with its own batch
@@ -299,6 +305,7 @@ class EsAgent {
   // The online critic for q_values on Eigen kernels; it follows every write to the critic's
   // weights (an optimiser step, a load, the average, a write through critic()).
   EigenMirror eigen_;
+  std::vector<float> norm_terms_;  // the raw-rows forward's float normalisation terms, reused
 };
 
 }  // namespace f16race::agents

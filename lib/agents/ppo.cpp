@@ -106,34 +106,10 @@ PpoAction PpoAgent::act(const models::LlObs& raw, at::Generator& generator, bool
 
 void PpoAgent::infer_raw_into(const models::LlObs& raw, const torch::Tensor& rows, const models::LlObs& out,
                               torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw) {
-  const auto ego = raw.ego.contiguous(), goal = raw.goal.contiguous(), ado = raw.ado.contiguous(),
-             alive = raw.ado_alive.contiguous(), task = raw.task.contiguous();
+  const models::LlObs fields{raw.ego.contiguous(), raw.goal.contiguous(), raw.ado.contiguous(),
+                             raw.ado_alive.contiguous(), raw.task.contiguous()};
   const auto index = rows.defined() ? rows.contiguous() : rows;
-  const auto& d = cfg_.net.dims;
-  norm_terms_.resize(static_cast<std::size_t>(2 * (d.d_ego + d.d_goal + d.d_ado + d.d_task)));
-  float* t = norm_terms_.data();
-  // Each field's float mean and inverse std side by side in the scratch.
-  auto terms = [&t](const models::RunningNorm& n) {
-    const auto r = n->float_terms(t, t + n->dim());
-    t += 2 * n->dim();
-    return r;
-  };
-  models::LlRawRows r;
-  r.ego = ego.data_ptr<float>();
-  r.goal = goal.data_ptr<float>();
-  r.ado = ado.data_ptr<float>();
-  r.ado_alive = alive.data_ptr<bool>();
-  r.task = task.data_ptr<float>();
-  r.index = index.defined() ? index.data_ptr<int64_t>() : nullptr;
-  r.ego_norm = terms(normalizer_->ego());
-  r.goal_norm = terms(normalizer_->extra());
-  r.ado_norm = terms(normalizer_->ado());
-  r.task_norm = terms(normalizer_->task());
-  r.ego_out = out.ego.data_ptr<float>();
-  r.goal_out = out.goal.data_ptr<float>();
-  r.ado_out = out.ado.data_ptr<float>();
-  r.ado_alive_out = out.ado_alive.data_ptr<bool>();
-  r.task_out = out.task.data_ptr<float>();
+  const models::LlRawRows r = normalizer_->raw_rows(fields, index, out, &norm_terms_);
   eigen_.current().forward(mean.size(0), r, mean.data_ptr<float>(), value.data_ptr<float>(), draw);
 }
 

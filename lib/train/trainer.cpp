@@ -660,7 +660,7 @@ void Trainer::State::hl_decisions() {
     // The pool's snapshots explore per aircraft as before; a team lane is their policy too.
     const bool groups = critic.config().team_lateral || (p == 0 && any_team);
     const torch::Tensor team = groups ? rows.div(ts, "floor") : torch::Tensor();
-    scatter_rows(rows, critic.act(models::index_rows(obs, rows), eps, gen, team).bins, b);
+    scatter_rows(rows, critic.act(obs, rows, eps, gen, team).bins, b);
     work.hl_forward_rows += rows.numel();
     work.hl_forward_alive += models::count_alive(obs.ado_alive, rows);
     work.hl_forward_calls += 1;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "agents/expected_sarsa.hpp"
 #include "support/replica_samples.hpp"
@@ -85,6 +86,37 @@ TEST(EsInference, PerAxisCriticStaysOnLibTorch) {
   const models::HlObs obs = models::flatten2(es_batch(dims, 0, 8).obs);
   torch::NoGradGuard no_grad;
   EXPECT_TRUE(torch::equal(agent.q_values(obs), agent.critic()(agent.normalizer()->normalize(obs, false)).q));
+}
+
+// The trainer's decisions read the rows each critic flies in place (EsAgent::act(obs, rows, ...)):
+// the same action values and bins, bit for bit, as acting on a gathered copy of those rows, on both
+// paths, with statistics that are not the identity (an update absorbed a batch first), rows in any
+// order, one repeated, a team lane's groups; a row outside the batch is refused.
+TEST(EsInference, ActingOnPickedRowsIsActingOnTheirCopy) {
+  const models::ObsDims dims{4, 2, 2, 2};
+  for (bool eigen : {false, true}) {
+    for (EsVariant v : {EsVariant::kEs, EsVariant::kEsD2, EsVariant::kEsD3}) {
+      EsConfig cfg = replica_es_config(v, dims);
+      cfg.eigen_inference = eigen;
+      torch::manual_seed(6);
+      EsAgent agent(cfg);
+      const EsBatch batch = es_batch(dims, 0, 8);
+      agent.update(batch);
+      const models::HlObs obs = models::flatten2(batch.next_obs);  // 24 rows the statistics did not see
+      const auto rows = torch::tensor(std::vector<int64_t>{17, 3, 3, 0, 23, 9, 10, 11}, torch::kInt64);
+      const std::string at = std::string(eigen ? "eigen " : "torch ") + es_variant_name(v);
+      const auto want = agent.q_values(models::index_rows(obs, rows));
+      EXPECT_TRUE(torch::equal(agent.q_values(obs, rows), want)) << at;
+      const auto group = torch::tensor(std::vector<int64_t>{0, 1, 1, 2, 3, 4, 4, 4}, torch::kInt64);
+      auto g0 = models::make_generator(5), g1 = models::make_generator(5);
+      const EsAction a = agent.act(models::index_rows(obs, rows), 0.5, g0, group);
+      const EsAction b = agent.act(obs, rows, 0.5, g1, group);
+      EXPECT_TRUE(torch::equal(a.bins, b.bins)) << at;
+      EXPECT_TRUE(torch::equal(a.q, b.q)) << at;
+      EXPECT_THROW(agent.q_values(obs, torch::tensor(std::vector<int64_t>{0, 24}, torch::kInt64)), c10::Error) << at;
+      EXPECT_THROW(agent.q_values(obs, torch::tensor(std::vector<int64_t>{-1}, torch::kInt64)), c10::Error) << at;
+    }
+  }
 }
 
 }  // namespace
