@@ -157,10 +157,10 @@ void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::T
                     at::Generator& gen, std::int64_t* bins) {
   if (rows.numel() == 0) return;
   const torch::Tensor team = p.hl->config().team_lateral ? rows.div(p.config.race.team_size, "floor") : torch::Tensor();
-  const models::HlObs mine = models::index_rows(obs, rows);
-  torch::Tensor q = p.hl->q_values(mine);
+  // Each critic reads the rows in place (q_values(index_rows(obs, rows)) bit for bit).
+  torch::Tensor q = p.hl->q_values(obs, rows);
   if (!p.hl_members.empty()) {
-    for (const auto& m : p.hl_members) q = q + m->q_values(mine);
+    for (const auto& m : p.hl_members) q = q + m->q_values(obs, rows);
     q = q / static_cast<double>(p.hl_members.size() + 1);
   }
   scatter_rows(rows, p.hl->choose(q, epsilon, gen, team).bins, bins);
