@@ -680,13 +680,12 @@ void Trainer::State::hl_decisions() {
   if (learn) {
     for (int e = 0; e < n_env; ++e) {
       if (!due[e]) continue;
-      auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
-      const auto idx = learner.index_select(0, rows);
+      // The env's learner aircraft; index_rows gathers into fresh tensors, which the closed
+      // transition keeps (nothing writes them afterwards).
+      const auto idx = learner.slice(0, static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
       const auto alive = hl_members(e);
       const HlObs next = models::index_rows(obs, idx);
-      close_open(e, false, HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
-                                 next.task.clone()},
-                 alive);
+      close_open(e, false, next, alive);
       open.obs.ego[e].copy_(next.ego);
       open.obs.prev_action[e].copy_(next.prev_action);
       open.obs.ado[e].copy_(next.ado);
@@ -806,16 +805,12 @@ void Trainer::State::ll_step(bool learn) {
       // The race really ends at the time limit too (time left is observed): terminal, unless
       // the config reports it as a truncation.
       const bool truncation = env->race_end()[e] == race::RaceEnv::kEndTimeLimit && !cfg.race.time_limit_terminal;
-      auto rows = torch::arange(static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
-      const auto idx = learner.index_select(0, rows);
-      const HlObs src = hl_view(truncation);
-      const HlObs next = models::index_rows(src, idx);
+      const auto idx = learner.slice(0, static_cast<std::int64_t>(e) * ts, static_cast<std::int64_t>(e + 1) * ts);
+      // Fresh tensors (index_rows gathers), kept by the closed transition as they are.
+      const HlObs next = models::index_rows(hl_view(truncation), idx);
       // Terminal: no next state counts. Truncated: as at a decision, from the final state.
       const auto alive = truncation ? hl_members(e, true) : torch::zeros({ts}, torch::kBool);
-      close_open(e, !truncation,
-                 HlObs{next.ego.clone(), next.prev_action.clone(), next.ado.clone(), next.ado_alive.clone(),
-                       next.task.clone()},
-                 alive);
+      close_open(e, !truncation, next, alive);
     }
     draw_matchup(e);
   }
