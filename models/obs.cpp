@@ -56,38 +56,45 @@ LlObs index_rows(const LlObs& o, const torch::Tensor& i) {
           o.ado_alive.index_select(0, i), o.task.index_select(0, i)};
 }
 
+namespace {
+// ado_alive [B, n_other] read in place (a contiguous copy only if it is not): others alive per row.
+struct AliveRows {
+  torch::Tensor alive;
+  int64_t rows = 0, n = 0;
+  const bool* p = nullptr;
+  explicit AliveRows(const torch::Tensor& ado_alive) {
+    check_tensor(ado_alive, "ado_alive", {-1, -1}, torch::kBool);
+    alive = ado_alive.contiguous();
+    rows = alive.size(0), n = alive.size(1), p = alive.data_ptr<bool>();
+  }
+  int64_t operator()(int64_t i) const {
+    int64_t c = 0;
+    for (int64_t j = 0; j < n; ++j) c += p[i * n + j] ? 1 : 0;
+    return c;
+  }
+};
+}  // namespace
+
 std::vector<int64_t> alive_per_row(const torch::Tensor& ado_alive) {
-  check_tensor(ado_alive, "ado_alive", {-1, -1}, torch::kBool);
-  const auto a = ado_alive.contiguous();
-  const int64_t b = a.size(0), n = a.size(1);
-  const bool* p = a.data_ptr<bool>();
-  std::vector<int64_t> count(static_cast<std::size_t>(b), 0);
-  for (int64_t i = 0; i < b; ++i)
-    for (int64_t j = 0; j < n; ++j) count[static_cast<std::size_t>(i)] += p[i * n + j] ? 1 : 0;
+  const AliveRows alive(ado_alive);
+  std::vector<int64_t> count(static_cast<std::size_t>(alive.rows));
+  for (int64_t i = 0; i < alive.rows; ++i) count[static_cast<std::size_t>(i)] = alive(i);
   return count;
 }
 
 int64_t count_alive(const torch::Tensor& ado_alive, const torch::Tensor& index) {
-  check_tensor(ado_alive, "ado_alive", {-1, -1}, torch::kBool);
-  const auto a = ado_alive.contiguous();
-  const int64_t b = a.size(0), n = a.size(1);
-  const bool* p = a.data_ptr<bool>();
-  const auto row_alive = [&](int64_t i) {
-    int64_t c = 0;
-    for (int64_t j = 0; j < n; ++j) c += p[i * n + j] ? 1 : 0;
-    return c;
-  };
+  const AliveRows alive(ado_alive);
   int64_t total = 0;
   if (!index.defined()) {
-    for (int64_t i = 0; i < b; ++i) total += row_alive(i);
+    for (int64_t i = 0; i < alive.rows; ++i) total += alive(i);
     return total;
   }
   check_tensor(index, "index", {-1}, torch::kInt64);
   const auto idx = index.contiguous();
   const int64_t* r = idx.data_ptr<int64_t>();
   for (int64_t k = 0; k < idx.numel(); ++k) {
-    TORCH_CHECK(r[k] >= 0 && r[k] < b, "count_alive: row ", r[k], " outside the ", b, " rows");
-    total += row_alive(r[k]);
+    TORCH_CHECK(r[k] >= 0 && r[k] < alive.rows, "count_alive: row ", r[k], " outside the ", alive.rows, " rows");
+    total += alive(r[k]);
   }
   return total;
 }
