@@ -240,7 +240,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       runs.push_back(std::move(m));
     }
     if (runs.size() > 1) runs.erase(runs.begin());
-    std::vector<double> rates, floor_rates, ratios, run_env, run_inference, run_ppo, run_es, run_io;
+    std::vector<double> rates, floor_rates, ratios, run_env, run_inference, run_ppo, run_es, run_io, run_ppo_wait;
     for (const Measured& m : runs) {
       rates.push_back(m.rate);
       floor_rates.push_back(m.floor_rate);
@@ -250,6 +250,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       run_ppo.push_back(m.s.time.ppo);
       run_es.push_back(m.s.time.es);
       run_io.push_back(m.s.time.io);
+      run_ppo_wait.push_back(m.s.time.ppo_chunk_wait);
     }
     // The breakdown is the median run's (by end-to-end rate).
     std::vector<std::size_t> order(runs.size());
@@ -275,6 +276,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
                   "\"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
                   "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"total_s\": %.4g, "
+                  "\"ppo_chunk_wait_s\": %.4g, \"es_chunk_wait_s\": %.4g, "
                   "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
                   "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
                   "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld, "
@@ -283,9 +285,11 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
                   "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
                   "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
+                  "\"runs_ppo_chunk_wait_s\": [%s], "
                   "\"cpu\": %s, \"blas_core\": %s}\n",
                   io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(),
-                  rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.total, floor_rate, floor.ll_forward_s,
+                  rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.total, t.ppo_chunk_wait, t.es_chunk_wait,
+                  floor_rate, floor.ll_forward_s,
                   floor.ll_train_s, floor.hl_forward_s, floor.hl_train_s,
                   static_cast<long long>(floor.ll_forward_batch), static_cast<long long>(floor.ll_train_batch),
                   static_cast<long long>(floor.hl_forward_batch), static_cast<long long>(floor.hl_train_batch),
@@ -293,7 +297,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   runs.size(), list(rates, "%.6g").c_str(),
                   list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
                   list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
-                  list(run_io, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
+                  list(run_io, "%.4g").c_str(), list(run_ppo_wait, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
                   io::json_string(io::blas_core()).c_str());
     } else {
       auto pct = [&](double x) { return 100.0 * x / t.total; };
@@ -304,6 +308,10 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       std::printf("  env (sim + race + obs) %.0f%%, inference %.0f%%, PPO updates %.0f%%, ES updates %.0f%%, "
                   "I/O %.0f%%, other %.0f%%\n",
                   pct(t.env), pct(t.inference), pct(t.ppo), pct(t.es), pct(t.io), pct(t.other));
+      // A slower core shows here: each step waits for its last chunk (agents::run_chunks).
+      std::printf("  of the updates, beyond an even split of their concurrent chunks over the threads: PPO %.2f s "
+                  "(%.0f%% of PPO), ES %.2f s\n",
+                  t.ppo_chunk_wait, t.ppo > 0 ? 100.0 * t.ppo_chunk_wait / t.ppo : 0.0, t.es_chunk_wait);
       std::printf("  network floor %.0f aircraft-steps/s (end to end / floor: median %.2f, per run %s; each run priced "
                   "at costs timed just before and after it)\n",
                   floor_rate, ratio, list(ratios, "%.2f").c_str());

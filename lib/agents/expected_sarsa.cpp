@@ -520,7 +520,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
         units += k.units;
       }
       const std::vector<torch::Tensor> params = critic_->parameters();
-      run_chunks(n_chunks, [&](int64_t c) {
+      stats.chunk_wait_s += run_chunks(n_chunks, [&](int64_t c) {
         Chunk& k = chunks[static_cast<std::size_t>(c)];
         // A replica leaves out what has no unit (its loss would be 0/0); one process runs it as a
         // plain backward() would.

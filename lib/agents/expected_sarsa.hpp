@@ -158,6 +158,7 @@ struct EsStats {
   int64_t forward_rows = 0;  // aircraft rows through no-grad forwards (target, diagnostics)
   int64_t train_alive = 0;   // other aircraft alive in the train rows (bench train's floor)
   int64_t forward_alive = 0; // and in the forward rows
+  double chunk_wait_s = 0.0; // the steps' wall time beyond an even split of their chunks over the threads (run_chunks)
   bool target_synced = false;
   // Diagnostics of the online critic on the batch before the update (rows that took the
   // decision). Does the high level choose anything, and do its targets fit its critic?

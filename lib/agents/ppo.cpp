@@ -288,7 +288,7 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
                                         /*create_graph=*/false, /*allow_unused=*/true);
         r.terms = {loss.policy_loss, loss.value_loss, loss.entropy, loss.approx_kl, loss.clip_fraction};
       };
-      run_chunks(n_chunks, run_chunk);
+      stats.chunk_wait_s += run_chunks(n_chunks, run_chunk);
       std::array<double, 5> terms{};
       for (const auto& r : chunks)
         for (std::size_t q = 0; q < terms.size(); ++q) terms[q] += r.weight * r.terms[q];

@@ -96,6 +96,7 @@ struct PpoStats {
   int64_t train_rows = 0;    // samples through forward+backward, summed over its minibatches
   int64_t train_passes = 0;  // forward+backward passes (chunks of at most max_chunk_rows)
   int64_t train_alive = 0;   // other aircraft alive in those samples (bench train's floor)
+  double chunk_wait_s = 0.0; // the steps' wall time beyond an even split of their chunks over the threads (run_chunks)
 };
 
 class PpoAgent {

@@ -821,6 +821,7 @@ void Trainer::State::ppo_update() {
   const LlObs last = models::index_rows(ll_view(false), learner_index());
   buffer->finish(ppo->value(last), cfg.ll.gamma, cfg.ll.gae_lambda);
   last_ppo = ppo->update(*buffer);
+  timing.ppo_chunk_wait += last_ppo.chunk_wait_s;
   work.ll_forward_rows += static_cast<std::int64_t>(n_env) * ts;  // the bootstrap values above
   work.ll_forward_alive += models::count_alive(last.ado_alive);
   work.ll_forward_calls += 1;
@@ -870,6 +871,7 @@ void Trainer::State::es_update() {
   }
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
+  timing.es_chunk_wait += last_es.chunk_wait_s;
   if (in_hl_average()) es->add_to_average();
   hl_grad_steps += last_es.grad_steps;
   work.hl_forward_rows += last_es.forward_rows;

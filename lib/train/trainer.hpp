@@ -99,6 +99,9 @@ struct TimeBreakdown {
   double inference = 0.0;  // policy forward passes in rollouts (LL and HL, learner and pool)
   double ppo = 0.0;        // PPO updates (incl. GAE)
   double es = 0.0;         // Expected SARSA updates
+  // Of ppo and es: their steps' wall time beyond an even split of each step's concurrent chunks over
+  // the threads (agents::run_chunks): what a slower core and the fork/join cost.
+  double ppo_chunk_wait = 0.0, es_chunk_wait = 0.0;
   double io = 0.0;         // metrics, pool snapshots, checkpoints
   double other = 0.0;      // bookkeeping between the above
   double total = 0.0;

@@ -24,6 +24,9 @@ for l in lines:
         for k in ("ll_forward_alive_share", "ll_train_alive_share", "hl_forward_alive_share", "hl_train_alive_share"):
             if not 0.0 <= j.get(k, -1.0) <= 1.0: sys.exit(what + ": " + k + " = " + repr(j.get(k)))
         if j["ll_forward_alive_share"] <= 0.0: sys.exit(what + ": no other aircraft alive in the LL rows")
+        # The chunk wait is part of the update it is measured in.
+        if not 0.0 <= j.get("ppo_chunk_wait_s", -1.0) <= j["ppo_s"]: sys.exit(what + ": ppo_chunk_wait_s " + repr(j.get("ppo_chunk_wait_s")))
+        if not 0.0 <= j.get("es_chunk_wait_s", -1.0) <= j["es_s"]: sys.exit(what + ": es_chunk_wait_s " + repr(j.get("es_chunk_wait_s")))
 ' "$1" "${2:-}" || exit 1
 }
 out=$("$bin" bench train --config "$weird" --updates 1 --repeat 1 --json --set race.n_env=2 2>&1) || fail "bench train: $out"
