@@ -19,6 +19,8 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <random>
+#include <utility>
 #include <string>
 #include <thread>
 #include <vector>
@@ -45,35 +47,60 @@ extern "C" void forward_signal(int sig) {
     if (p > 0) ::kill(p, sig);
 }
 
-// A loopback port that is free with the one after it (rank 0 serves a store on each).
+// Whether a listening socket can take `port` on every address, as rank 0's store does
+// (IPv6 any, dual-stack, else IPv4 any).
 bool port_free(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (port < 1 || port > 65535) return false;
+  int fd = ::socket(AF_INET6, SOCK_STREAM, 0);
+  if (fd >= 0) {
+    sockaddr_in6 a{};
+    a.sin6_family = AF_INET6;
+    a.sin6_addr = in6addr_any;
+    a.sin6_port = htons(static_cast<std::uint16_t>(port));
+    const bool ok = ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+    ::close(fd);
+    return ok;
+  }
+  fd = ::socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return false;
   sockaddr_in a{};
   a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  a.sin_addr.s_addr = htonl(INADDR_ANY);
   a.sin_port = htons(static_cast<std::uint16_t>(port));
   const bool ok = ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
   ::close(fd);
   return ok;
 }
 
-int free_port() {
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-    if (fd < 0) break;
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    socklen_t len = sizeof a;
-    int port = 0;
-    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
-        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0)
-      port = ntohs(a.sin_port);
-    ::close(fd);
-    if (port > 0 && port < 65535 && port_free(port) && port_free(port + 1)) return port;
+// The kernel's ephemeral range: the source ports of outgoing connections (the ranks' own store
+// and Gloo sockets among them) and of bind(0).
+std::pair<int, int> ephemeral_ports() {
+  int lo = 32768, hi = 60999;  // Linux's default
+  if (std::FILE* f = std::fopen("/proc/sys/net/ipv4/ip_local_port_range", "r")) {
+    int a = 0, b = 0;
+    if (std::fscanf(f, "%d %d", &a, &b) == 2 && a >= 1 && a <= b) lo = a, hi = b;
+    std::fclose(f);
   }
-  return 29500;
+  return {lo, hi};
+}
+
+// Two adjacent free ports for rank 0's stores, outside the ephemeral range: a port from that
+// range can be taken between this check and rank 0's bind by any outgoing connection's source
+// port (a CI run lost a group so: rank 0 could not bind the port after the one it had checked).
+int free_port() {
+  const auto [eph_lo, eph_hi] = ephemeral_ports();
+  std::vector<std::pair<int, int>> ranges;  // [first, last] candidates for the lower port
+  if (eph_lo - 2 >= 10000) ranges.emplace_back(10000, eph_lo - 2);
+  if (eph_hi + 1 <= 65533) ranges.emplace_back(eph_hi + 1, 65533);
+  if (ranges.empty()) ranges.emplace_back(1024, 65533);  // the whole range is ephemeral: no safe side
+  std::random_device rd;
+  std::mt19937 gen(rd());
+  for (int attempt = 0; attempt < 200; ++attempt) {
+    const auto& r = ranges[gen() % ranges.size()];
+    const int port = r.first + static_cast<int>(gen() % static_cast<unsigned>(r.second - r.first + 1));
+    if (port_free(port) && port_free(port + 1)) return port;
+  }
+  throw std::runtime_error("launch: found no two adjacent free ports outside the ephemeral range; give one with launch --port");
 }
 
 std::string describe(int status) {

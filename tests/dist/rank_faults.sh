@@ -20,6 +20,12 @@ lose_rank1() {
     [ -n "$victim" ] && [ -e "$ready" ] && break
   done
   [ -n "$victim" ] && [ -e "$ready" ] || fail "$sig: the group never got under way (rank 1 '$victim', $ready)"
+  # The launcher's port pair lies outside the ephemeral range (whose ports any connection may take).
+  local port lo hi
+  port=$(tr '\0' '\n' < /proc/$victim/environ | sed -n 's/^MASTER_PORT=//p')
+  read -r lo hi < /proc/sys/net/ipv4/ip_local_port_range
+  [ -n "$port" ] && { [ $((port + 1)) -lt "$lo" ] || [ "$port" -gt "$hi" ]; } ||
+    fail "$sig: the launcher chose MASTER_PORT '$port', inside the ephemeral range [$lo, $hi]"
   sleep 1
   start=$(date +%s)
   kill -"$sig" "$victim"
