@@ -3,7 +3,7 @@
 # Usage: replicas_over_gloo.sh REPLICAS_OVER_GLOO_BINARY
 set -euo pipefail
 bin=$1
-port=$((20000 + RANDOM % 20000))
+port=$((20000 + RANDOM % 12000))  # below the ephemeral range (32768 up), which connections take
 export WORLD_SIZE=2 MASTER_ADDR=127.0.0.1 MASTER_PORT=$port F16RACE_DIST_TIMEOUT=30
 RANK=1 "$bin" > /dev/null &
 rank1=$!
