@@ -20,9 +20,9 @@
 #include <cstring>
 #include <memory>
 #include <random>
-#include <utility>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
