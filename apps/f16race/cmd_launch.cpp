@@ -47,29 +47,32 @@ extern "C" void forward_signal(int sig) {
     if (p > 0) ::kill(p, sig);
 }
 
-// Whether a listening socket can take `port` on every address, as rank 0's store does
-// (IPv6 any, dual-stack, else IPv4 any).
-bool port_free(int port) {
-  if (port < 1 || port > 65535) return false;
-  int fd = ::socket(AF_INET6, SOCK_STREAM, 0);
-  if (fd >= 0) {
-    sockaddr_in6 a{};
-    a.sin6_family = AF_INET6;
-    a.sin6_addr = in6addr_any;
-    a.sin6_port = htons(static_cast<std::uint16_t>(port));
-    const bool ok = ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-    ::close(fd);
-    return ok;
-  }
-  fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return false;
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_ANY);
-  a.sin_port = htons(static_cast<std::uint16_t>(port));
-  const bool ok = ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+// Whether a socket of `family` binds to `a` (closed again at once): 1 yes, 0 no, -1 the host has
+// no such sockets.
+int binds(int family, const sockaddr* a, socklen_t len) {
+  const int fd = ::socket(family, SOCK_STREAM, 0);
+  if (fd < 0) return -1;
+  const int ok = ::bind(fd, a, len) == 0 ? 1 : 0;
   ::close(fd);
   return ok;
+}
+
+// Whether a listening socket can take `port` on every address, as rank 0's store does
+// (IPv6 any, dual-stack, where the host has IPv6; else IPv4 any).
+bool port_free(int port) {
+  if (port < 1 || port > 65535) return false;
+  const auto p = htons(static_cast<std::uint16_t>(port));
+  sockaddr_in6 a6{};
+  a6.sin6_family = AF_INET6;
+  a6.sin6_addr = in6addr_any;
+  a6.sin6_port = p;
+  const int v6 = binds(AF_INET6, reinterpret_cast<const sockaddr*>(&a6), sizeof a6);
+  if (v6 >= 0) return v6 == 1;
+  sockaddr_in a4{};
+  a4.sin_family = AF_INET;
+  a4.sin_addr.s_addr = htonl(INADDR_ANY);
+  a4.sin_port = p;
+  return binds(AF_INET, reinterpret_cast<const sockaddr*>(&a4), sizeof a4) == 1;
 }
 
 // The kernel's ephemeral range: the source ports of outgoing connections (the ranks' own store
