@@ -154,10 +154,10 @@ void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc
       train::Trainer trainer(cfg, dir, &group);
       const train::TrainSummary s = trainer.run(nullptr, o.updates);
       const int n_agent = 2 * cfg.race.team_size;
-      total_s = s.time.total;
+      const double loop_s = s.time.per_update_loop();
+      total_s = loop_s;
       env_steps = s.env_steps;
-      mine = {static_cast<double>(s.rank_env_steps) * n_agent / s.time.total, s.communication_s / s.time.total,
-              s.time.total};
+      mine = {static_cast<double>(s.rank_env_steps) * n_agent / loop_s, s.communication_s / loop_s, loop_s};
     }
     if (lead) std::filesystem::remove_all(dir);
     const std::vector<double> all = group.allgather(mine);
@@ -235,12 +235,13 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       const FloorCosts costs = measure_floor_costs(cfg, m.s.work);
       m.floor = price_floor(cfg, m.s.work, k == 0 ? costs : previous, costs);
       previous = costs;
-      m.rate = static_cast<double>(m.s.env_steps) * n_agent / m.s.time.total;
+      // Per update, as a run of any length trains: without the wait for its last figure (run_end).
+      m.rate = static_cast<double>(m.s.env_steps) * n_agent / m.s.time.per_update_loop();
       m.floor_rate = static_cast<double>(m.s.env_steps) * n_agent / m.floor.total_s;
       runs.push_back(std::move(m));
     }
     if (runs.size() > 1) runs.erase(runs.begin());
-    std::vector<double> rates, floor_rates, ratios, run_env, run_inference, run_ppo, run_es, run_io, run_ppo_wait;
+    std::vector<double> rates, floor_rates, ratios, run_env, run_inference, run_ppo, run_es, run_io, run_ppo_wait, run_end;
     for (const Measured& m : runs) {
       rates.push_back(m.rate);
       floor_rates.push_back(m.floor_rate);
@@ -251,6 +252,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       run_es.push_back(m.s.time.es);
       run_io.push_back(m.s.time.io);
       run_ppo_wait.push_back(m.s.time.ppo_chunk_wait);
+      run_end.push_back(m.s.time.run_end);
     }
     // The breakdown is the median run's (by end-to-end rate).
     std::vector<std::size_t> order(runs.size());
@@ -274,8 +276,8 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
     };
     if (o.json) {
       std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
-                  "\"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
-                  "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"total_s\": %.4g, "
+                  "\"env_steps\": %lld, \"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
+                  "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"run_end_s\": %.4g, \"total_s\": %.4g, "
                   "\"ppo_chunk_wait_s\": %.4g, \"es_chunk_wait_s\": %.4g, "
                   "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
                   "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
@@ -285,10 +287,10 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
                   "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
                   "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
-                  "\"runs_ppo_chunk_wait_s\": [%s], "
+                  "\"runs_ppo_chunk_wait_s\": [%s], \"runs_run_end_s\": [%s], "
                   "\"cpu\": %s, \"blas_core\": %s}\n",
                   io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(),
-                  rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.total, t.ppo_chunk_wait, t.es_chunk_wait,
+                  static_cast<long long>(s.env_steps), rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.run_end, t.total, t.ppo_chunk_wait, t.es_chunk_wait,
                   floor_rate, floor.ll_forward_s,
                   floor.ll_train_s, floor.hl_forward_s, floor.hl_train_s,
                   static_cast<long long>(floor.ll_forward_batch), static_cast<long long>(floor.ll_train_batch),
@@ -297,10 +299,10 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   runs.size(), list(rates, "%.6g").c_str(),
                   list(floor_rates, "%.6g").c_str(), list(ratios, "%.4g").c_str(), list(run_env, "%.4g").c_str(),
                   list(run_inference, "%.4g").c_str(), list(run_ppo, "%.4g").c_str(), list(run_es, "%.4g").c_str(),
-                  list(run_io, "%.4g").c_str(), list(run_ppo_wait, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
+                  list(run_io, "%.4g").c_str(), list(run_ppo_wait, "%.4g").c_str(), list(run_end, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
                   io::json_string(io::blas_core()).c_str());
     } else {
-      auto pct = [&](double x) { return 100.0 * x / t.total; };
+      auto pct = [&](double x) { return 100.0 * x / t.per_update_loop(); };
       std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "
                   "%zu: %s)\n",
                   path.c_str(), cfg.race.n_env, n_agent, static_cast<long long>(s.env_steps), rate, runs.size(),
@@ -308,6 +310,9 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
       std::printf("  env (sim + race + obs) %.0f%%, inference %.0f%%, PPO updates %.0f%%, ES updates %.0f%%, "
                   "I/O %.0f%%, other %.0f%%\n",
                   pct(t.env), pct(t.inference), pct(t.ppo), pct(t.es), pct(t.io), pct(t.other));
+      std::printf("  not counted: the wait for each run's last learning-curves figure, %s s (once per run of any "
+                  "length)\n",
+                  list(run_end, "%.2f").c_str());
       // A slower core shows here: each step waits for its last chunk (agents::run_chunks).
       std::printf("  of the updates, beyond an even split of their concurrent chunks over the threads: PPO %.2f s "
                   "(%.0f%% of PPO), ES %.2f s\n",
@@ -319,7 +324,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                   "mean batches LL %lld / PPO %lld / HL %lld / ES %lld -- LL forward %.1f s, PPO %.1f s, HL forward "
                   "%.1f s, ES %.1f s; other aircraft alive in those rows %.2f / %.2f / %.2f / %.2f, as in the random "
                   "rows timed\n",
-                  t.total, mid.rate, mid.floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
+                  t.per_update_loop(), mid.rate, mid.floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
                   static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
                   static_cast<long long>(floor.hl_train_batch), floor.ll_forward_s, floor.ll_train_s,
                   floor.hl_forward_s, floor.hl_train_s, floor.ll_forward_alive, floor.ll_train_alive,

@@ -1136,7 +1136,9 @@ void Trainer::State::save_checkpoint(bool last) {
   // 0.03 s without); one still under way skips a draw; the last (started above) is waited for.
   constexpr auto kCurvesEvery = std::chrono::seconds(30);
   if (last) {
+    const auto t_end = Clock::now();
     collect_curves();
+    timing.run_end += since(t_end);
     return;
   }
   if (curves_drawn_at && now - *curves_drawn_at < kCurvesEvery) return;
@@ -1366,8 +1368,9 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
         stopping || s.env_steps >= s.cfg.loop.total_env_steps || (max_updates >= 0 && done_here >= max_updates);
     if (last || upd % s.cfg.loop.checkpoint_every_updates == 0) {
       const auto t_ck = State::Clock::now();
+      const double run_end_before = s.timing.run_end;
       s.save_checkpoint(last);
-      s.timing.io += State::since(t_ck);
+      s.timing.io += State::since(t_ck) - (s.timing.run_end - run_end_before);
     }
     if (stopping) {
       summary.interrupted = true;
@@ -1382,7 +1385,8 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   summary.rank_env_steps = s.rank_env_steps - rank_steps_at_start;
   summary.communication_s = s.group != nullptr ? s.group->collective_seconds() - comm_at_start : 0.0;
   s.timing.total = State::since(t_run);
-  s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io;
+  s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io -
+                   s.timing.run_end;
   summary.time = s.timing;
   summary.work = s.work;
   return summary;

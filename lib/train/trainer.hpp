@@ -103,8 +103,12 @@ struct TimeBreakdown {
   // the threads (agents::run_chunks): what a slower core and the fork/join cost.
   double ppo_chunk_wait = 0.0, es_chunk_wait = 0.0;
   double io = 0.0;         // metrics, pool snapshots, checkpoints
+  // The wait for the run's last learning-curves figure at its final checkpoint (gnuplot, ~0.1 s):
+  // once per run whatever its length, so not part of the per-update rate `bench train` reports.
+  double run_end = 0.0;
   double other = 0.0;      // bookkeeping between the above
   double total = 0.0;
+  double per_update_loop() const { return total - run_end; }  // every update's share of the wall time
 };
 
 // Aircraft rows through each network and the calls they came in (rows / calls = the mean batch),

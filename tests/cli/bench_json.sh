@@ -12,7 +12,7 @@ weird="$dir/"$'we"ird\\ta\tb.yaml'
 cp "$configs/default.yaml" "$weird" || fail "cannot copy the config"
 check() {  # $1: what, stdin: the bench's output; every line starting with { must parse
   python3 -c '
-import json, sys
+import json, shutil, sys
 what, want = sys.argv[1], sys.argv[2]
 lines = [l for l in sys.stdin.read().splitlines() if l.startswith("{")]
 if not lines: sys.exit(what + ": no JSON line")
@@ -27,6 +27,17 @@ for l in lines:
         # The chunk wait is part of the update it is measured in.
         if not 0.0 <= j.get("ppo_chunk_wait_s", -1.0) <= j["ppo_s"]: sys.exit(what + ": ppo_chunk_wait_s " + repr(j.get("ppo_chunk_wait_s")))
         if not 0.0 <= j.get("es_chunk_wait_s", -1.0) <= j["es_s"]: sys.exit(what + ": es_chunk_wait_s " + repr(j.get("es_chunk_wait_s")))
+        # The rate is per update: the wall time of the run without the wait for its last figure
+        # (run_end_s: the gnuplot draw at the final checkpoint), which a run pays once at any length.
+        end = j.get("run_end_s", -1.0)
+        if not 0.0 <= end < j["total_s"]: sys.exit(what + ": run_end_s " + repr(end))
+        if shutil.which("gnuplot") and end <= 0.0: sys.exit(what + ": no wait for the last figure with gnuplot installed")
+        if j["runs"] == 1:
+            want_rate = j["env_steps"] * (j["aircraft"] // j["envs"]) / (j["total_s"] - end)  # env_steps sums the envs
+            if abs(j["aircraft_steps_per_s"] / want_rate - 1.0) > 2e-3:
+                sys.exit(what + ": aircraft_steps_per_s " + repr(j["aircraft_steps_per_s"]) + " != " + repr(want_rate))
+        parts = sum(j[k] for k in ("env_s", "inference_s", "ppo_s", "es_s", "io_s", "other_s", "run_end_s"))
+        if abs(parts - j["total_s"]) > 2e-3 * j["total_s"] + 1e-3: sys.exit(what + ": parts " + repr(parts) + " != total_s")
 ' "$1" "${2:-}" || exit 1
 }
 out=$("$bin" bench train --config "$weird" --updates 1 --repeat 1 --json --set race.n_env=2 2>&1) || fail "bench train: $out"
