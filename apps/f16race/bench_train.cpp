@@ -131,7 +131,8 @@ NetworkFloor price_floor(const train::TrainConfig& cfg, const train::NetworkWork
 // `bench train` as one rank of a group (started by --nproc through launch): the group trains one
 // run; each rank reports its own throughput and its time inside collectives, rank 0 prints them.
 // On one host the ranks share its cores, so this measures the cost of the group, not a speed-up.
-void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc) {
+void run_bench_train_rank(const TrainBenchOptions& o, const std::vector<train::TrainConfig>& configs,
+                          const dist::DistConfig& dc) {
   torch::set_num_threads(omp_get_max_threads());
   std::ostringstream fp;
   fp << "binary " << std::hex << dist::executable_hash() << std::dec << "\nbench train --updates " << o.updates;
@@ -142,8 +143,9 @@ void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc
   if (lead && !o.json)
     std::printf("f16race bench train: %lld updates per config, a group of %d ranks x %d threads on this host\n",
                 o.updates, group.size(), omp_get_max_threads());
-  for (const std::string& path : o.configs) {
-    const train::TrainConfig cfg = train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path);
+  for (std::size_t c = 0; c < o.configs.size(); ++c) {
+    const std::string& path = o.configs[c];
+    const train::TrainConfig& cfg = configs[c];
     const std::string dir =
         (std::filesystem::temp_directory_path() / ("f16race_bench_train." + std::to_string(::getpid()))).string();
     if (lead) std::filesystem::remove_all(dir);
@@ -190,7 +192,12 @@ void run_bench_train_rank(const TrainBenchOptions& o, const dist::DistConfig& dc
 }
 
 void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int threads_option) {
-  if (dc.world_size > 1) return run_bench_train_rank(o, dc);
+  // Every config read and checked before anything is launched or timed: a bad key in the last
+  // one fails at once, not after minutes of benchmarks of the others.
+  std::vector<train::TrainConfig> configs;
+  for (const std::string& path : o.configs)
+    configs.push_back(train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path));
+  if (dc.world_size > 1) return run_bench_train_rank(o, configs, dc);
   if (o.nproc > 1) {
     // The same bench as ranks of a group, started by launch on loopback.
     std::vector<std::string> command{"bench", "train", "--updates", std::to_string(o.updates)};
@@ -208,8 +215,9 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
                 o.repeat, o.updates, omp_get_max_threads(), io::cpu_model().c_str(),
                 blas.empty() ? "- (not OpenBLAS)" : blas.c_str());
   }
-  for (const std::string& path : o.configs) {
-    const train::TrainConfig cfg = train::read_train_config(io::load_yaml_with_overrides(path, o.overrides), path);
+  for (std::size_t c = 0; c < o.configs.size(); ++c) {
+    const std::string& path = o.configs[c];
+    const train::TrainConfig& cfg = configs[c];
     // Per process, so two benches at once do not meet in one run folder.
     const std::string dir =
         (std::filesystem::temp_directory_path() / ("f16race_bench_train." + std::to_string(::getpid()))).string();

@@ -145,6 +145,11 @@ case_ "race 0 races" -- "$bin" race --races 0
 case_ "race bad override" -- "$bin" race --set race.n_env=abc
 case_ "bench soak 0 steps" -- "$bin" bench soak --aircraft-steps 0
 case_ "bench train missing config" -- "$bin" bench train --config nope.yaml
+case_ "bench train, the second config broken" -- "$bin" bench train --config "$smoke" --config duplicate.yaml --updates 1 --repeat 1
+# ... and it fails before the first config is timed: no result line for it.
+n=$((n + 1))
+out=$(timeout 60 "$bin" bench train --config "$smoke" --config duplicate.yaml --updates 1 --repeat 1 2>/dev/null)
+if [[ "$out" == *"aircraft-steps/s"* ]]; then echo "FAIL [bench train timed a config before reading the next]: $out"; fails=$((fails + 1)); fi
 # study: bad study configs, a base config with a typo, a folder of another configuration.
 printf 'variants: [es, es_d9]\n' > study_bad_variant.yaml
 printf 'seeds: [1, 1]\n' > study_dup_seed.yaml
