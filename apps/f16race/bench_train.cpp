@@ -156,10 +156,9 @@ void run_bench_train_rank(const TrainBenchOptions& o, const std::vector<train::T
       train::Trainer trainer(cfg, dir, &group);
       const train::TrainSummary s = trainer.run(nullptr, o.updates);
       const int n_agent = 2 * cfg.race.team_size;
-      const double loop_s = s.time.per_update_loop();
-      total_s = loop_s;
+      total_s = s.time.per_update_loop();
       env_steps = s.env_steps;
-      mine = {static_cast<double>(s.rank_env_steps) * n_agent / loop_s, s.communication_s / loop_s, loop_s};
+      mine = {static_cast<double>(s.rank_env_steps) * n_agent / total_s, s.communication_s / total_s, total_s};
     }
     if (lead) std::filesystem::remove_all(dir);
     const std::vector<double> all = group.allgather(mine);
@@ -285,7 +284,7 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
     if (o.json) {
       std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
                   "\"env_steps\": %lld, \"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
-                  "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"run_end_s\": %.4g, \"total_s\": %.4g, "
+                  "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"run_end_s\": %.6g, \"total_s\": %.6g, "
                   "\"ppo_chunk_wait_s\": %.4g, \"es_chunk_wait_s\": %.4g, "
                   "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
                   "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "

@@ -1101,9 +1101,10 @@ void Trainer::State::save_checkpoint(bool last) {
     states = group->allgather_bytes(states[0]);
     if (!writes()) return;
   }
-  // The run's last figure is drawn on the curves thread beside the last checkpoint's writes, and
-  // both are done before this returns (one draw path; the overlap saves little: 32-env bench
-  // train on the Intel VM, gnuplot 0.09-0.15 s, the files 6-7 ms). metrics.csv holds the last row.
+  // The run's last figure is drawn on the curves thread beside the last checkpoint's writes; run()
+  // waits for it after this returns, timed apart as TimeBreakdown::run_end (one draw path; the
+  // overlap saves little: 32-env bench train on the Intel VM, gnuplot 0.09-0.15 s, the files 6-7
+  // ms). metrics.csv holds the last row.
   const auto now = std::chrono::steady_clock::now();
   if (last) redraw_curves(now);
   const std::string previous = latest_checkpoint_name(run_dir);
@@ -1133,14 +1134,9 @@ void Trainer::State::save_checkpoint(bool last) {
   // s of ~20 s). Without gnuplot only its data and script. A figure that cannot be drawn never
   // stops training: the reason goes to the final summary. Draws before the last run beside
   // training (io::BackgroundCurves; bench train, 32 envs: I/O 0.23-0.25 s of ~6 s with gnuplot,
-  // 0.03 s without); one still under way skips a draw; the last (started above) is waited for.
+  // 0.03 s without); one still under way skips a draw; run() waits for the last (started above).
   constexpr auto kCurvesEvery = std::chrono::seconds(30);
-  if (last) {
-    const auto t_end = Clock::now();
-    collect_curves();
-    timing.run_end += since(t_end);
-    return;
-  }
+  if (last) return;
   if (curves_drawn_at && now - *curves_drawn_at < kCurvesEvery) return;
   if (curves.busy()) return;
   redraw_curves(now);
@@ -1368,9 +1364,13 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
         stopping || s.env_steps >= s.cfg.loop.total_env_steps || (max_updates >= 0 && done_here >= max_updates);
     if (last || upd % s.cfg.loop.checkpoint_every_updates == 0) {
       const auto t_ck = State::Clock::now();
-      const double run_end_before = s.timing.run_end;
       s.save_checkpoint(last);
-      s.timing.io += State::since(t_ck) - (s.timing.run_end - run_end_before);
+      s.timing.io += State::since(t_ck);
+    }
+    if (last) {  // the run's last figure, started by its last checkpoint: done before the run returns
+      const auto t_end = State::Clock::now();
+      s.collect_curves();
+      s.timing.run_end += State::since(t_end);
     }
     if (stopping) {
       summary.interrupted = true;
