@@ -73,6 +73,10 @@ Trend trend(const std::vector<train::MetricsRow>& rows, double train::MetricsRow
 
 void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   spdlog::set_level(spdlog::level::from_str(o.log_level));
+  // From the start: a stop while the run is being set up ends it after its first update, with a
+  // checkpoint, instead of killing it mid-setup.
+  std::signal(SIGINT, on_sigint);
+  std::signal(SIGTERM, on_sigint);
   // Torch's intra-op pool and the simulator's OpenMP never run at the same time; one count.
   const int threads = omp_get_max_threads();
   torch::set_num_threads(threads);
@@ -133,8 +137,6 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   const train::TrainConfig cfg = trainer->config();  // a copy: the trainer goes before its tail members train
   const bool quiet = o.quiet || !lead;
   const bool tty = isatty(STDOUT_FILENO) != 0 && !quiet;
-  std::signal(SIGINT, on_sigint);
-  std::signal(SIGTERM, on_sigint);
   std::string member_tag;  // "member m: " while train.hl_tail_members trains the run's other tails
   auto on_row = [&](const train::MetricsRow& r) {
     if (quiet) return;

@@ -26,6 +26,7 @@
 #include "random/random_stream.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
+#include "train/snapshot_pool.hpp"
 
 namespace f16race::train {
 
@@ -34,12 +35,6 @@ using models::HlObs;
 using models::LlObs;
 
 namespace {
-
-std::string step_name(std::int64_t steps) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "step_%010lld", static_cast<long long>(steps));
-  return buf;
-}
 
 std::string read_text(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
@@ -193,7 +188,7 @@ struct Trainer::State {
   int phase = 0;               // 0: low level learns, 1: high level learns
   int phase_updates = 0;       // updates done in the current phase
   std::int64_t opponent = -1;  // pool snapshot (its env_steps) the pool envs play, -1: none
-  std::vector<std::int64_t> pool;
+  SnapshotPool pool{"", 0, false};  // set up by build()
   std::vector<int> side;       // [n_env] learner team
   // [n_env] who the opponent is: kVsSelf the current policy, kVsPool the pool snapshot,
   // kVsCenter the current low level with a center-line high level (pool.p_center).
@@ -320,6 +315,11 @@ struct Trainer::State {
   // redraws the learning curves.
   void save_checkpoint(bool last);
   void load_checkpoint();
+  // A run folder resumed before its first checkpoint: everything but config.yaml (and the lock)
+  // removed, so the run starts again.
+  void clear_for_fresh_start();
+  // At a resume: checkpoint folders other than LATEST's (written, never committed) are removed.
+  void remove_uncommitted_checkpoints() const;
   void truncate_metrics();
   // Everything trainer.pt holds, in one list both adapters walk. The clock and the stream are
   // passed as plain values: saved from wall() and stream.state(), restored by the caller.
@@ -331,7 +331,7 @@ template <class V>
 void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& stream_state) {
   v.bytes("env", [&](std::ostream& out) { env->save_state(out); }, [&](std::istream& in) { env->load_state(in); });
   v.integers("counters", env_steps, ppo_updates, es_updates, phase, phase_updates, opponent, hl_grad_steps);
-  v.integer_list("pool", pool, false);
+  v.integer_list("pool", pool.steps(), false);
   v.integer_list("side", side, true);
   v.integer_list("vs_pool", vs_pool, true);
   v.integers("stream", stream_state);
@@ -462,16 +462,55 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Gr
     throw io::InputError(run_dir + " already holds a run (" + names + "): continue it with --resume " + run_dir +
                              ", move it aside with --overwrite, or choose another --run folder");
   }
-  fs::create_directories(fs::path(run_dir) / "checkpoint");
-  fs::create_directories(fs::path(run_dir) / "pool");
   s_->resolved_yaml = train_config_yaml(config);
   s_->hash = config_hash(s_->resolved_yaml);
+  s_->build(true);  // a config the run cannot be built from leaves the folder as it was
+  // config.yaml first, then an empty LATEST (no checkpoint is durable yet): a run stopped anywhere
+  // in between resumes afresh, while a missing LATEST beside checkpoint folders is a lost pointer.
+  fs::create_directories(fs::path(run_dir) / "checkpoint");
+  fs::create_directories(fs::path(run_dir) / "pool");
   io::write_file_atomic(run_dir + "/config.yaml", s_->resolved_yaml);
-  s_->build(true);
+  io::write_file_atomic(run_dir + "/checkpoint/LATEST", "");
   // The untrained policy is the first pool snapshot, so pool matches exist from the start.
   s_->snapshot_pool();
   s_->load_opponent();
 }
+
+namespace {
+// Rank 0's (or the single process's) reading of a run folder to resume: its config, and whether
+// it has a checkpoint. A run killed before its first checkpoint has none and starts afresh.
+RunConfig read_run_to_resume(const std::string& run_dir, bool* fresh) {
+  if (!fs::is_directory(run_dir))
+    throw io::InputError(run_dir + ": no such run folder to resume (a run stopped before it made its folder has "
+                                   "nothing to resume: start it with f16race train --config CONFIG --run " + run_dir + ")");
+  if (io::run_data_in(run_dir).empty())
+    throw io::InputError(run_dir + ": holds no run yet (stopped before its config was written): start it with "
+                                   "f16race train --config CONFIG --run " + run_dir);
+  RunConfig run = read_run_config(run_dir);
+  *fresh = false;
+  if (!latest_checkpoint_name(run_dir).empty()) return run;
+  // An empty LATEST, as a new run writes it: no checkpoint is durable yet (a folder beside it is
+  // one whose LATEST was never written), so the run starts afresh.
+  if (fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST")) {
+    *fresh = true;
+    return run;
+  }
+  // No LATEST at all: lost, unless no checkpoint folder exists (a run from before the empty
+  // LATEST, stopped before its first checkpoint). Folders beside a lost LATEST are refused,
+  // named, and kept.
+  std::string folders;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(fs::path(run_dir) / "checkpoint", ec))
+    if (entry.is_directory(ec)) folders += (folders.empty() ? "" : ", ") + entry.path().filename().string();
+  if (folders.empty()) {
+    *fresh = true;
+    return run;
+  }
+  throw io::InputError(run_dir + ": no checkpoint to resume from (checkpoint/LATEST missing or empty) beside "
+                       "checkpoint folder(s) " + folders + ": write the name of the one to resume into " + run_dir +
+                       "/checkpoint/LATEST, or start afresh with --overwrite (the old run is kept aside)");
+}
+}  // namespace
 
 std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group* group) {
   auto st = std::make_unique<State>();
@@ -481,27 +520,28 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
     st->world = group->size();
   }
   RunConfig run;
+  bool fresh = false;
   if (st->group == nullptr) {
-    if (!fs::is_directory(run_dir)) throw io::InputError(run_dir + ": no such run folder to resume");
-    st->lock = std::make_unique<io::RunFolderLock>(run_dir);
-    run = read_run_config(run_dir);
+    if (fs::is_directory(run_dir)) st->lock = std::make_unique<io::RunFolderLock>(run_dir);
+    run = read_run_to_resume(run_dir, &fresh);
   } else {
     // Rank 0 reads the run's config and sends it: the other ranks may be on hosts without the
     // folder. A problem on rank 0 is every rank's one line.
     std::string problem;
     if (st->writes()) {
       try {
-        if (!fs::is_directory(run_dir)) throw io::InputError(run_dir + ": no such run folder to resume");
-        st->lock = std::make_unique<io::RunFolderLock>(run_dir);
-        run = read_run_config(run_dir);
+        if (fs::is_directory(run_dir)) st->lock = std::make_unique<io::RunFolderLock>(run_dir);
+        run = read_run_to_resume(run_dir, &fresh);
       } catch (const std::exception& e) {
         problem = e.what();
       }
     }
     group->broadcast_bytes(problem);
     if (!problem.empty()) throw io::InputError(problem);
-    std::string yaml = run.yaml;
+    std::string yaml = run.yaml, fresh_flag = fresh ? "1" : "0";
     group->broadcast_bytes(yaml);
+    group->broadcast_bytes(fresh_flag);
+    fresh = fresh_flag == "1";
     if (!st->writes()) {
       run.yaml = yaml;
       const std::string source = run_dir + "/config.yaml (from rank 0)";
@@ -514,9 +554,37 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
   st->run_dir = run_dir;
   st->resolved_yaml = std::move(run.yaml);
   st->hash = run.hash;
-  st->build(false);
-  st->load_checkpoint();
+  if (fresh) {
+    // Nothing durable yet: what the killed start left (a first pool snapshot, metrics rows) goes,
+    // and the run begins again from its config, as `train --run` would have.
+    if (st->writes()) st->clear_for_fresh_start();
+    st->build(true);
+    st->snapshot_pool();
+    st->load_opponent();
+  } else {
+    st->build(false);
+    st->load_checkpoint();
+  }
   return std::unique_ptr<Trainer>(new Trainer(std::move(st)));
+}
+
+void Trainer::State::remove_uncommitted_checkpoints() const {
+  const std::string latest = latest_checkpoint_name(run_dir);
+  std::error_code ec;
+  std::vector<fs::path> doomed;
+  for (const auto& entry : fs::directory_iterator(fs::path(run_dir) / "checkpoint", ec))
+    if (entry.is_directory(ec) && entry.path().filename() != latest) doomed.push_back(entry.path());
+  for (const fs::path& p : doomed) fs::remove_all(p, ec);
+}
+
+void Trainer::State::clear_for_fresh_start() {
+  for (const auto& entry : fs::directory_iterator(run_dir)) {
+    const std::string name = entry.path().filename().string();
+    if (name != ".lock" && name != "config.yaml") fs::remove_all(entry.path());
+  }
+  fs::create_directories(fs::path(run_dir) / "checkpoint");
+  fs::create_directories(fs::path(run_dir) / "pool");
+  io::write_file_atomic(run_dir + "/checkpoint/LATEST", "");
 }
 
 const TrainConfig& Trainer::config() const { return s_->cfg; }
@@ -527,6 +595,7 @@ std::vector<float> Trainer::hl_parameters() const { return flat_parameters(*s_->
 void Trainer::State::build(bool fresh) {
   // Network initialisation draws from torch's global generator: seed it, once, here.
   torch::manual_seed(cfg.seed);
+  pool = SnapshotPool(run_dir, cfg.pool.max_snapshots, writes());
   n_env_global = cfg.race.n_env;
   race::RaceConfig slice = cfg.race;
   if (world > 1) {
@@ -993,24 +1062,10 @@ void Trainer::State::write_row(const MetricsRow& r) {
 }
 
 void Trainer::State::snapshot_pool() {
-  const fs::path dir = fs::path(run_dir) / "pool" / step_name(env_steps);
-  if (writes()) try {
-    fs::create_directories(dir);
-    ppo->save((dir / "ll.pt").string());
-    es->save((dir / "hl.pt").string());
-  } catch (...) {
-    std::error_code ec;  // a half snapshot would be drawn as an opponent after a resume
-    fs::remove_all(dir, ec);
-    throw;
-  }
-  pool.push_back(env_steps);
-  while (static_cast<int>(pool.size()) > cfg.pool.max_snapshots) {
-    // Oldest first, but never the snapshot the current phase is playing against.
-    auto victim = pool.begin();
-    if (*victim == opponent) ++victim;
-    if (writes()) fs::remove_all(fs::path(run_dir) / "pool" / step_name(*victim));
-    pool.erase(victim);
-  }
+  pool.add(env_steps, opponent, [&](const std::string& dir) {
+    ppo->save(dir + "/ll.pt");
+    es->save(dir + "/hl.pt");
+  });
 }
 
 void Trainer::State::load_opponent() {
@@ -1018,17 +1073,17 @@ void Trainer::State::load_opponent() {
     opponent = -1;
     return;
   }
-  std::vector<std::int64_t> pick{static_cast<std::int64_t>(draw_pool_entry(stream, pool.size()))};
+  std::vector<std::int64_t> pick{static_cast<std::int64_t>(draw_pool_entry(stream, pool.steps().size()))};
   if (group != nullptr) {  // rank 0's draw for the group (every rank draws: streams advance alike)
     if (!writes()) pick[0] = 0;
     group_sum(pick);
   }
-  opponent = pool[static_cast<std::size_t>(pick[0])];
+  opponent = pool.steps()[static_cast<std::size_t>(pick[0])];
   load_pool_snapshot();
 }
 
 void Trainer::State::load_pool_snapshot() {
-  const fs::path dir = fs::path(run_dir) / "pool" / step_name(opponent);
+  const fs::path dir = pool.folder(opponent);
   if (group == nullptr) {
     opp_ppo->load((dir / "ll.pt").string());
     opp_es->load((dir / "hl.pt").string());
@@ -1099,7 +1154,10 @@ void Trainer::State::save_checkpoint(bool last) {
   if (group != nullptr) {
     check_replicas_agree();
     states = group->allgather_bytes(states[0]);
-    if (!writes()) return;
+    if (!writes()) {
+      pool.release_retired(opponent);
+      return;
+    }
   }
   // The run's last figure is drawn on the curves thread beside the last checkpoint's writes; run()
   // waits for it after this returns, timed apart as TimeBreakdown::run_end (one draw path; the
@@ -1128,6 +1186,8 @@ void Trainer::State::save_checkpoint(bool last) {
     throw;
   }
   if (!previous.empty() && previous != name) fs::remove_all(fs::path(run_dir) / "checkpoint" / previous);
+  // Only now may the pool's retired snapshots go: the checkpoint that named them is replaced.
+  pool.release_retired(opponent);
   // The learning-curve figure follows the checkpoints, at most every kCurvesEvery (and at the
   // last): a gnuplot draw takes ~0.07 s, and with a checkpoint every ~2.5 s (default config, 2
   // threads) the draws were ~3 % of the run (bench train, 150 updates: I/O 0.79-0.86 s -> 0.26-0.28
@@ -1260,6 +1320,10 @@ void Trainer::State::load_checkpoint() {
   t0 = std::chrono::steady_clock::now();
   wall_at_row = wall_offset;
   steps_at_row = env_steps;
+  // Snapshots taken after this checkpoint (or retired by it) are taken again or dropped again, and
+  // a checkpoint folder whose LATEST was never written is written again.
+  pool.remove_unnamed(opponent);
+  if (writes()) remove_uncommitted_checkpoints();
   if (opponent >= 0) {
     try {
       load_pool_snapshot();

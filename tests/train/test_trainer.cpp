@@ -727,7 +727,14 @@ TEST(Trainer, LatestEditedByHandWithATrailingNewlineStillResumes) {
   EXPECT_EQ(Trainer::resume(dir)->updates(), 3);
   fs::remove(fs::path(dir) / "checkpoint" / "LATEST");
   EXPECT_EQ(latest_checkpoint_name(dir), "");
-  EXPECT_THROW(Trainer::resume(dir), std::runtime_error);
+  // A lost LATEST beside a checkpoint folder is refused, naming the folder, and nothing goes.
+  try {
+    Trainer::resume(dir);
+    FAIL() << "resumed without LATEST";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("beside checkpoint folder(s) " + name), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::is_directory(fs::path(dir) / "checkpoint" / name));
 }
 
 TEST(Trainer, RefusesACheckpointWrittenWithAnotherConfig) {
@@ -775,6 +782,88 @@ TEST(Trainer, RefusesACheckpointOfThePreviousFormat) {
   EXPECT_THROW(check_checkpoint_meta(fs::path(meta).parent_path().string(), read_run_config(dir).hash,
                                      CheckpointUse::policy),
                std::runtime_error);
+}
+
+// Issue 48: a kill at any instant leaves a resumable run. The run folder is copied as it stands
+// after every update's metrics row (where a SIGKILL could land between writes) and each copy is
+// resumed to the end: the pool snapshots its last checkpoint names must all still be there (they
+// were pruned as soon as a newer one was taken), and every resumed run ends as the whole run did.
+TEST(Trainer, ACopyOfTheRunFolderAtAnyUpdateResumesToTheSameEnd) {
+  const std::string extra = "train.checkpoint_every_updates=7";
+  TrainConfig cfg = smoke(extra);
+  cfg.pool.snapshot_every_updates = 1;
+  cfg.pool.max_snapshots = 2;
+  cfg.loop.total_env_steps = 1200;
+  const std::string dir = fresh_dir("kill_copies");
+  std::vector<std::string> copies;
+  std::vector<float> ll_whole, hl_whole;
+  {
+    Trainer t(cfg, dir);
+    t.run(nullptr, -1, [&](const MetricsRow& r) {
+      const std::string copy = dir + "_at" + std::to_string(r.update);
+      fs::remove_all(copy);
+      fs::copy(dir, copy, fs::copy_options::recursive);
+      fs::remove(fs::path(copy) / ".lock");
+      copies.push_back(copy);
+    });
+    ll_whole = t.ll_parameters();
+    hl_whole = t.hl_parameters();
+  }
+  ASSERT_GE(copies.size(), 15u);
+  int resumed = 0;
+  for (const std::string& copy : copies) {
+    if (latest_checkpoint_name(copy).empty()) continue;  // before the first checkpoint: the next test
+    auto t = Trainer::resume(copy);
+    t->run(nullptr, -1);
+    EXPECT_EQ(t->ll_parameters(), ll_whole) << copy;
+    EXPECT_EQ(t->hl_parameters(), hl_whole) << copy;
+    // Only what the last checkpoint names is left in the pool: max_snapshots and its opponent.
+    int snapshots = 0;
+    for (const auto& e : fs::directory_iterator(fs::path(copy) / "pool")) snapshots += e.is_directory();
+    EXPECT_LE(snapshots, cfg.pool.max_snapshots + 1) << copy;
+    ++resumed;
+  }
+  EXPECT_GE(resumed, 10);
+}
+
+// Killed before its first checkpoint, a run folder holds its config, the first pool snapshot and
+// maybe metrics rows: --resume starts it afresh and it ends as an uninterrupted run.
+TEST(Trainer, ARunResumedBeforeItsFirstCheckpointStartsAfresh) {
+  const std::string whole = fresh_dir("first_whole"), killed = fresh_dir("first_killed");
+  Trainer a(smoke(), whole);
+  a.run(nullptr, 4);
+  { Trainer b(smoke(), killed); }  // set up, never stepped: no checkpoint
+  std::ofstream(killed + "/metrics.csv") << "update,garbage\n1,2\n";
+  ASSERT_TRUE(latest_checkpoint_name(killed).empty());
+  auto b = Trainer::resume(killed);
+  EXPECT_EQ(b->updates(), 0);
+  b->run(nullptr, 4);
+  EXPECT_EQ(b->ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(b->hl_parameters(), a.hl_parameters());
+  // Killed while its first checkpoint was written (the folder is there, LATEST still empty): the
+  // uncommitted folder goes and the run starts afresh.
+  const std::string first_ck = fresh_dir("first_ck");
+  {
+    Trainer c(smoke(), first_ck);
+    c.run(nullptr, 3);
+  }
+  const std::string uncommitted = latest_checkpoint_name(first_ck);
+  io::write_file_atomic(first_ck + "/checkpoint/LATEST", "");
+  auto c = Trainer::resume(first_ck);
+  EXPECT_EQ(c->updates(), 0);
+  EXPECT_FALSE(fs::exists(fs::path(first_ck) / "checkpoint" / uncommitted));
+  c->run(nullptr, 4);
+  EXPECT_EQ(c->ll_parameters(), a.ll_parameters());
+  // A folder that never got its config is not a run: resume says how to start one.
+  const std::string empty = fresh_dir("first_empty");
+  fs::create_directories(fs::path(empty) / "checkpoint");
+  try {
+    Trainer::resume(empty);
+    FAIL() << "resumed a folder without a config";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("holds no run yet"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--run " + empty), std::string::npos) << e.what();
+  }
 }
 
 TEST(Trainer, AtomicCheckpointsLeaveNoTemporaryFilesAndPruneOldOnes) {
