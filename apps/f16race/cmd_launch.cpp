@@ -7,6 +7,7 @@
 #include <omp.h>
 #include <signal.h>
 #include <sys/socket.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <netinet/in.h>
 #include <unistd.h>
@@ -142,10 +143,15 @@ void launch_ranks(int nproc, const std::vector<std::string>& command, int thread
   std::fflush(stdout);
   std::fflush(stderr);
   g_children.assign(o.nproc, -1);
+  const pid_t launcher = ::getpid();
   for (int r = 0; r < o.nproc; ++r) {
     const pid_t pid = ::fork();
     if (pid < 0) throw std::runtime_error("launch: fork failed: " + std::string(std::strerror(errno)));
     if (pid == 0) {
+      // A launcher killed outright (SIGKILL) takes its ranks with it: each gets the SIGTERM Ctrl-C
+      // would forward, so the group checkpoints and the run folder is free for --resume.
+      ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+      if (::getppid() != launcher) ::_exit(143);  // it died before prctl took effect
       ::setenv("WORLD_SIZE", std::to_string(o.nproc).c_str(), 1);
       ::setenv("RANK", std::to_string(r).c_str(), 1);
       ::setenv("LOCAL_RANK", std::to_string(r).c_str(), 1);
