@@ -1,6 +1,8 @@
 // `f16race launch --nproc N -- SUBCOMMAND ...`: starts N ranks of a subcommand on this host, on
 // loopback (what torchrun --standalone does for PyTorch): each rank is this executable with
-// WORLD_SIZE, RANK, LOCAL_RANK, MASTER_ADDR and MASTER_PORT set. The launcher waits for all of
+// WORLD_SIZE, RANK, LOCAL_RANK, MASTER_ADDR and MASTER_PORT set, rank 0's stores bound to
+// 127.0.0.1 (F16RACE_BIND_ADDR) and a fresh random group token in F16RACE_GROUP_TOKEN (in the
+// environment, which only this user can read, not on the command line). The launcher waits for all of
 // them; when one fails, the others stop by themselves (a lost peer ends every collective), and
 // any rank still running after the group's timeout is terminated. Exit status: the first failing
 // rank's, else 0.
@@ -27,6 +29,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "dist/group_token.hpp"
 #include "dist/process_group.hpp"
 
 namespace f16race::app {
@@ -58,8 +61,9 @@ int binds(int family, const sockaddr* a, socklen_t len) {
   return ok;
 }
 
-// Whether a listening socket can take `port` on every address, as rank 0's store does
-// (IPv6 any, dual-stack, where the host has IPv6; else IPv4 any).
+// Whether a listening socket can take `port` on every address (IPv6 any, dual-stack, where the
+// host has IPv6; else IPv4 any): stricter than rank 0's stores need (127.0.0.1 alone), so a port
+// some other program holds on any address is passed over too.
 bool port_free(int port) {
   if (port < 1 || port > 65535) return false;
   const auto p = htons(static_cast<std::uint16_t>(port));
@@ -140,6 +144,7 @@ void launch_ranks(int nproc, const std::vector<std::string>& command, int thread
   const int threads = threads_option > 0 ? threads_option : std::max(1, omp_get_num_procs() / o.nproc);
   std::vector<std::string> args{"f16race", "--threads", std::to_string(threads)};
   args.insert(args.end(), o.command.begin(), o.command.end());
+  const std::string token = dist::random_group_token();  // this group's alone, made afresh each launch
   std::fflush(stdout);
   std::fflush(stderr);
   g_children.assign(o.nproc, -1);
@@ -158,6 +163,9 @@ void launch_ranks(int nproc, const std::vector<std::string>& command, int thread
       ::setenv("MASTER_ADDR", "127.0.0.1", 1);
       ::setenv("MASTER_PORT", std::to_string(port).c_str(), 1);
       ::setenv("F16RACE_DIST_TIMEOUT", std::to_string(static_cast<long>(o.timeout_s)).c_str(), 1);
+      ::setenv("F16RACE_BIND_ADDR", "127.0.0.1", 1);
+      ::setenv("F16RACE_GROUP_TOKEN", token.c_str(), 1);
+      ::unsetenv("F16RACE_GROUP_TOKEN_FILE");  // the launcher's token, not one the user's shell names
       std::vector<char*> argv;
       for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
       argv.push_back(nullptr);
@@ -220,7 +228,7 @@ void add_launch_command(CLI::App& app, const int& threads_option) {
       "launch", "Start N ranks of a distributed subcommand on this host: f16race launch --nproc 2 -- tournament ...");
   cmd->add_option("--nproc", o->nproc, "Ranks to start")->check(CLI::Range(1, 256));
   cmd->add_option("--port", o->port,
-                  "The store's port on loopback, and the one after it (default: MASTER_PORT, else two free ones)")
+                  "The stores' port on 127.0.0.1, and the one after it (default: MASTER_PORT, else two free ones)")
       ->check(CLI::Range(1, 65534));
   cmd->add_option("--timeout", o->timeout_s, "Seconds a rank waits for a lost peer before it stops")
       ->check(CLI::Range(1.0, 86400.0));

@@ -6,22 +6,25 @@
 #define USE_C10D_GLOO
 #endif
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
-#include <torch/csrc/distributed/c10d/TCPStore.hpp>
 #include <torch/torch.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <thread>
 
+#include "dist/group_token.hpp"
+#include "dist/token_store.hpp"
+#include "dist/token_store_server.hpp"
 #include "io/input_error.hpp"
 
-// glog's threshold (libc10 logs through Debian's glog): c10d's sockets log every failed connect
-// attempt with a glog banner, which would bury this program's one-line message.
+// glog's threshold (libc10 logs through Debian's glog): c10d's code logs a failure with a glog
+// banner before it throws, which would bury this program's one-line message.
 namespace fLI {
 extern int FLAGS_minloglevel;
 }
@@ -30,7 +33,7 @@ namespace f16race::dist {
 
 namespace {
 
-// Quiets glog for its lifetime (FATAL only), for the connects whose failure we report ourselves.
+// Quiets glog for its lifetime (FATAL only), around c10d calls whose failure we report ourselves.
 struct QuietGlog {
   int saved = fLI::FLAGS_minloglevel;
   QuietGlog() { fLI::FLAGS_minloglevel = 3; }
@@ -66,23 +69,30 @@ std::chrono::milliseconds millis(double seconds) {
 }
 
 // Rank 0 serves two stores: the group's (MASTER_PORT: rendezvous, fingerprints, Gloo's own
-// rendezvous) and the heartbeats' (MASTER_PORT + 1). LibTorch 1.13's store resets every new
-// connection once Gloo has used it (measured), so the diagnosis of a lost rank, which connects
-// afresh, reads a store Gloo never touches.
-// `member`: the rank's own connection, counted in the rendezvous (rank 0's store waits for
-// every rank's); the heartbeat thread and the diagnosis open uncounted ones.
+// rendezvous) and the heartbeats' (MASTER_PORT + 1), so the diagnosis of a lost rank reads its
+// counters on a server the group's traffic never held up.
 enum class StoreUse { group, heartbeats };
-c10d::TCPStoreOptions store_options(const DistConfig& c, StoreUse use, bool member, std::chrono::milliseconds timeout) {
-  c10d::TCPStoreOptions o;
-  o.port = static_cast<std::uint16_t>(c.master_port + (use == StoreUse::heartbeats ? 1 : 0));
-  o.isServer = member && c.rank == 0;
-  o.numWorkers = member ? c10::optional<std::size_t>(static_cast<std::size_t>(c.world_size)) : c10::nullopt;
-  o.waitWorkers = member;
-  o.timeout = timeout;
+int store_port(const DistConfig& c, StoreUse use) { return c.master_port + (use == StoreUse::heartbeats ? 1 : 0); }
+
+StoreServerOptions server_options(const DistConfig& c, StoreUse use) {
+  StoreServerOptions o;
+  o.bind_address = store_bind_address(c);
+  o.port = store_port(c, use);
+  o.token = c.token;
+  o.name = use == StoreUse::group ? "the group's store" : "the heartbeats' store";
+  // A stranger is named on rank 0's stderr; the run goes on.
+  o.log = [](const std::string& line) { std::fprintf(stderr, "f16race: rank 0: %s\n", line.c_str()); };
   return o;
 }
 
+c10::intrusive_ptr<TokenStore> connect_store(const DistConfig& c, StoreUse use, std::chrono::milliseconds timeout) {
+  return c10::make_intrusive<TokenStore>(c.master_addr, store_port(c, use), c.token, timeout);
+}
+
 std::string hb_key(int rank) { return "f16race/heartbeat/" + std::to_string(rank); }
+// The rendezvous: every rank adds itself; the last to join sets the flag rank 0 waits for.
+const std::string kJoinedKey = "f16race/joined";
+const std::string kAllJoinedKey = "f16race/all_joined";
 
 }  // namespace
 
@@ -93,6 +103,8 @@ DistConfig dist_config_from_environment(DistConfig c) {
   if (const char* v = std::getenv("MASTER_PORT")) c.master_port = static_cast<int>(parse_long("MASTER_PORT", v, 1, 65534));
   if (const char* v = std::getenv("F16RACE_DIST_TIMEOUT"))
     c.timeout_s = static_cast<double>(parse_long("F16RACE_DIST_TIMEOUT", v, 1, 86400));
+  if (const char* v = std::getenv("F16RACE_BIND_ADDR")) c.bind_addr = v;
+  if (c.world_size > 1 && c.token.empty()) c.token = group_token_from_environment();
   return c;
 }
 
@@ -106,6 +118,19 @@ void validate(const DistConfig& c) {
                          ": MASTER_PORT must be in [1, 65534] (rank 0 also listens on the port after it)");
   if (c.master_addr.empty()) throw io::InputError("MASTER_ADDR is empty: give rank 0's host name or address");
   if (!(c.timeout_s >= 1.0)) throw io::InputError("distributed timeout must be at least 1 s");
+  if (c.world_size > 1 && c.token.empty())
+    throw io::InputError("a group of " + std::to_string(c.world_size) +
+                         " ranks needs its shared token: set F16RACE_GROUP_TOKEN (or F16RACE_GROUP_TOKEN_FILE) to the "
+                         "same secret on every rank (launch sets one itself)");
+  if (c.world_size > 1 && c.rank == 0 && c.bind_addr.empty() && !is_loopback(c.master_addr))
+    throw io::InputError("rank 0 serves ranks on other hosts (MASTER_ADDR=" + c.master_addr +
+                         "): set F16RACE_BIND_ADDR (--dist-bind) to this host's address they connect to (0.0.0.0: "
+                         "every interface)");
+}
+
+std::string store_bind_address(const DistConfig& c) {
+  if (!c.bind_addr.empty()) return c.bind_addr;
+  return c.master_addr == "::1" ? "::1" : "127.0.0.1";
 }
 
 std::uint64_t executable_hash() {
@@ -123,8 +148,10 @@ std::uint64_t executable_hash() {
 }
 
 struct Group::Impl {
-  c10::intrusive_ptr<c10d::TCPStore> store;
-  c10::intrusive_ptr<c10d::TCPStore> beats;  // the heartbeats' store (rank 0 serves it)
+  // Rank 0: the two stores it serves (declared first: they outlive the clients below).
+  std::unique_ptr<TokenStoreServer> store_server, beats_server;
+  c10::intrusive_ptr<TokenStore> store;
+  c10::intrusive_ptr<TokenStore> beats;  // the heartbeats' store
   c10::intrusive_ptr<c10d::ProcessGroupGloo> pg;
   std::atomic<bool> stop{false};
   std::thread heartbeat;
@@ -138,27 +165,13 @@ struct Group::Impl {
 Group::Group(const DistConfig& config, const std::string& fingerprint) : config_(config), impl_(std::make_unique<Impl>()) {
   validate(config_);
   const DistConfig& c = config_;
-  const std::string where = c.master_addr + ":" + std::to_string(c.master_port);
-  const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
-  try {
-    QuietGlog quiet;
-    impl_->store = c10::make_intrusive<c10d::TCPStore>(c.master_addr,
-                                                       store_options(c, StoreUse::group, true, millis(c.timeout_s)));
-    impl_->beats = c10::make_intrusive<c10d::TCPStore>(
-        c.master_addr, store_options(c, StoreUse::heartbeats, true, millis(c.timeout_s)));
-  } catch (const std::exception& e) {
-    if (c.rank == 0)
-      throw io::InputError(me + ": cannot serve the stores on " + where + " and the port after it (" +
-                           first_line(e.what()) + "): is one in use? choose another MASTER_PORT (--dist-port)");
-    throw io::InputError(me + ": no group at " + where + " within " + std::to_string(static_cast<int>(c.timeout_s)) +
-                         " s (" + first_line(e.what()) + "): start rank 0 there, or fix MASTER_ADDR/MASTER_PORT");
-  }
-  // Heartbeats on a connection of their own (the store client is not shared across threads).
+  connect_stores();
+  // Heartbeats on a connection of their own (one request at a time per connection).
   impl_->beats->add(hb_key(c.rank), 1);
   Impl* impl = impl_.get();
   impl_->heartbeat = std::thread([impl, c]() {
     try {
-      c10d::TCPStore beat(c.master_addr, store_options(c, StoreUse::heartbeats, false, std::chrono::seconds(5)));
+      TokenStore beat(c.master_addr, store_port(c, StoreUse::heartbeats), c.token, std::chrono::seconds(5));
       while (!impl->stop.load()) {
         beat.add(hb_key(c.rank), 1);
         std::this_thread::sleep_for(kHeartbeatPeriod);
@@ -167,7 +180,59 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
       // The store's host is gone: the next collective fails and lost() names rank 0.
     }
   });
+  agree(fingerprint);
+  start_gloo();
+}
 
+void Group::connect_stores() {
+  const DistConfig& c = config_;
+  const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
+  if (c.rank == 0) {
+    try {
+      impl_->store_server = std::make_unique<TokenStoreServer>(server_options(c, StoreUse::group));
+      impl_->beats_server = std::make_unique<TokenStoreServer>(server_options(c, StoreUse::heartbeats));
+    } catch (const std::exception& e) {
+      throw io::InputError(me + ": cannot serve the stores on " + store_bind_address(c) + " port " +
+                           std::to_string(c.master_port) + " and the port after it (" + first_line(e.what()) +
+                           "): choose another MASTER_PORT (--dist-port), or an address of this host as "
+                           "F16RACE_BIND_ADDR (--dist-bind)");
+    }
+  }
+  const std::string where = c.master_addr + ":" + std::to_string(c.master_port);
+  try {
+    impl_->store = connect_store(c, StoreUse::group, millis(c.timeout_s));
+    impl_->beats = connect_store(c, StoreUse::heartbeats, millis(c.timeout_s));
+  } catch (const TokenRefused& e) {
+    throw io::InputError(me + ": " + e.what() +
+                         ": give every rank the same F16RACE_GROUP_TOKEN (or F16RACE_GROUP_TOKEN_FILE)");
+  } catch (const std::exception& e) {
+    throw io::InputError(me + ": no group at " + where + " within " + std::to_string(static_cast<int>(c.timeout_s)) +
+                         " s (" + first_line(e.what()) + "): start rank 0 there, or fix MASTER_ADDR/MASTER_PORT");
+  }
+  // Rank 0 goes on once every rank has joined, or stops at the timeout saying how many did.
+  try {
+    if (impl_->store->add(kJoinedKey, 1) == c.world_size) impl_->store->set(kAllJoinedKey, {1});
+  } catch (const std::exception& e) {
+    lost(e);  // rank 0's store went away just after this rank connected
+  }
+  if (c.rank != 0) return;
+  try {
+    impl_->store->wait({kAllJoinedKey});
+  } catch (const std::exception&) {
+    std::string joined = "not every rank";
+    try {
+      joined = std::to_string(impl_->store->add(kJoinedKey, 0)) + " of " + std::to_string(c.world_size) + " ranks";
+    } catch (const std::exception&) {
+    }
+    throw io::InputError(me + ": " + joined + " joined within " + std::to_string(static_cast<int>(c.timeout_s)) +
+                         " s: start every rank with MASTER_ADDR/MASTER_PORT naming " + where +
+                         " and the group's token (rank 0's stderr names each connection it dropped)");
+  }
+}
+
+void Group::agree(const std::string& fingerprint) {
+  const DistConfig& c = config_;
+  const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
   // Everything that must agree (options, binary): rank 0 compares every rank's with its own.
   const std::string fp_key = "f16race/fingerprint/";
   std::string verdict = "ok";
@@ -207,7 +272,11 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
     lost(e);
   }
   if (verdict != "ok") throw io::InputError(me + ": " + verdict);
+}
 
+void Group::start_gloo() {
+  const DistConfig& c = config_;
+  const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
   auto options = c10d::ProcessGroupGloo::Options::create(millis(c.timeout_s));
   if (const char* ifname = std::getenv("GLOO_SOCKET_IFNAME")) {
     try {
@@ -221,6 +290,7 @@ Group::Group(const DistConfig& config, const std::string& fingerprint) : config_
   else
     options->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
   try {
+    QuietGlog quiet;
     impl_->pg = c10::make_intrusive<c10d::ProcessGroupGloo>(impl_->store, c.rank, c.world_size, options);
   } catch (const std::exception& e) {
     lost(e);
@@ -233,10 +303,9 @@ void Group::lost(const std::exception& cause) {
   const DistConfig& c = config_;
   const std::string me = "rank " + std::to_string(c.rank) + " of " + std::to_string(c.world_size);
   std::string who;
-  QuietGlog quiet;
   try {
     // Which ranks stopped beating: two reads of every counter, kHeartbeatStale apart.
-    c10d::TCPStore probe(c.master_addr, store_options(c, StoreUse::heartbeats, false, std::chrono::seconds(3)));
+    TokenStore probe(c.master_addr, store_port(c, StoreUse::heartbeats), c.token, std::chrono::seconds(3));
     std::vector<std::int64_t> before(c.world_size);
     for (int q = 0; q < c.world_size; ++q) before[q] = probe.add(hb_key(q), 0);
     std::this_thread::sleep_for(kHeartbeatStale);

@@ -1,8 +1,10 @@
 #pragma once
-// One process of a group of f16race processes (ranks) on one or several hosts, over LibTorch's
-// own distributed engine: c10d's TCPStore for the rendezvous and ProcessGroupGloo for the
-// collectives. Configured the way PyTorch users know: MASTER_ADDR, MASTER_PORT, WORLD_SIZE, RANK
-// (what torchrun sets), each overridable by a --dist-* flag (docs/distributed.md).
+// One process of a group of f16race processes (ranks) on one or several hosts: the rendezvous
+// over rank 0's own key-value stores (token_store.hpp: bound to one address, and a connection
+// must present the group's token), the collectives over LibTorch's ProcessGroupGloo. Configured
+// the way PyTorch users know: MASTER_ADDR, MASTER_PORT, WORLD_SIZE, RANK (what torchrun sets),
+// each overridable by a --dist-* flag, plus F16RACE_GROUP_TOKEN(_FILE) and F16RACE_BIND_ADDR
+// (docs/distributed.md).
 //
 // A lost peer never hangs the group: every rank beats a heartbeat counter in the store, and a
 // collective that fails or times out is reported as one line naming the rank(s) that stopped.
@@ -21,13 +23,22 @@ struct DistConfig {
   std::string master_addr = "127.0.0.1";  // rank 0's host: it serves the store
   int master_port = 29500;
   double timeout_s = 60.0;  // a collective or the rendezvous waiting longer than this fails
+  // The address rank 0's stores listen on; "": loopback, allowed only while MASTER_ADDR is a
+  // loopback address (a group of one host).
+  std::string bind_addr;
+  // The group's shared secret (F16RACE_GROUP_TOKEN or the file F16RACE_GROUP_TOKEN_FILE; never
+  // a flag): required for a group of more than one rank.
+  std::string token;
 };
 
-// Reads WORLD_SIZE, RANK, MASTER_ADDR, MASTER_PORT and F16RACE_DIST_TIMEOUT (seconds) over
-// `base`; throws io::InputError naming the variable and the allowed range for a bad value.
+// Reads WORLD_SIZE, RANK, MASTER_ADDR, MASTER_PORT, F16RACE_DIST_TIMEOUT (seconds),
+// F16RACE_BIND_ADDR and, for a group (WORLD_SIZE > 1), the token over `base`; throws
+// io::InputError naming the variable and the allowed range for a bad value.
 DistConfig dist_config_from_environment(DistConfig base = {});
 // Range checks of a complete config (flags applied): one line naming the value and the fix.
 void validate(const DistConfig& c);
+// Where rank 0's stores listen: bind_addr, else loopback.
+std::string store_bind_address(const DistConfig& c);
 
 // The peer ranks stopped answering (their process ended or hangs), or the store's host did.
 struct PeerLost : std::runtime_error {
@@ -68,6 +79,11 @@ class Group {
   struct Impl;
   DistConfig config_;
   std::unique_ptr<Impl> impl_;
+  // The constructor's steps: rank 0 serves the stores, every rank connects and joins; the ranks'
+  // fingerprints are compared; the Gloo process group forms over the group's store.
+  void connect_stores();
+  void agree(const std::string& fingerprint);
+  void start_gloo();
   [[noreturn]] void lost(const std::exception& cause);
   // One collective: runs `op` and turns any failure into lost().
   void collective(const std::function<void()>& op);

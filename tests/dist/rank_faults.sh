@@ -48,6 +48,7 @@ refused_pair() {
   local prefix=$1
   local -n args0=$2 args1=$3
   local port=$((20000 + RANDOM % 12000)) p1 rc0 rc1  # below the ephemeral range (32768 up)
+  local -x F16RACE_GROUP_TOKEN="refused-pair-$RANDOM-$RANDOM-$RANDOM"  # what launch would set
   set +e
   WORLD_SIZE=2 RANK=1 MASTER_PORT=$port "$bin" --threads 1 "${args1[@]}" > "${prefix}1.log" 2>&1 &
   p1=$!

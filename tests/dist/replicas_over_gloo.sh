@@ -5,6 +5,7 @@ set -euo pipefail
 bin=$1
 port=$((20000 + RANDOM % 12000))  # below the ephemeral range (32768 up), which connections take
 export WORLD_SIZE=2 MASTER_ADDR=127.0.0.1 MASTER_PORT=$port F16RACE_DIST_TIMEOUT=30
+export F16RACE_GROUP_TOKEN="replicas-over-gloo-$RANDOM-$RANDOM"  # the group's shared token, as launch sets one
 RANK=1 "$bin" > /dev/null &
 rank1=$!
 set +e
