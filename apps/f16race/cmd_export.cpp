@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "export/torchscript_export.hpp"
 #include "io/input_error.hpp"
+#include "io/staged_folder.hpp"
 #include "train/run_policy.hpp"
 
 namespace f16race::app {
@@ -24,7 +25,11 @@ void run_export(const ExportOptions& o) {
                          "waypoint autopilot, not a network: there is nothing to export as TorchScript; race the run "
                          "with f16race tournament or replay");
   const std::string out = o.out.empty() ? o.run + "/export" : o.out;
-  const torchscript::ExportReport rep = torchscript::export_policy(policy, out);
+  // Written into a staging folder beside `out` and swapped in whole: never one export's HL
+  // policy beside another's LL policy, and a full disk leaves the earlier export as it was.
+  io::StagedFolder folder(out, "export", torchscript::is_export_output);
+  torchscript::ExportReport rep;
+  folder.commit([&](const std::string& staging) { rep = torchscript::export_policy(policy, staging); });
   std::printf("exported %s (%s, %lld env steps) to %s/\n", policy.name.c_str(),
               agents::es_variant_name(policy.config.hl.variant), static_cast<long long>(policy.env_steps), out.c_str());
   std::printf("  hl_policy.pt  ll_policy.pt  example_io.pt  README.md\n");
@@ -42,7 +47,9 @@ void add_export_command(CLI::App& app) {
   auto o = std::make_shared<ExportOptions>();
   CLI::App* cmd = app.add_subcommand("export", "Write a trained run's policies as TorchScript (torch.jit.load)");
   cmd->add_option("--run", o->run, "Run folder written by f16race train")->required();
-  cmd->add_option("--out", o->out, "Output folder (default: RUN/export)");
+  cmd->add_option("--out", o->out,
+                  "Output folder (default: RUN/export), replaced whole by the new export (a folder holding other "
+                  "files than an export's is refused)");
   cmd->callback([o]() { run_export(*o); });
 }
 

@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "eval/replay.hpp"
+#include "io/staged_folder.hpp"
 
 namespace f16race::app {
 namespace {
@@ -17,9 +18,13 @@ struct ReplayCliOptions {
 };
 
 void run_replay_command(const ReplayCliOptions& o) {
+  // Written into a staging folder beside --out and swapped in whole; a folder that cannot be
+  // written fails before the race.
+  io::StagedFolder folder(o.out, "replay", eval::is_replay_output);
   const eval::RaceReplay r = eval::run_replay(o.replay);
   std::string msg;
-  const bool drawn = eval::write_replay(r, o.out, &msg);
+  bool drawn = false;
+  folder.commit([&](const std::string& staging) { drawn = eval::write_replay(r, staging, &msg); });
   const auto& t = r.trace;
   std::printf("%s (blue) vs %s (red), seed %llu: %s after %.1f s, winner %s\n", r.blue.c_str(), r.red.c_str(),
               static_cast<unsigned long long>(o.replay.seed), race::end_reason_name(t.end), t.duration_s,
@@ -45,7 +50,9 @@ void add_replay_command(CLI::App& app) {
                   "Red team: a run folder (@center, @random, @center_x/_y/_z allowed), self (default), untrained, scripted or autopilot (AeroBench's waypoint autopilot)");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--out", o->out, "Output folder");
+  cmd->add_option("--out", o->out,
+                  "Output folder, replaced whole by the new replay (a folder holding other files than a replay's "
+                  "is refused)");
   cmd->callback([o]() { run_replay_command(*o); });
 }
 

@@ -1,13 +1,12 @@
 // `f16race study`: the Fig. 3 study in pieces. Trains every cell of a study config that is not
 // finished (a partial run resumes from its checkpoint), `jobs` at a time as child `f16race train`
 // processes of one thread each, one HL interval at a time: its runs, then its tournament, then
-// OUT/report.md with every interval raced so far. Interrupt it at any time (Ctrl-C: the children checkpoint and stop) and run
-// the same command again to continue.
-#include <fcntl.h>
+// OUT/report/ with every interval raced so far. Interrupt it at any time (Ctrl-C or SIGTERM is
+// forwarded to the children: a training checkpoints and stops, a tournament stops; the study
+// waits for them and exits 130) and run the same command again to continue. The children die
+// with the study (PR_SET_PDEATHSIG), so even a kill -9 leaves no training holding a run folder.
 #include <omp.h>
-#include <spawn.h>
 #include <sys/wait.h>
-#include <torch/torch.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
@@ -15,7 +14,6 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -27,11 +25,13 @@
 #include "eval/study.hpp"
 #include "eval/study_report.hpp"
 #include "eval/tournament.hpp"
-#include "eval/tournament_report.hpp"
+#include "eval/tournament_output.hpp"
 #include "io/atomic_file.hpp"
+#include "io/child_process.hpp"
 #include "io/input_error.hpp"
-
-extern char** environ;
+#include "io/plot.hpp"
+#include "io/run_folder.hpp"
+#include "io/stale_temporaries.hpp"
 
 namespace f16race::app {
 namespace {
@@ -81,25 +81,34 @@ struct Running {
   std::int64_t steps_at_start = 0;
 };
 
-pid_t spawn_train(const std::vector<std::string>& args, const std::string& log_path) {
-  std::vector<std::string> argv_s{"/proc/self/exe"};
-  argv_s.insert(argv_s.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : argv_s) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-  posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-  pid_t pid = 0;
-  const int rc = posix_spawn(&pid, "/proc/self/exe", &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc != 0) throw std::runtime_error("study: cannot start a training process: " + std::string(std::strerror(rc)));
-  return pid;
+pid_t spawn_f16race(const std::vector<std::string>& args, const std::string& log_path) {
+  std::vector<std::string> argv{"/proc/self/exe"};  // this very binary, even if rebuilt meanwhile
+  argv.insert(argv.end(), args.begin(), args.end());
+  return io::spawn_child(argv, log_path);
+}
+
+// Waits until no process holds the run folders of `cells` (a training of an earlier study that
+// was killed: its SIGTERM from PR_SET_PDEATHSIG makes it checkpoint and stop), at most `limit`.
+void wait_for_run_folders(const std::vector<eval::StudyCell>& cells, std::chrono::seconds limit) {
+  const auto until = Clock::now() + limit;
+  for (const auto& c : cells) {
+    bool said = false;
+    for (std::string pid = io::run_folder_holder(c.run_dir); !pid.empty(); pid = io::run_folder_holder(c.run_dir)) {
+      if (g_stop) return;
+      if (Clock::now() >= until)
+        throw io::InputError(c.run_dir + " is in use by another f16race train (pid " + pid +
+                             "); stop it, then run the study again");
+      if (!said) std::printf("study: waiting for pid %s, a training still holding %s, to stop\n", pid.c_str(), c.run_dir.c_str());
+      std::fflush(stdout);
+      said = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+  }
 }
 
 // Trains the unfinished cells; returns false when stopped by a signal.
 bool train_cells(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells, const std::string& out) {
+  wait_for_run_folders(cells, std::chrono::seconds(120));
   std::vector<eval::CellStatus> status;
   for (const auto& c : cells) status.push_back(eval::cell_status(cfg, c));
   std::vector<std::size_t> todo;
@@ -123,7 +132,7 @@ bool train_cells(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell
       fs::create_directories(fs::path(c.run_dir).parent_path());
       const std::string log = (fs::path(out) / "logs" / (eval::interval_name(c.dt_hl_s) + "_" + c.variant + "_s" +
                                                         std::to_string(c.seed) + ".log")).string();
-      running.push_back({i, spawn_train(eval::cell_train_args(cfg, c, status[i].state), log), Clock::now(),
+      running.push_back({i, spawn_f16race(eval::cell_train_args(cfg, c, status[i].state), log), Clock::now(),
                          status[i].env_steps});
       std::printf("study: %s %s (%s)\n", status[i].state == eval::CellState::partial ? "resuming" : "training",
                   cell_label(c).c_str(), log.c_str());
@@ -135,7 +144,7 @@ bool train_cells(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell
       const pid_t r = waitpid(running[k].pid, &ws, WNOHANG);
       if (r == running[k].pid) {
         const auto& c = cells[running[k].cell];
-        const int code = WIFEXITED(ws) ? WEXITSTATUS(ws) : 128 + WTERMSIG(ws);
+        const int code = io::exit_code(ws);
         if (code == 0) {
           ++finished;
           std::printf("study: %s finished (%zu of %zu cells)\n", cell_label(c).c_str(), finished, cells.size());
@@ -184,6 +193,49 @@ bool train_cells(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell
   return !g_stop;
 }
 
+// Races one interval's tournament as a child `f16race tournament` (logged like the trainings),
+// which writes its folder whole. Returns false when the study was stopped by a signal.
+bool race_interval(const eval::TournamentOptions& t, const std::string& out, double dt) {
+  const std::string name = eval::interval_name(dt);
+  const std::string log = (fs::path(out) / "logs" / (name + "_tournament.log")).string();
+  std::vector<std::string> args{"--threads", std::to_string(omp_get_max_threads())};
+  for (const std::string& a : eval::tournament_args(t)) args.push_back(a);
+  const pid_t pid = spawn_f16race(args, log);
+  int ws = 0;
+  bool signalled = false;
+  while (waitpid(pid, &ws, WNOHANG) != pid) {
+    if (g_stop && !signalled) {
+      signalled = true;
+      kill(pid, SIGINT);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  if (g_stop) return false;
+  const int code = io::exit_code(ws);
+  if (code != 0)
+    throw io::InputError(name + " tournament: exited with status " + std::to_string(code) + "; see " + log +
+                         ", fix it and run the study again (trained runs are kept)");
+  std::string why;
+  if (!eval::tournament_complete(t, &why))
+    throw io::InputError(name + " tournament: not complete in " + t.out_dir + " (" + why + "); see " + log +
+                         ", fix it and run the study again, which races it again");
+  return true;
+}
+
+// The study folder and its interval folders: created, and cleared of the temporaries of killed
+// processes (a staging folder of a tournament or report, a study.yaml.tmp.PID).
+void own_study_folder(const eval::StudyConfig& cfg, const std::string& out) {
+  fs::create_directories(out);
+  std::vector<std::string> removed = io::remove_stale_temporaries(out);
+  for (double dt : cfg.dt_hl_s) {
+    const std::string dir = eval::interval_dir(out, dt);
+    fs::create_directories(dir);
+    for (const std::string& r : io::remove_stale_temporaries(dir)) removed.push_back(r);
+  }
+  if (!removed.empty())
+    std::printf("study: removed %zu temporaries left by stopped processes in %s\n", removed.size(), out.c_str());
+}
+
 void run_study(const StudyOptions& o) {
   const eval::StudyConfig cfg = eval::read_study_config(o.config);
   const std::vector<eval::StudyCell> cells = eval::plan_study(cfg, o.out);
@@ -195,9 +247,12 @@ void run_study(const StudyOptions& o) {
     }
     return;
   }
+  // An interval's tournament is done only with its figures: found now, not after hours of training.
+  if (!io::gnuplot_available())
+    throw io::InputError("study: gnuplot not found; the study's figures need it: install gnuplot-nox, then run it again");
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
-  fs::create_directories(o.out);
+  own_study_folder(cfg, o.out);
   {  // the study config as run, next to its results
     std::ifstream in(o.config);
     io::write_file_atomic((fs::path(o.out) / "study.yaml").string(),
@@ -205,8 +260,8 @@ void run_study(const StudyOptions& o) {
   }
   // One interval at a time: its runs, then its tournament and the report so far, so a study
   // cut short (a session's end) has its first horizon finished instead of every run half done.
-  torch::set_num_threads(omp_get_max_threads());  // for the tournaments; the trainings are child processes
   double tournament_s = 0.0;
+  const std::string report = (fs::path(o.out) / "report" / "report.md").string();
   for (double dt : cfg.dt_hl_s) {
     std::vector<eval::StudyCell> interval_cells;
     for (const auto& c : cells)
@@ -217,25 +272,27 @@ void run_study(const StudyOptions& o) {
       throw ExitStatus{130};
     }
     const eval::TournamentOptions t = eval::interval_tournament(cfg, cells, dt, o.out);
-    if (fs::exists(fs::path(t.out_dir) / "summary.json")) {
+    if (eval::tournament_complete(t)) {
       std::printf("study: %s tournament already written (delete %s to race it again)\n", eval::interval_name(dt).c_str(),
                   t.out_dir.c_str());
       continue;
     }
-    std::printf("study: %s tournament, %zu runs%s, %d races per pair\n", eval::interval_name(dt).c_str(), t.runs.size(),
-                cfg.controls ? " with controls" : "", cfg.races_per_pair);
+    std::printf("study: %s tournament, %zu runs%s, %d races per pair (%s/logs/%s_tournament.log)\n",
+                eval::interval_name(dt).c_str(), t.runs.size(), cfg.controls ? " with controls" : "",
+                cfg.races_per_pair, o.out.c_str(), eval::interval_name(dt).c_str());
     std::fflush(stdout);
     const auto t0 = Clock::now();
-    fs::create_directories(t.out_dir);
-    const eval::TournamentResult r = eval::run_tournament(t);
-    eval::write_tournament_report(r, t);
-    if (g_stop) throw ExitStatus{130};
+    if (!race_interval(t, o.out, dt)) {
+      std::printf("study: stopped during the %s tournament; run the same command again to race it.\n",
+                  eval::interval_name(dt).c_str());
+      throw ExitStatus{130};
+    }
     tournament_s += std::chrono::duration<double>(Clock::now() - t0).count();
     eval::write_study_report(cfg, cells, o.out, o.config, tournament_s);
-    std::printf("study: %s done; report so far in %s/report.md\n", eval::interval_name(dt).c_str(), o.out.c_str());
+    std::printf("study: %s done; report so far in %s\n", eval::interval_name(dt).c_str(), report.c_str());
   }
   eval::write_study_report(cfg, cells, o.out, o.config, tournament_s);
-  std::printf("study: done; report in %s/report.md\n", o.out.c_str());
+  std::printf("study: done; report in %s\n", report.c_str());
 }
 
 }  // namespace

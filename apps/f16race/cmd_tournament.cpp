@@ -18,7 +18,9 @@
 #include "dist_options.hpp"
 #include "progress_bar.hpp"
 #include "eval/tournament.hpp"
+#include "eval/tournament_output.hpp"
 #include "eval/tournament_report.hpp"
+#include "io/staged_folder.hpp"
 
 namespace f16race::app {
 namespace {
@@ -49,7 +51,11 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
   eval::TournamentResult r;
   const auto start = std::chrono::steady_clock::now();
   int last_percent = -1;
-  // The output folder first: a folder that cannot be made fails now, not after every race.
+  // The output folder first: one that cannot be made, or holds other files, fails now, not after
+  // every race. The report is written into a staging folder beside it and swapped in whole.
+  io::StagedFolder out(o.out_dir, "tournament", eval::is_tournament_output);
+  // A missing folder is made now, empty until the output is swapped in: that a tournament has
+  // started shows (the group tests wait for it), and a kill leaves it empty, never partial.
   std::error_code ec;
   std::filesystem::create_directories(o.out_dir, ec);
   if (ec) throw io::InputError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
@@ -70,11 +76,24 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
     std::fflush(stdout);
   }, group.get());
   if (tty) std::printf("\n");
-  std::printf("%s", eval::write_tournament_report(r, o).c_str());
+  std::string md;
+  std::vector<std::string> missing;
+  out.commit([&](const std::string& staging) {
+    eval::TournamentOptions staged = o;
+    staged.out_dir = staging;
+    md = eval::write_tournament_report(r, staged, &missing);
+  });
+  std::printf("%s", md.c_str());
   std::printf("%zu races in %.1f s\n", r.races.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json, tournament.png, pairings.png}\n",
-              o.out_dir.c_str());
+  std::printf("written: %s/{races.csv, pairings.csv, summary.md, summary.json%s, done.txt}\n", o.out_dir.c_str(),
+              missing.empty() ? ", tournament.png, pairings.png" : "");
+  if (!missing.empty()) {
+    std::string line;
+    for (const std::string& m : missing) line += (line.empty() ? "" : "; ") + m;
+    std::printf("figures not drawn (data and gnuplot scripts are written; listed in %s/done.txt): %s\n",
+                 o.out_dir.c_str(), line.c_str());
+  }
 }
 
 }  // namespace
@@ -105,7 +124,9 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--axis-controls", o->axis_controls,
                 "Add RUN@center_x, RUN@center_y and RUN@center_z for every run: its trained high level with one goal "
                 "axis (track frame: along, right, up) held on the middle bin; listed, never in the variant statistics");
-  cmd->add_option("--out", o->out_dir, "Output folder");
+  cmd->add_option("--out", o->out_dir,
+                  "Output folder, replaced whole when the tournament is written (a folder holding other files than "
+                  "a tournament's is refused)");
   auto dist_flags = std::make_shared<DistFlags>();
   dist_flags->add_to(cmd);
   cmd->callback([o, dist_flags]() { run(*o, dist_flags->resolve()); });

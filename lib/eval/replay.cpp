@@ -170,4 +170,6 @@ bool write_replay(const RaceReplay& r, const std::string& out_dir, std::string* 
   return race::plot_trace(t, out_dir, "replay", title, message, r.blocks);
 }
 
+bool is_replay_output(const std::string& name) { return name.rfind("replay.", 0) == 0 || name.rfind("replay_", 0) == 0; }
+
 }  // namespace f16race::eval

@@ -39,4 +39,8 @@ RaceReplay run_replay(const ReplayOptions& options);
 // with `message` when gnuplot is missing (everything else is still written).
 bool write_replay(const RaceReplay& result, const std::string& out_dir, std::string* message);
 
+// Whether `name` is one of the files write_replay writes (replay.*, replay_*): the only ones
+// `replay --out` may replace.
+bool is_replay_output(const std::string& name);
+
 }  // namespace f16race::eval

@@ -152,4 +152,14 @@ TournamentOptions interval_tournament(const StudyConfig& config, const std::vect
   return o;
 }
 
+std::vector<std::string> tournament_args(const TournamentOptions& o) {
+  std::vector<std::string> a{"tournament", "--runs"};
+  a.insert(a.end(), o.runs.begin(), o.runs.end());
+  for (const std::string& s : {std::string("--races"), std::to_string(o.races_per_pair), std::string("--seed"),
+                               std::to_string(o.seed), std::string("--out"), o.out_dir})
+    a.push_back(s);
+  if (o.controls) a.emplace_back("--controls");
+  return a;
+}
+
 }  // namespace f16race::eval

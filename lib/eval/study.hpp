@@ -71,4 +71,9 @@ std::vector<std::string> cell_train_args(const StudyConfig& config, const StudyC
 TournamentOptions interval_tournament(const StudyConfig& config, const std::vector<StudyCell>& cells,
                                       double dt_hl_s, const std::string& out_dir);
 
+// The `tournament` arguments (after the executable and its --threads) that race `options` as
+// the study sets them (interval_tournament: runs, races, seed, controls; every other option at
+// its default, as `tournament` has it).
+std::vector<std::string> tournament_args(const TournamentOptions& options);
+
 }  // namespace f16race::eval

@@ -9,9 +9,11 @@
 #include <map>
 #include <sstream>
 
+#include "eval/tournament_output.hpp"
 #include "io/atomic_file.hpp"
 #include "io/plot.hpp"
 #include "io/provenance.hpp"
+#include "io/staged_folder.hpp"
 
 namespace f16race::eval {
 
@@ -50,8 +52,19 @@ void write_curves(const StudyConfig& cfg, const std::vector<StudyCell>& cells, d
 
 }  // namespace
 
-void write_study_report(const StudyConfig& cfg, const std::vector<StudyCell>& cells, const std::string& out,
-                        const std::string& config_path, double tournament_s) {
+bool is_study_report_output(const std::string& name) {
+  const auto ends_with = [&](const char* end) {
+    const std::string e(end);
+    return name.size() > e.size() && name.compare(name.size() - e.size(), e.size(), e) == 0;
+  };
+  return name == "report.md" || (name.rfind("curves_dt", 0) == 0 && (ends_with(".png") || ends_with(".gp")));
+}
+
+namespace {
+
+// report.md's text; the learning curves of every interval raced so far are drawn into `dir`.
+std::string report_text(const StudyConfig& cfg, const std::vector<StudyCell>& cells, const std::string& out,
+                        const std::string& config_path, double tournament_s, const std::string& dir) {
   std::ostringstream md;
   md << "# Fig. 3 study: " << cfg.variants.size() << " variants x " << cfg.seeds.size() << " seeds x "
      << cfg.dt_hl_s.size() << " HL intervals\n\n";
@@ -79,22 +92,39 @@ void write_study_report(const StudyConfig& cfg, const std::vector<StudyCell>& ce
   for (double dt : cfg.dt_hl_s) {
     const std::string name = interval_name(dt);
     md << "## HL interval " << name.substr(2) << " s\n\n";
-    const fs::path summary = fs::path(interval_dir(out, dt)) / "tournament" / "summary.md";
-    if (!fs::exists(summary)) {
+    const TournamentOptions t = interval_tournament(cfg, cells, dt, out);
+    if (!tournament_complete(t)) {
       md << "Not raced yet: its runs are still training. Run the study command again to continue.\n\n";
       continue;
     }
-    md << "![tournament](" << name << "/tournament/tournament.png)\n\n";
-    write_curves(cfg, cells, dt, out, &notes);
+    // The report sits in OUT/report/, beside the interval folders.
+    md << "![tournament](../" << name << "/tournament/tournament.png)\n\n";
+    write_curves(cfg, cells, dt, dir, &notes);
     md << "![learning curves](curves_" << name << ".png)\n\n";
-    std::ifstream in(summary);
+    std::ifstream in(fs::path(t.out_dir) / "summary.md");
     std::string text((std::istreambuf_iterator<char>(in)), {});
     // The tournament's own title becomes a sub-heading here.
     if (text.rfind("# ", 0) == 0) text = "#" + text;
     md << text << "\n";
   }
   if (!notes.empty()) md << "Figures not drawn: " << notes << "\n";
-  io::write_file_atomic((fs::path(out) / "report.md").string(), md.str());
+  return md.str();
+}
+
+}  // namespace
+
+void write_study_report(const StudyConfig& cfg, const std::vector<StudyCell>& cells, const std::string& out,
+                        const std::string& config_path, double tournament_s) {
+  io::StagedFolder folder((fs::path(out) / "report").string(), "study report", is_study_report_output);
+  folder.commit([&](const std::string& dir) {
+    io::write_file_atomic((fs::path(dir) / "report.md").string(),
+                          report_text(cfg, cells, out, config_path, tournament_s, dir));
+  });
+  // The report of an earlier build sat in OUT itself: removed, so only one report is there.
+  std::error_code ec;
+  fs::remove(fs::path(out) / "report.md", ec);
+  for (double dt : cfg.dt_hl_s)
+    for (const char* ext : {".png", ".gp"}) fs::remove(fs::path(out) / ("curves_" + interval_name(dt) + ext), ec);
 }
 
 }  // namespace f16race::eval

@@ -7,6 +7,7 @@
 #include <map>
 #include <sstream>
 
+#include "eval/tournament_output.hpp"
 #include "race/scripted_pilot.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv_table.hpp"
@@ -373,7 +374,8 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   return md.str();
 }
 
-void write_tournament_figures(const TournamentResult& r, const TournamentStatistics& s, const std::string& out_dir) {
+std::vector<std::string> write_tournament_figures(const TournamentResult& r, const TournamentStatistics& s,
+                                                  const std::string& out_dir) {
   const int n = static_cast<int>(r.entries.size());
   std::vector<std::vector<double>> cols(5);
   std::vector<std::vector<std::string>> names(1);
@@ -409,8 +411,9 @@ void write_tournament_figures(const TournamentResult& r, const TournamentStatist
   spec.panels = {bars, iq,
                  matrix_panel("Variant vs variant, mean pairing winrate (row vs column)", "variant",
                               "variant_matrix.csv", s.variants)};
+  std::vector<std::string> failed;
   std::string msg;
-  io::render_plot(spec, out_dir + "/tournament.gp", &msg);
+  if (!io::render_plot(spec, out_dir + "/tournament.gp", &msg)) failed.push_back("tournament.png (" + msg + ")");
 
   std::vector<std::string> entry_names;
   for (const Entry& e : r.entries) entry_names.push_back(e.name);
@@ -422,10 +425,12 @@ void write_tournament_figures(const TournamentResult& r, const TournamentStatist
   pairings.title = "Pairing winrate, every entry: " + std::to_string(r.races.size()) + " races";
   pairings.panels = {
       matrix_panel("Winrate of the row entry against the column entry", "entry", "heatmap.csv", entry_names)};
-  io::render_plot(pairings, out_dir + "/pairings.gp", &msg);
+  if (!io::render_plot(pairings, out_dir + "/pairings.gp", &msg)) failed.push_back("pairings.png (" + msg + ")");
+  return failed;
 }
 
-std::string write_tournament_report(const TournamentResult& r, const TournamentOptions& o) {
+std::string write_tournament_report(const TournamentResult& r, const TournamentOptions& o,
+                                    std::vector<std::string>* missing_figures) {
   fs::create_directories(o.out_dir);
   const TournamentStatistics s = tournament_statistics(r, o);
   write_races_csv(r, o.out_dir + "/races.csv");
@@ -433,7 +438,9 @@ std::string write_tournament_report(const TournamentResult& r, const TournamentO
   write_summary_json(r, s, o, o.out_dir + "/summary.json");
   const std::string md = summary_markdown(r, s, o);
   io::write_file_atomic(o.out_dir + "/summary.md", md);
-  write_tournament_figures(r, s, o.out_dir);
+  const std::vector<std::string> missing = write_tournament_figures(r, s, o.out_dir);
+  write_tournament_marker(o, missing, o.out_dir);  // last: the folder is whole once it is there
+  if (missing_figures) *missing_figures = missing;
   return md;
 }
 

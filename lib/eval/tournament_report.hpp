@@ -42,12 +42,16 @@ void write_summary_json(const TournamentResult& result, const TournamentStatisti
 std::string summary_markdown(const TournamentResult& result, const TournamentStatistics& s,
                              const TournamentOptions& options);
 // tournament.png in the layout of the paper's Fig. 3 (bars with std, IQM with CI, variant vs
-// variant) and pairings.png (entry vs entry), with their data and gnuplot scripts.
-void write_tournament_figures(const TournamentResult& result, const TournamentStatistics& s,
-                              const std::string& out_dir);
+// variant) and pairings.png (entry vs entry), with their data and gnuplot scripts. Returns the
+// figures not drawn, each "NAME.png (why)"; their data and scripts are written all the same.
+std::vector<std::string> write_tournament_figures(const TournamentResult& result, const TournamentStatistics& s,
+                                                  const std::string& out_dir);
 
 // All of the above into options.out_dir: races.csv, pairings.csv, summary.json, summary.md and
-// the figures. Returns summary.md's text, for the caller to print.
-std::string write_tournament_report(const TournamentResult& result, const TournamentOptions& options);
+// the figures, then done.txt (eval/tournament_output.hpp). Returns summary.md's text, for the
+// caller to print, and the figures not drawn in `missing_figures`. The folder is written in
+// place: `tournament` writes it into an io::StagedFolder, so it appears whole.
+std::string write_tournament_report(const TournamentResult& result, const TournamentOptions& options,
+                                    std::vector<std::string>* missing_figures = nullptr);
 
 }  // namespace f16race::eval

@@ -496,4 +496,8 @@ ExportReport export_policy(train::RunPolicy& p, const std::string& out_dir) {
   return rep;
 }
 
+bool is_export_output(const std::string& name) {
+  return name == "hl_policy.pt" || name == "ll_policy.pt" || name == "example_io.pt" || name == "README.md";
+}
+
 }  // namespace f16race::torchscript

@@ -66,8 +66,12 @@ void compare_bins(const torch::Tensor& q_ref, const torch::Tensor& bins_ref, con
                   ExportReport* report);
 
 // Writes hl_policy.pt, ll_policy.pt, example_io.pt (random inputs and the in-process outputs,
-// for checking a loader) and README.md into out_dir; each file atomically. Throws
+// for checking a loader) and README.md into out_dir; each file atomically (`f16race export`
+// writes them into an io::StagedFolder, so the four appear together). Throws
 // std::runtime_error if the exported modules disagree with the in-process ones (> 1e-5).
 ExportReport export_policy(train::RunPolicy& policy, const std::string& out_dir);
+
+// Whether `name` is one of the files export_policy writes (the only ones `export --out` may replace).
+bool is_export_output(const std::string& name);
 
 }  // namespace f16race::torchscript

@@ -2,6 +2,7 @@
 
 #include "io/atomic_file.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -36,7 +37,46 @@ std::string shell_quote(const std::string& s) {
 }
 // gnuplot -e variable that redirects an atomic_output script to its temporary name.
 constexpr const char* kOutputVar = "f16race_output";
+
+// gnuplot's messages on one line, cut to a readable length: a failed figure is one line.
+std::string one_line(const std::string& text) {
+  std::string out;
+  for (char ch : text) {
+    if (ch == '\n' || ch == '\r' || ch == '\t') ch = ' ';
+    if (ch == ' ' && (out.empty() || out.back() == ' ')) continue;
+    out += ch;
+  }
+  while (!out.empty() && out.back() == ' ') out.pop_back();
+  return out.size() > 300 ? out.substr(0, 297) + "..." : out;
+}
 }  // namespace
+
+std::string image_problem(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "no image was written";
+  std::fseek(f, 0, SEEK_END);
+  const long size = std::ftell(f);
+  const bool svg = path.size() > 4 && path.compare(path.size() - 4, 4, ".svg") == 0;
+  std::string head(8, '\0'), tail(svg ? 256 : 12, '\0');
+  std::size_t got_head = 0, got_tail = 0;
+  if (size > 0) {
+    std::fseek(f, 0, SEEK_SET);
+    got_head = std::fread(head.data(), 1, head.size(), f);
+    const long from = std::max(0L, size - static_cast<long>(tail.size()));
+    std::fseek(f, from, SEEK_SET);
+    got_tail = std::fread(tail.data(), 1, tail.size(), f);
+    tail.resize(got_tail);
+  }
+  std::fclose(f);
+  if (size <= 0) return "the image is empty";
+  if (svg) return tail.find("</svg>") != std::string::npos ? "" : "the SVG ends before </svg> (cut short)";
+  // A PNG starts with its 8-byte signature and ends with the IEND chunk: a cut file lacks the end.
+  static const std::string signature("\x89PNG\r\n\x1a\n", 8);
+  static const std::string iend("\0\0\0\0IEND\xae\x42\x60\x82", 12);
+  if (got_head != 8 || head != signature) return "the file is not a PNG";
+  if (tail != iend) return "the PNG ends before its IEND chunk (cut short)";
+  return "";
+}
 
 bool gnuplot_available() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
 
@@ -100,17 +140,23 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
     while (std::fgets(buf, sizeof buf, pipe)) out += buf;
   }
   const int rc = pipe ? pclose(pipe) : -1;
-  if (rc != 0) {
-    if (!tmp_base.empty()) std::remove((dir + "/" + tmp_base).c_str());
-    if (message) *message = "gnuplot failed on " + script_path + ": " + out;
+  // The image gnuplot wrote: checked before it takes the output's name, and removed when bad,
+  // so a failed figure never sits under its final name half written.
+  const std::string image = dir + "/" + (tmp_base.empty() ? base_of(spec.output) : tmp_base);
+  const std::string problem = rc == 0 ? image_problem(image) : std::string();
+  if (rc != 0 || !problem.empty()) {
+    std::remove(image.c_str());
+    if (message)
+      *message = rc != 0 ? "gnuplot failed on " + script_path + ": " + one_line(out)
+                         : "gnuplot ran on " + script_path + " but " + problem + " (" + base_of(spec.output) + ")";
     return false;
   }
   if (!tmp_base.empty()) {
     // Same folder, so rename() replaces the old image in one step.
-    const std::string tmp = dir + "/" + tmp_base, final_path = dir + "/" + base_of(spec.output);
-    if (std::rename(tmp.c_str(), final_path.c_str()) != 0) {
-      std::remove(tmp.c_str());
-      if (message) *message = "gnuplot ran on " + script_path + " but " + tmp + " could not be renamed to " + final_path;
+    const std::string final_path = dir + "/" + base_of(spec.output);
+    if (std::rename(image.c_str(), final_path.c_str()) != 0) {
+      std::remove(image.c_str());
+      if (message) *message = "gnuplot ran on " + script_path + " but " + image + " could not be renamed to " + final_path;
       return false;
     }
   }

@@ -35,10 +35,15 @@ struct PlotSpec {
   bool atomic_output = false;
 };
 
-// Writes `script_path` and runs gnuplot on it. Returns true when the image was made; otherwise
-// false with `message` saying why (gnuplot missing or failed). Throws io::CsvError-style
-// std::runtime_error only when the script itself cannot be written.
+// Writes `script_path` and runs gnuplot on it. Returns true when the image was made: gnuplot
+// exited 0 and the image is whole (a PNG with its signature and IEND end, an SVG ending in
+// </svg>). Otherwise false with `message` (one line) saying why (gnuplot missing or failed, the
+// image empty or cut short), and no image under the output's name. Throws io::FileWriteError
+// only when the script itself cannot be written.
 bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message);
+
+// Why the image at `path` is not a whole PNG (or, for *.svg, SVG), or "" when it is.
+std::string image_problem(const std::string& path);
 
 // True when a `gnuplot` executable is on the PATH.
 bool gnuplot_available();

@@ -68,6 +68,16 @@ RunFolderLock& RunFolderLock::operator=(RunFolderLock&& other) noexcept {
   return *this;
 }
 
+std::string run_folder_holder(const std::string& run_dir) {
+  const std::string path = (fs::path(run_dir) / kLockName).string();
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "";
+  std::string holder;
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) holder = errno == EWOULDBLOCK ? holder_pid(fd) : "";
+  ::close(fd);  // releases the probe's lock, if it took it
+  return holder;
+}
+
 std::vector<std::string> run_data_in(const std::string& run_dir) {
   std::vector<std::string> out;
   std::error_code ec;

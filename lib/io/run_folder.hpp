@@ -24,6 +24,10 @@ class RunFolderLock {
   int fd_ = -1;
 };
 
+// The pid (as RUN/.lock records it) of the process holding `run_dir`'s lock, or "" when no one
+// holds it (or the folder has no lock file). Probes by taking the lock for an instant.
+std::string run_folder_holder(const std::string& run_dir);
+
 // The entries of `run_dir` that belong to a run (config.yaml, metrics.csv, a non-empty
 // checkpoint/ or pool/, ...), sorted; empty when the folder is missing or holds none of them.
 std::vector<std::string> run_data_in(const std::string& run_dir);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "eval/study.hpp"
+#include "eval/study_report.hpp"
 #include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
 #include "train/train_config.hpp"
@@ -89,12 +90,28 @@ TEST(Study, PlanOrdersCellsByIntervalSeedVariant) {
   EXPECT_EQ(t.runs, (std::vector<std::string>{"OUT/dt20/es_s2", "OUT/dt20/es_d3_s2", "OUT/dt20/es_s5",
                                                "OUT/dt20/es_d3_s5"}));
   EXPECT_EQ(t.out_dir, "OUT/dt20/tournament");
+  // The child `tournament` the study starts races exactly these options (the rest at the CLI's
+  // defaults, which are TournamentOptions'), so its done.txt matches what the study checks.
+  std::vector<std::string> args{"tournament", "--runs", "OUT/dt20/es_s2", "OUT/dt20/es_d3_s2", "OUT/dt20/es_s5",
+                                 "OUT/dt20/es_d3_s5", "--races", std::to_string(c.races_per_pair), "--seed",
+                                 std::to_string(c.tournament_seed), "--out", "OUT/dt20/tournament"};
+  if (c.controls) args.push_back("--controls");
+  EXPECT_EQ(tournament_args(t), args);
+  EXPECT_EQ(t.controls, c.controls);
   EXPECT_EQ(interval_name(12.5), "dt12.5");
   // The study's own overrides come first, so a cell's keys win over them.
   c.set = {"train.ll_pilot=autopilot"};
   EXPECT_EQ(plan_study(c, "OUT")[7].overrides,
             (std::vector<std::string>{"train.ll_pilot=autopilot", "hl.agent=es_d3", "seed=5", "race.dt_hl_s=20",
                                       "train.total_env_steps=7000"}));
+}
+
+// OUT/report/ is replaced whole: only the report's own files may be in it.
+TEST(Study, ReportFolderOwnsItsFilesOnly) {
+  for (const char* f : {"report.md", "curves_dt8.png", "curves_dt8.gp", "curves_dt12.5.png"})
+    EXPECT_TRUE(is_study_report_output(f)) << f;
+  for (const char* f : {"notes.md", "report_dt20.md", "curves_dt8.csv", "study.yaml", "dt8"})
+    EXPECT_FALSE(is_study_report_output(f)) << f;
 }
 
 TEST(Study, MetricsTailSkipsALineStillBeingWritten) {
