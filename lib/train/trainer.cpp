@@ -21,6 +21,7 @@
 #include "io/csv_table.hpp"
 #include "io/learning_curves.hpp"
 #include "io/run_folder.hpp"
+#include "io/stale_temporaries.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "random/random_stream.hpp"
@@ -409,6 +410,14 @@ Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
 Trainer::~Trainer() = default;
 
 namespace {
+// Takes the run folder's lock, then removes what killed writers left in it: temporaries of
+// files, figures and pool snapshots (uncommitted checkpoint folders go at the resume).
+std::unique_ptr<io::RunFolderLock> own_run_folder(const std::string& run_dir) {
+  auto lock = std::make_unique<io::RunFolderLock>(run_dir);
+  for (const char* sub : {"", "checkpoint", "pool"}) io::remove_stale_temporaries((fs::path(run_dir) / sub).string());
+  return lock;
+}
+
 void check_tail_members_in_one_process(const TrainConfig& cfg, int world, const std::string& source) {
   if (cfg.loop.hl_tail_members > 1 && world > 1)
     throw io::InputError(source + ": train.hl_tail_members = " + std::to_string(cfg.loop.hl_tail_members) +
@@ -454,7 +463,7 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Gr
     s_->load_opponent();
     return;
   }
-  s_->lock = std::make_unique<io::RunFolderLock>(run_dir);
+  s_->lock = own_run_folder(run_dir);
   // Anything in the folder may be a run whose LATEST was lost: never write over it.
   if (const std::vector<std::string> data = io::run_data_in(run_dir); !data.empty()) {
     std::string names;
@@ -522,7 +531,7 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
   RunConfig run;
   bool fresh = false;
   if (st->group == nullptr) {
-    if (fs::is_directory(run_dir)) st->lock = std::make_unique<io::RunFolderLock>(run_dir);
+    if (fs::is_directory(run_dir)) st->lock = own_run_folder(run_dir);
     run = read_run_to_resume(run_dir, &fresh);
   } else {
     // Rank 0 reads the run's config and sends it: the other ranks may be on hosts without the
@@ -530,7 +539,7 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
     std::string problem;
     if (st->writes()) {
       try {
-        if (fs::is_directory(run_dir)) st->lock = std::make_unique<io::RunFolderLock>(run_dir);
+        if (fs::is_directory(run_dir)) st->lock = own_run_folder(run_dir);
         run = read_run_to_resume(run_dir, &fresh);
       } catch (const std::exception& e) {
         problem = e.what();

@@ -2,6 +2,8 @@
 // corrupt or mismatched), exact resume, determinism, and the self-play pool draws.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <torch/serialize/input-archive.h>
 #include <torch/serialize/output-archive.h>
 #include <yaml-cpp/yaml.h>
@@ -864,6 +866,30 @@ TEST(Trainer, ARunResumedBeforeItsFirstCheckpointStartsAfresh) {
     EXPECT_NE(std::string(e.what()).find("holds no run yet"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("--run " + empty), std::string::npos) << e.what();
   }
+}
+
+// What a killed writer left (file and figure temporaries, a half pool snapshot) is removed by the
+// next process that owns the run folder; a live process's temporaries are left alone.
+TEST(Trainer, AResumeRemovesTheTemporariesOfKilledWriters) {
+  const std::string dir = fresh_dir("stale");
+  {
+    Trainer t(smoke(), dir);
+    t.run(nullptr, 3);
+  }
+  const pid_t child = fork();
+  if (child == 0) _exit(0);
+  waitpid(child, nullptr, 0);
+  const std::string dead = std::to_string(child), live = std::to_string(getppid());  // alive, not this process
+  const std::vector<std::string> stale = {"config.yaml.tmp." + dead, ".curves.png.tmp." + dead + ".1",
+                                          "checkpoint/LATEST.tmp." + dead, "pool/.step_0000000096.tmp." + dead};
+  for (const std::string& f : stale) {
+    if (f.rfind("pool/", 0) == 0) fs::create_directories(fs::path(dir) / f);
+    else std::ofstream(fs::path(dir) / f) << "half";
+  }
+  std::ofstream(fs::path(dir) / ("metrics.csv.tmp." + live)) << "live";
+  Trainer::resume(dir);
+  for (const std::string& f : stale) EXPECT_FALSE(fs::exists(fs::path(dir) / f)) << f;
+  EXPECT_TRUE(fs::exists(fs::path(dir) / ("metrics.csv.tmp." + live)));
 }
 
 TEST(Trainer, AtomicCheckpointsLeaveNoTemporaryFilesAndPruneOldOnes) {
