@@ -244,8 +244,10 @@ void add_bench_command(CLI::App& app, const int& threads_option) {
   cmd->add_option("--aircraft", sim->aircraft, "Number of aircraft")->check(CLI::Range(1, 10000000));
   cmd->add_option("--substeps", sim->substeps, "RK4 substeps per timed run")->check(CLI::Range(1, 100000));
   cmd->add_option("--repeats", sim->repeats, "Timed runs (median reported)")->check(CLI::Range(1, 1000));
+  // Bounded as the global --threads is: more threads than 4 x cores only spin against each other.
+  const CLI::Range thread_counts(1, 4 * std::max(1, omp_get_num_procs()));
   cmd->add_option("--threads", sim->threads, "Thread counts to measure (default: 1 and all cores)")
-      ->check(CLI::PositiveNumber);
+      ->check(thread_counts);
   cmd->add_option("--law", sim->law,
                   "What sets the references: held (default, the race env's case), or AeroBench's gcas or waypoint "
                   "autopilot evaluated at every RK stage")
@@ -259,7 +261,7 @@ void add_bench_command(CLI::App& app, const int& threads_option) {
   ecmd->add_option("--team-size", envo->team_size, "Aircraft per team")->check(CLI::Range(1, 8));
   ecmd->add_option("--steps", envo->steps, "LL steps per timed run")->check(CLI::Range(1, 100000));
   ecmd->add_option("--repeats", envo->repeats, "Timed runs (median reported)")->check(CLI::Range(1, 1000));
-  ecmd->add_option("--threads", envo->threads, "Thread counts to measure (default: 1 and all cores)")->check(CLI::PositiveNumber);
+  ecmd->add_option("--threads", envo->threads, "Thread counts to measure (default: 1 and all cores)")->check(thread_counts);
   ecmd->add_flag("--json", envo->json, "One JSON object per measured case, one per line");
   auto soak = std::make_shared<SoakBenchOptions>();
   CLI::App* scmd = bench->add_subcommand("soak", "Hostile actions through the race env: non-finite outputs (must be 0), "

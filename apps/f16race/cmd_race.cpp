@@ -43,6 +43,9 @@ void run_race(const RaceOptions& o) {
   if (o.seed >= 0) cfg.seed = static_cast<std::uint64_t>(o.seed);
   if (o.policy != "scripted" && o.policy != "autopilot")
     throw io::InputError("--policy '" + o.policy + "': use scripted or autopilot (AeroBench's waypoint autopilot)");
+  if (o.plot_race >= cfg.n_env)  // checked before any race is flown: never a silent "no figure"
+    throw io::InputError("--plot " + std::to_string(o.plot_race) + ": there are " + std::to_string(cfg.n_env) +
+                         " races (0 to " + std::to_string(cfg.n_env - 1) + "); draw one of them, or -1 for none");
 
   RaceEnv env(cfg);
   const int n = env.n_aircraft(), n_agent = env.n_agent();
@@ -95,7 +98,7 @@ void run_race(const RaceOptions& o) {
   std::printf("terminations:");
   for (int k = 1; k < kNumCauses; ++k) std::printf(" %s %d", cause_name(k), totals.terminations[k]);
   std::printf("\ntrajectories and tracks: %s/\n", o.out.c_str());
-  if (o.plot_race >= 0 && o.plot_race < cfg.n_env) {
+  if (o.plot_race >= 0) {
     const RaceTrace& t = rec.trace(o.plot_race);
     const std::string prefix = "race" + std::to_string(o.plot_race);
     write_trace_csv(t, o.out, prefix);
@@ -118,7 +121,7 @@ void add_race_command(CLI::App& app) {
   cmd->add_option("--policy", o->policy, "Pilot: scripted (fly the tube, keep your lane) or autopilot (AeroBench's waypoint autopilot on the same aim point)");
   cmd->add_option("--races", o->races, "Number of races (run in parallel)")->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", o->seed, "Seed (default: the config's race.seed)")->check(kNonNegativeSeed);
-  cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)");
+  cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)")->check(CLI::Range(-1, 100000));
   cmd->add_option("--out", o->out, "Output folder");
   cmd->callback([o]() { run_race(*o); });
 }

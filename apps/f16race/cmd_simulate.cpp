@@ -2,6 +2,7 @@
 // evaluate the model's derivatives at given points, and compare with AeroBench's own numbers.
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -212,6 +213,17 @@ void run_derivatives(const SimulateOptions& o) {
   if (o.compare) print_comparison(aerobench_files::compare_columns(in, d.header, d.rows, d.n_inputs, /*relative=*/true), true);
 }
 
+// > 0, said in a short line (CLI::PositiveNumber's message prints DBL_MAX's 309 digits); nan and
+// inf are refused for every option in main.
+const CLI::Validator kPositive(
+    [](std::string& text) {
+      char* end = nullptr;
+      const double v = std::strtod(text.c_str(), &end);
+      if (end == text.c_str() || *end != '\0') return std::string();  // not a number: the conversion says so
+      return v > 0.0 ? std::string() : "'" + text + "' must be > 0";
+    },
+    "POSITIVE");
+
 }  // namespace
 
 void add_simulate_command(CLI::App& app) {
@@ -235,11 +247,11 @@ void add_simulate_command(CLI::App& app) {
                   "--autopilot without --reference: CSV of start states (reference-format state columns; "
                   "integrators optional; optional start `mode`). One row: its trajectory. Several: every row an "
                   "aircraft, flown as one batch; --out gets one summary row per aircraft");
-  cmd->add_option("--trim-vt", opts->trim_vt_ftps, "Scripted run: trim airspeed [ft/s]")->check(CLI::PositiveNumber);
+  cmd->add_option("--trim-vt", opts->trim_vt_ftps, "Scripted run: trim airspeed [ft/s]")->check(kPositive);
   cmd->add_option("--trim-alt", opts->trim_alt_ft, "Scripted run: trim altitude [ft]");
-  cmd->add_option("--duration", opts->duration_s, "Scripted or autopilot run: length [s]")->check(CLI::PositiveNumber);
+  cmd->add_option("--duration", opts->duration_s, "Scripted or autopilot run: length [s]")->check(kPositive);
   cmd->add_option("--sample", opts->sample_s, "Scripted or autopilot run: output interval [s] (default 0.02; autopilot 1/30)")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->each([opts](const std::string&) { opts->sample_given = true; });
   cmd->add_option("--dt", opts->dt_s, "Largest integration step [s]")->check(CLI::Range(1e-6, 1.0));
   cmd->add_option("--integrator", opts->integrator, "rk4 (default) or euler");

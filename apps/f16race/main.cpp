@@ -7,11 +7,15 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <c10/util/Exception.h>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <exception>
+#include <new>
 #include <string>
 
 #include "commands.hpp"
@@ -67,6 +71,43 @@ static void keep_freed_memory() {
   mallopt(M_TOP_PAD, 64 * 1024 * 1024);
 }
 
+// Every numeric option of every subcommand refuses an empty value (`--seed "$UNSET"` converted
+// silently to 0), and every floating-point one nan and infinities (and numbers that overflow a
+// double): CLI11's Range lets nan through (every comparison with it is false), and no option
+// means one. Added here, after the commands defined theirs, so none can be missed; the message
+// names the option (CLI11 prefixes it).
+static void numbers_only(CLI::App* app) {
+  static const CLI::Validator number(
+      [](std::string& text) {
+        if (text.empty()) return std::string("an empty value; give a number");
+        return std::string();
+      },
+      "");
+  static const CLI::Validator finite(
+      [](std::string& text) {
+        const char* begin = text.c_str();
+        char* end = nullptr;
+        const double v = std::strtod(begin, &end);
+        if (end == begin || *end != '\0') return std::string();  // not a number: the conversion says so
+        return std::isfinite(v) ? std::string() : "'" + text + "' is not a finite number; give one such as 0.5 or 1e3";
+      },
+      "");
+  for (CLI::Option* opt : app->get_options()) {
+    if (opt->get_type_size() == 0) continue;  // a flag
+    const std::string type = opt->get_type_name();
+    const bool is_float = type.rfind("FLOAT", 0) == 0;
+    if (is_float || type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0) opt->check(number);
+    if (is_float) opt->check(finite);
+  }
+  for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; })) numbers_only(sub);
+}
+
+static int out_of_memory() {
+  std::fprintf(stderr, "f16race: error: out of memory: the workload does not fit in this machine's memory; make it "
+                       "smaller (race.n_env, race.team_size, ll.n_steps, network sizes, --races, --aircraft, ...)\n");
+  return 2;
+}
+
 int main(int argc, char** argv) {
   known_blas_kernels(argv);
   keep_freed_memory();
@@ -95,6 +136,7 @@ int main(int argc, char** argv) {
   f16race::app::add_race_command(app);
   f16race::app::add_bench_command(app, threads);
   f16race::app::add_launch_command(app, threads);
+  numbers_only(&app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -112,6 +154,12 @@ int main(int argc, char** argv) {
   } catch (const std::filesystem::filesystem_error& e) {
     std::fprintf(stderr, "f16race: error: %s\n", e.what());
     return 2;
+  } catch (const std::bad_alloc&) {  // a workload larger than the machine: the user's to size, not a bug
+    return out_of_memory();
+  } catch (const c10::Error& e) {  // LibTorch's allocator says the same in its own words
+    if (std::strstr(e.what_without_backtrace(), "can't allocate memory") != nullptr) return out_of_memory();
+    std::fprintf(stderr, "f16race: internal error: %s\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "f16race: internal error: %s\n", e.what());
     return 1;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include "dynamics/model_probe.hpp"
@@ -19,10 +20,33 @@ namespace {
 // takes them; trajectories name the commanded surfaces kSurfaceNames instead.
 constexpr std::array<const char*, 4> kPlantSurfaceColumns = {"throttle", "elevator_deg", "aileron_deg", "rudder_deg"};
 
+// Every number these files give enters a computation (a start state, a reference, a time), so
+// nan, inf and overflowing cells are refused with the file, line and column.
 std::vector<double> require_column(const io::CsvTable& t, const std::string& name) {
   if (!t.has_column(name))
     throw io::InputError(t.source() + ": missing column '" + name + "' (the AeroBench reference format names it so)");
-  return t.numeric(name);
+  return t.finite(name);
+}
+
+std::string short_number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// A start state outside the model's domain would be frozen before its first step, and a point
+// outside it evaluated on extrapolated tables (or divided by an airspeed of 0): refused naming
+// the file, its line and the column.
+void require_state_in_domain(const io::CsvTable& t, std::size_t row, const StateVector& x, const char* what) {
+  double lo = 0.0, hi = 0.0;
+  const int s = first_state_outside_domain(x, EnvelopeLimits{}, &lo, &hi);
+  if (s < 0) return;
+  std::string range = "[" + short_number(lo) + ", " + short_number(hi) + "]";
+  if (s == kAlpha || s == kBeta || s == kTheta)
+    range += " rad (" + short_number(lo / kDegToRad) + " to " + short_number(hi / kDegToRad) + " deg)";
+  throw io::InputError(t.source() + ":" + std::to_string(t.line_of_row(row)) + ": " + what + " " + kStateNames[s] +
+                       " = " + short_number(x[s]) + " is outside the model's domain " + range + "; give a " + what +
+                       " inside it");
 }
 
 // Line numbers in messages count the header as line 1.
@@ -49,6 +73,7 @@ ReplayRequest request_from_reference(const io::CsvTable& reference, const Replay
   if (req.output_times_s.empty()) throw io::InputError(reference.source() + ": no data rows");
   require_increasing(req.output_times_s, reference.source());
   for (int s = 0; s < kNumStates; ++s) req.x0[s] = require_column(reference, kStateNames[s]).front();
+  require_state_in_domain(reference, 0, req.x0, "start state");
   req.refs.t_s = req.output_times_s;
   for (int r = 0; r < kNumRefs; ++r) req.refs.values[r] = require_column(reference, kRefNames[r]);
   if (reference.has_column("mode")) {
@@ -67,8 +92,7 @@ ReplayRequest request_from_commands(const io::CsvTable* commands, const Scripted
   if (!(run.duration_s > 0.0) || !(run.sample_s > 0.0)) throw io::InputError("--duration and --sample must be > 0");
   // Checked before the cast: a huge ratio would overflow int and simulate nothing.
   if (run.duration_s / run.sample_s > ScriptedRun::kMaxSamples)
-    throw io::InputError("--duration " + std::to_string(run.duration_s) + " s at --sample " +
-                         std::to_string(run.sample_s) +
+    throw io::InputError("--duration " + short_number(run.duration_s) + " s at --sample " + short_number(run.sample_s) +
                          " s would write more than 10 000 000 samples; shorten --duration or raise --sample");
   TrimRequest trim_req;
   trim_req.model = settings.model;
@@ -99,7 +123,7 @@ ReplayRequest request_from_commands(const io::CsvTable* commands, const Scripted
   for (int r = 0; r < kNumRefs; ++r) {
     std::vector<double> v(req.refs.t_s.size(), 0.0);
     if (commands->has_column(kRefNames[r])) {
-      v = commands->numeric(kRefNames[r]);
+      v = commands->finite(kRefNames[r]);
       any = true;
     }
     for (double& x : v) x += trim.u_ref[r];
@@ -140,6 +164,7 @@ std::vector<StateVector> initial_states(const io::CsvTable& init) {
     const std::vector<double> column = require_column(init, kStateNames[s]);
     for (std::size_t k = 0; k < x.size(); ++k) x[k][s] = column[k];
   }
+  for (std::size_t k = 0; k < x.size(); ++k) require_state_in_domain(init, k, x[k], "start state");
   return x;
 }
 
@@ -154,7 +179,7 @@ std::vector<std::string> row_modes(const io::CsvTable& t) {
 std::vector<double> sample_times(double duration_s, double sample_s) {
   if (!(duration_s > 0.0) || !(sample_s > 0.0)) throw io::InputError("--duration and --sample must be > 0");
   if (duration_s / sample_s > ScriptedRun::kMaxSamples)
-    throw io::InputError("--duration " + std::to_string(duration_s) + " s at --sample " + std::to_string(sample_s) +
+    throw io::InputError("--duration " + short_number(duration_s) + " s at --sample " + short_number(sample_s) +
                          " s would write more than 10 000 000 samples; shorten --duration or raise --sample");
   std::vector<double> times;
   // Accumulated like run_f16_sim's sample times, so mode switches see the same clock values.
@@ -201,6 +226,9 @@ DerivativeTable evaluate_derivatives(const io::CsvTable& points, AeroModel model
   out.rows.resize(n);
   for (std::size_t r = 0; r < n; ++r) {
     std::vector<NamedValue> values;
+    StateVector point{};  // a plant point's integrators are 0
+    for (int s = 0; s < n_states; ++s) point[s] = inputs[s][r];
+    require_state_in_domain(points, r, point, "state");
     if (out.closed_loop) {
       StateVector x;
       RefVector u;

@@ -54,4 +54,34 @@ F16_INLINE std::int32_t classify_state(const double* x, const EnvelopeLimits& li
   return code;
 }
 
+// The domain a start state read from a file must lie in before it is flown: every state finite,
+// the envelope above (the aero tables' alpha range, sideslip, pitch, airspeed, altitude) and the
+// engine's power state 0..100 %. Returns the first state outside it, or -1; `lo` and `hi` get
+// that state's allowed range (for |beta| and |theta| the signed one). Input validation only: the
+// simulator itself freezes an aircraft that leaves the envelope (classify_state).
+inline int first_state_outside_domain(const StateVector& x, const EnvelopeLimits& lim, double* lo, double* hi) {
+  const double big = DBL_MAX;
+  auto bounds = [&](int s, double& l, double& h) {
+    switch (s) {
+      case kVt: l = lim.vt_min_ftps, h = lim.vt_max_ftps; break;
+      case kAlpha: l = lim.alpha_min_rad, h = lim.alpha_max_rad; break;
+      case kBeta: l = -lim.beta_max_rad, h = lim.beta_max_rad; break;
+      case kTheta: l = -lim.theta_max_rad, h = lim.theta_max_rad; break;
+      case kAlt: l = lim.alt_min_ft, h = lim.alt_max_ft; break;
+      case kPow: l = 0.0, h = 100.0; break;
+      default: l = -big, h = big;
+    }
+  };
+  for (int s = 0; s < kNumStates; ++s) {
+    double l, h;
+    bounds(s, l, h);
+    if (!(x[s] >= l && x[s] <= h)) {  // NaN fails both
+      *lo = l;
+      *hi = h;
+      return s;
+    }
+  }
+  return -1;
+}
+
 }  // namespace f16race::dynamics

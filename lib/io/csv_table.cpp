@@ -64,6 +64,7 @@ void check_cell_text(const std::string& path, const std::string& what, const std
 }  // namespace
 
 CsvTable CsvTable::read(const std::string& path) {
+  if (path.empty()) throw CsvError("an empty CSV path (an unset variable?); pass the path of a .csv file");
   // ifstream happily "opens" a directory and then reads nothing; say so plainly.
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) {
@@ -90,15 +91,27 @@ CsvTable CsvTable::parse(const std::string& text, const std::string& source_name
   CsvTable t;
   t.source_ = source_name;
 
+  // A UTF-8 byte-order mark (spreadsheets write one) is not part of the first column's name.
+  // UTF-16 would read as a NUL between every character: refused with the fix.
+  std::size_t start = 0;
+  if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) start = 3;
+  if (text.compare(0, 2, "\xFF\xFE") == 0 || text.compare(0, 2, "\xFE\xFF") == 0)
+    throw CsvError(source_name + ": is UTF-16 text (byte-order mark); save it as UTF-8 (or ASCII) CSV");
+
   // Split into lines, tolerating \r\n; record 1-based line numbers.
   std::vector<std::string> lines;
-  std::size_t start = 0;
   while (start < text.size()) {
     std::size_t nl = text.find('\n', start);
     std::size_t end = (nl == std::string::npos) ? text.size() : nl;
     std::size_t len = end - start;
     if (len > 0 && text[end - 1] == '\r') --len;
     lines.push_back(text.substr(start, len));
+    // A carriage return left inside a line: the file ends its lines with a bare CR (classic
+    // Mac), which would read as one long line with garbled cells.
+    if (lines.back().find('\r') != std::string::npos)
+      throw CsvError(source_name + ":" + std::to_string(lines.size()) +
+                     ": a carriage return inside the line (lines ended by CR alone?); save the file with LF or CRLF "
+                     "line ends");
     if (nl == std::string::npos) break;
     start = nl + 1;
   }
@@ -176,6 +189,17 @@ std::vector<double> CsvTable::numeric(const std::string& name) const {
   }
   return out;
 }
+
+std::vector<double> CsvTable::finite(const std::string& name) const {
+  std::vector<double> out = numeric(name);
+  for (std::size_t r = 0; r < out.size(); ++r)
+    if (!std::isfinite(out[r]))
+      throw CsvError(source_ + ":" + std::to_string(line_of_row_[r]) + ": column '" + name + "' is '" +
+                     trim(cells_[r][index_.at(name)]) + "'; give a finite number");
+  return out;
+}
+
+std::size_t CsvTable::line_of_row(std::size_t row) const { return row < line_of_row_.size() ? line_of_row_[row] : 0; }
 
 const std::string& CsvTable::cell(std::size_t row, std::size_t col) const {
   if (row >= cells_.size() || col >= header_.size()) {

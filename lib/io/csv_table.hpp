@@ -29,7 +29,13 @@ class CsvTable {
   std::size_t rows() const;
   bool has_column(const std::string& name) const;
   std::size_t column_index(const std::string& name) const;
+  // nan and inf cells are numbers here (a metrics file leaves them where nothing was measured).
   std::vector<double> numeric(const std::string& name) const;
+  // numeric(), refusing a nan or infinite cell (or one that overflows a double) naming the file,
+  // its line and the column: for inputs a computation starts from.
+  std::vector<double> finite(const std::string& name) const;
+  // The 1-based file line of data row `row` (the header is line 1), for messages.
+  std::size_t line_of_row(std::size_t row) const;
   const std::string& cell(std::size_t row, std::size_t col) const;
 
  private:

@@ -9,6 +9,7 @@
 namespace f16race::io {
 
 YAML::Node load_yaml_file(const std::string& path) {
+  if (path.empty()) throw ConfigError("an empty config path (an unset variable?); pass the path of a .yaml file");
   // A directory opens as a stream that reads nothing: it would pass as an empty config.
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
@@ -95,6 +96,8 @@ void ConfigReader::fail(const char* key, const std::string& what) const {
 
 namespace {
 std::string scalar_text(const YAML::Node& n) {
+  // `key:` with nothing after it, or `--set key=`, is a null node: neither a value nor a mapping.
+  if (n.IsNull()) return "an empty value";
   if (n.IsScalar()) return "'" + n.Scalar() + "'";
   return n.IsSequence() ? "a list" : "a mapping";
 }
@@ -214,9 +217,11 @@ void ConfigReader::read(const char* key, std::vector<double>* value, double lo, 
     } catch (const YAML::BadConversion&) {
       fail(key, "element " + std::to_string(i) + " is not a number");
     }
-    if (!(v >= lo && v <= hi))
-      fail(key, "element " + std::to_string(i) + " = " + n[i].Scalar() + " is out of range; allowed [" +
-                    std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    if (!(v >= lo && v <= hi)) {
+      std::ostringstream m;
+      m << "element " << i << " = " << n[i].Scalar() << " is out of range; allowed [" << lo << ", " << hi << "]";
+      fail(key, m.str());
+    }
     out.push_back(v);
   }
   if (out.empty()) fail(key, "the list must not be empty");

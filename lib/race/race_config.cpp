@@ -1,11 +1,22 @@
 #include "race/race_config.hpp"
 
+#include <cstdio>
+
 #include "io/csv_table.hpp"
 #include "io/yaml_config.hpp"
 
 namespace f16race::race {
 
 namespace {
+// Samples of one track, held for every race at once (~120 bytes each): beyond this a typo.
+constexpr double kMaxTrackSamples = 1e7;
+
+std::string short_count(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return buf;
+}
+
 // One list of keys for reading and writing: R is io::ConfigReader or io::ConfigWriter.
 template <class R>
 void bind_race_config(R& r, RaceConfig* c) {
@@ -89,27 +100,48 @@ void read_race_config(io::ConfigReader& r, RaceConfig* c) {
 void write_race_config(io::ConfigWriter& w, RaceConfig c) { bind_race_config(w, &c); }
 
 void validate_race_config(const RaceConfig& c, const std::string& source) {
+  // Each message names the keys (under race:) with their values, and what would make them agree.
   auto fail = [&](const std::string& what) { throw io::ConfigError(source + ": race: " + what); };
-  if (c.team_size < 1 || c.team_size > 8) fail("team_size must be in [1, 8] (1 vs 1 up to 8 vs 8)");
-  if (c.n_env < 1) fail("n_env must be >= 1");
+  auto v = [](double x) { return io::format_double(x); };
+  if (c.team_size < 1 || c.team_size > 8)
+    fail("team_size (" + v(c.team_size) + ") must be in [1, 8] (1 vs 1 up to 8 vs 8)");
+  if (c.n_env < 1) fail("n_env (" + v(c.n_env) + ") must be >= 1");
   if (c.dt_hl_s > c.time_limit_s)
-    fail("dt_hl_s (" + io::format_double(c.dt_hl_s) + ") must be <= time_limit_s (" + io::format_double(c.time_limit_s) +
+    fail("dt_hl_s (" + v(c.dt_hl_s) + ") must be <= time_limit_s (" + v(c.time_limit_s) +
          "): a race must see at least one high-level interval end");
-  if (c.track.leg_min_ft > c.track.leg_max_ft) fail("track.leg_min_ft must be <= track.leg_max_ft");
-  if (c.track.alt_min_ft >= c.track.alt_max_ft) fail("track.alt_min_ft must be < track.alt_max_ft");
-  if (c.track.radius_min_ft > c.track.radius_max_ft) fail("track.radius_min_ft must be <= track.radius_max_ft");
-  if (c.alt_min_ft >= c.alt_max_ft) fail("alt_min_ft must be < alt_max_ft");
+  if (c.track.leg_min_ft > c.track.leg_max_ft)
+    fail("track.leg_min_ft (" + v(c.track.leg_min_ft) + ") must be <= track.leg_max_ft (" + v(c.track.leg_max_ft) + ")");
+  if (c.track.alt_min_ft >= c.track.alt_max_ft)
+    fail("track.alt_min_ft (" + v(c.track.alt_min_ft) + ") must be < track.alt_max_ft (" + v(c.track.alt_max_ft) + ")");
+  if (c.track.radius_min_ft > c.track.radius_max_ft)
+    fail("track.radius_min_ft (" + v(c.track.radius_min_ft) + ") must be <= track.radius_max_ft (" +
+         v(c.track.radius_max_ft) + ")");
+  // Every track is sampled every spacing_ft up front, for each race: a typo here asked for
+  // gigabytes per race.
+  // (Track::max_samples: the longest track the legs allow, with room for the turns' arcs.)
+  const double samples = 1.5 * (c.track.n_waypoints - 1) * c.track.leg_max_ft / c.track.spacing_ft;
+  if (samples > kMaxTrackSamples)
+    fail("track.n_waypoints (" + v(c.track.n_waypoints) + "), track.leg_max_ft (" + v(c.track.leg_max_ft) +
+         ") and track.spacing_ft (" + v(c.track.spacing_ft) + ") make tracks of up to " + short_count(samples) +
+         " samples, more than " + short_count(kMaxTrackSamples) + "; raise track.spacing_ft or shorten the track");
+  if (c.alt_min_ft >= c.alt_max_ft) fail("alt_min_ft (" + v(c.alt_min_ft) + ") must be < alt_max_ft (" + v(c.alt_max_ft) + ")");
   if (c.track.alt_min_ft - c.track.radius_max_ft < c.alt_min_ft || c.track.alt_max_ft + c.track.radius_max_ft > c.alt_max_ft)
-    fail("the track band [track.alt_min_ft - radius, track.alt_max_ft + radius] must lie inside [alt_min_ft, alt_max_ft]");
-  if (c.nz_ref_min_g >= c.nz_ref_max_g) fail("nz_ref_min_g must be < nz_ref_max_g");
-  if (c.hl_bins % 2 == 0) fail("hl_bins must be odd so that the middle bin is the center-line");
+    fail("the track band [track.alt_min_ft - track.radius_max_ft, track.alt_max_ft + track.radius_max_ft] = [" +
+         v(c.track.alt_min_ft - c.track.radius_max_ft) + ", " + v(c.track.alt_max_ft + c.track.radius_max_ft) +
+         "] must lie inside [alt_min_ft, alt_max_ft] = [" + v(c.alt_min_ft) + ", " + v(c.alt_max_ft) + "]");
+  if (c.nz_ref_min_g >= c.nz_ref_max_g)
+    fail("nz_ref_min_g (" + v(c.nz_ref_min_g) + ") must be < nz_ref_max_g (" + v(c.nz_ref_max_g) + ")");
+  if (c.hl_bins % 2 == 0) fail("hl_bins (" + v(c.hl_bins) + ") must be odd so that the middle bin is the center-line");
   if (c.goal_origin == GoalOrigin::kLane && c.goal_frame != GoalFrame::kTrack)
     fail("goal_origin: lane needs goal_frame: track (a lane is an offset across the track)");
   if (c.goal_refresh_ft >= c.goal_ahead())
-    fail("goal_refresh_ft must be < goal_ahead_ft (or the preview horizon when goal_ahead_ft is 0), else the goal "
-         "would be placed again at every step");
+    fail("goal_refresh_ft (" + v(c.goal_refresh_ft) + ") must be < goal_ahead_ft (" + v(c.goal_ahead()) +
+         (c.goal_ahead_ft > 0.0 ? "" : ": 0, so the preview horizon preview_points x preview_spacing_ft") +
+         "), else the goal would be placed again at every step");
   if (c.start_s_ft + c.finish_margin_ft + 1000.0 > c.track.leg_min_ft * (c.track.n_waypoints - 1))
-    fail("start_s_ft + finish_margin_ft leaves no race on the shortest possible track");
+    fail("start_s_ft (" + v(c.start_s_ft) + ") + finish_margin_ft (" + v(c.finish_margin_ft) +
+         ") leaves no race on the shortest possible track (track.leg_min_ft x (track.n_waypoints - 1) = " +
+         v(c.track.leg_min_ft * (c.track.n_waypoints - 1)) + " ft; at least 1000 ft of it must be raced)");
 }
 
 }  // namespace f16race::race

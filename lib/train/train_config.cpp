@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include "io/csv_table.hpp"
 #include "io/input_error.hpp"
@@ -138,6 +139,15 @@ void bind_pool(R& r, PoolConfig* c) {
   r.finish();
 }
 
+// train.total_env_steps as written (the reader took it as unsigned), for the message.
+std::uint64_t steps_as_read(const YAML::Node& root) {
+  try {
+    return root["train"]["total_env_steps"].as<std::uint64_t>();
+  } catch (const YAML::Exception&) {
+    return 0;
+  }
+}
+
 }  // namespace
 
 race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& c) {
@@ -162,7 +172,16 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
   io::ConfigReader pool = top.child("pool");
   bind_pool(pool, &c.pool);
   top.finish();
-  if (c.loop.total_env_steps <= 0) throw io::ConfigError(source + ": train.total_env_steps must be > 0");
+  if (c.loop.total_env_steps <= 0)  // 0, or above 2^63 - 1 (read as unsigned)
+    throw io::ConfigError(source + ": train.total_env_steps = " + std::to_string(steps_as_read(root)) +
+                          " must be in [1, 9223372036854775807]");
+  // Multi-head attention splits d_model into n_heads equal parts.
+  for (const auto& [section, d_model, n_heads] :
+       {std::tuple<const char*, std::int64_t, std::int64_t>{"ll", c.ll.net.d_model, c.ll.net.n_heads},
+        {"hl", c.hl.d_model, c.hl.n_heads}})
+    if (d_model % n_heads != 0)
+      throw io::ConfigError(source + ": " + section + ".n_heads (" + std::to_string(n_heads) + ") must divide " + section +
+                            ".d_model (" + std::to_string(d_model) + "): attention splits d_model over the heads");
   if (c.loop.ll_pilot == LowLevelPilot::kAutopilot && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
                           "train.hl_phase_updates must be > 0");
@@ -191,7 +210,8 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
                           "train.hl_phase_updates must be > 0");
   resolve_hl_scales(&c);
   if (c.hl.v_min >= c.hl.v_max)
-    throw io::ConfigError(source + ": hl.v_min must be < hl.v_max (or both 0: derived from the race)");
+    throw io::ConfigError(source + ": hl.v_min must be < hl.v_max (or both 0: derived from the race); got " +
+                          io::format_double(c.hl.v_min) + " and " + io::format_double(c.hl.v_max));
   if (c.hl.per_axis_critic && c.hl.variant == agents::EsVariant::kEs)
     throw io::ConfigError(source + ": hl.critic: per_axis needs decoupled utilities (hl.agent es_d1, es_d2 or es_d3), "
                           "not es's joint head");
@@ -211,7 +231,9 @@ TrainConfig read_train_config(const YAML::Node& root, const std::string& source)
     throw io::ConfigError(source + ": hl.lateral: team is defined for hl.agent es_d2 only (its value target), not " +
                           agents::es_variant_name(c.hl.variant));
   if (c.ll.n_steps * c.race.n_env * c.race.team_size % c.ll.n_minibatches != 0)
-    throw io::ConfigError(source + ": ll.n_minibatches must divide ll.n_steps x race.n_env x race.team_size");
+    throw io::ConfigError(source + ": ll.n_minibatches (" + std::to_string(c.ll.n_minibatches) +
+                          ") must divide ll.n_steps x race.n_env x race.team_size (" + std::to_string(c.ll.n_steps) +
+                          " x " + std::to_string(c.race.n_env) + " x " + std::to_string(c.race.team_size) + ")");
   // One seed drives everything; the race and both learners get their own streams from it.
   c.race.seed = c.seed;
   c.ll.seed = c.seed * 2 + 11;

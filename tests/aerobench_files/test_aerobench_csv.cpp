@@ -26,7 +26,8 @@ io::CsvTable load(const std::string& name) {
 }
 
 // A reference-format table with the given t_s values, every state and reference column, and
-// state s = s + row / 10 so rows are told apart.
+// state s = s + row / 10 so rows are told apart (airspeed 500 + that, and alpha, beta and theta
+// a hundredth of it: a start state inside the model's domain).
 io::CsvTable tiny_reference(const std::vector<double>& t_s) {
   std::ostringstream text;
   text << "t_s";
@@ -35,7 +36,10 @@ io::CsvTable tiny_reference(const std::vector<double>& t_s) {
   text << "\n";
   for (std::size_t r = 0; r < t_s.size(); ++r) {
     text << t_s[r];
-    for (int s = 0; s < kNumStates; ++s) text << "," << s + 0.1 * static_cast<double>(r);
+    for (int s = 0; s < kNumStates; ++s) {
+      const double v = s + 0.1 * static_cast<double>(r);
+      text << "," << (s == kVt ? 500.0 + v : s == kAlpha || s == kBeta || s == kTheta ? 0.01 * v : v);
+    }
     for (int k = 0; k < kNumRefs; ++k) text << "," << 0.5 * k;
     text << "\n";
   }
@@ -94,6 +98,63 @@ TEST(RequestFromReference, BadFilesNameTheFileAndTheFix) {
             std::string::npos);
   const io::CsvTable no_alt = io::CsvTable::parse("t_s,vt_ftps\n0,540\n", "short.csv");
   EXPECT_NE(message_of([&] { request_from_reference(no_alt, {}); }).find("short.csv: missing column 'alpha_rad'"),
+            std::string::npos);
+}
+
+// Start states and derivative points outside the model's domain (airspeed, the tables' alpha
+// range, sideslip, pitch, altitude, engine power) and nan/inf cells are refused before anything
+// is flown, naming the file, the line and the column.
+TEST(StartStates, OutsideTheModelsDomainOrNonFiniteAreRefusedNamingFileLineAndColumn) {
+  const std::string header = "vt_ftps,alpha_rad,beta_rad,phi_rad,theta_rad,psi_rad,p_radps,q_radps,r_radps,pn_ft,pe_ft,alt_ft,pow_pct\n";
+  const std::string good = "540,0.037,0,0,0,0,0,0,0,0,0,1000,9\n";
+  auto with = [&](int column, const std::string& value) {
+    std::string row = good;
+    std::size_t pos = 0;
+    for (int k = 0; k < column; ++k) pos = row.find(',', pos) + 1;
+    row.replace(pos, row.find_first_of(",\n", pos) - pos, value);
+    return io::CsvTable::parse(header + good + row, "starts.csv");
+  };
+  EXPECT_EQ(initial_states(with(0, "600")).size(), 2u);
+  const std::pair<int, const char*> bad[] = {
+      {0, "starts.csv:3: start state vt_ftps = 0 is outside the model's domain [50, 3000]"},
+      {1, "starts.csv:3: start state alpha_rad = 0.9 is outside the model's domain [-0.174533, 0.785398] rad (-10 to 45 deg)"},
+      {2, "start state beta_rad = 0.9 is outside"},
+      {4, "start state theta_rad = 1.6"},
+      {11, "start state alt_ft = -20000"},
+      {12, "start state pow_pct = 101"},
+  };
+  const char* values[] = {"0", "0.9", "0.9", "", "1.6", "", "", "", "", "", "", "-20000", "101"};
+  for (const auto& [column, message] : bad) {
+    const std::string e = message_of([&] { initial_states(with(column, values[column])); });
+    EXPECT_NE(e.find(message), std::string::npos) << e;
+  }
+  EXPECT_NE(message_of([&] { initial_states(with(0, "nan")); }).find("starts.csv:3: column 'vt_ftps' is 'nan'"),
+            std::string::npos);
+  EXPECT_NE(message_of([&] { initial_states(with(9, "inf")); }).find("starts.csv:3: column 'pn_ft' is 'inf'"),
+            std::string::npos);
+  // A reference's start state is its first row.
+  const io::CsvTable slow = io::CsvTable::parse(
+      "t_s,vt_ftps,alpha_rad,beta_rad,phi_rad,theta_rad,psi_rad,p_radps,q_radps,r_radps,pn_ft,pe_ft,alt_ft,pow_pct,"
+      "int_e_Nz_gs,int_e_ps_rad,int_e_Ny_r_mixed_s,Nz_ref_g,ps_ref_radps,Ny_r_ref_mixed,throttle_ref_delta\n"
+      "0,10,0,0,0,0,0,0,0,0,0,0,1000,9,0,0,0,0,0,0,0\n",
+      "ref.csv");
+  EXPECT_NE(message_of([&] { request_from_reference(slow, {}); }).find("ref.csv:2: start state vt_ftps = 10 is outside"),
+            std::string::npos);
+  // A derivative point at airspeed 0 would divide by it.
+  io::CsvTable points = load("deriv_plant_morelli.csv");
+  std::ostringstream text;
+  for (std::size_t c = 0; c < points.header().size(); ++c) text << (c ? "," : "") << points.header()[c];
+  text << "\n";
+  for (std::size_t c = 0; c < points.header().size(); ++c)
+    text << (c ? "," : "") << (points.header()[c] == "vt_ftps" ? std::string("0") : points.cell(0, c));
+  text << "\n";
+  const io::CsvTable zero = io::CsvTable::parse(text.str(), "points.csv");
+  EXPECT_NE(message_of([&] { evaluate_derivatives(zero, AeroModel::kMorelli); })
+                .find("points.csv:2: state vt_ftps = 0 is outside the model's domain"),
+            std::string::npos);
+  // Commands: a nan reference would fly a nan aircraft.
+  const io::CsvTable nan_cmd = io::CsvTable::parse("t_s,Nz_ref_g\n0,nan\n", "cmd.csv");
+  EXPECT_NE(message_of([&] { request_from_commands(&nan_cmd, ScriptedRun{}, {}); }).find("cmd.csv:2: column 'Nz_ref_g' is 'nan'"),
             std::string::npos);
 }
 

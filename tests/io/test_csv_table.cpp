@@ -189,6 +189,39 @@ TEST(CsvParse, CrlfAndTrailingBlankLines) {
   EXPECT_EQ(CsvTable::parse("x\n7", "nonl.csv").numeric("x"), (std::vector<double>{7.0}));
 }
 
+// Spreadsheets write a UTF-8 byte-order mark: it is not part of the first column's name.
+TEST(CsvParse, Utf8ByteOrderMarkIsSkipped) {
+  const CsvTable t = CsvTable::parse("\xEF\xBB\xBFt_s,y\r\n0,1\r\n", "bom.csv");
+  EXPECT_EQ(t.header(), (std::vector<std::string>{"t_s", "y"}));
+  EXPECT_EQ(t.numeric("t_s"), (std::vector<double>{0.0}));
+  EXPECT_TRUE(contains(error_of([] { CsvTable::parse("\xEF\xBB\xBF", "bom_only.csv"); }), "bom_only.csv: file is empty"));
+}
+
+// Encodings and line ends the reader cannot take are refused in one line naming the file.
+TEST(CsvParse, Utf16AndBareCarriageReturnsAreRefusedNamingTheFile) {
+  const std::string u16 = error_of([] { CsvTable::parse(std::string("\xFF\xFEt\0_\0s\0\n\0", 10), "u16.csv"); });
+  EXPECT_TRUE(contains(u16, "u16.csv: is UTF-16")) << u16;
+  const std::string cr = error_of([] { CsvTable::parse("t_s,y\r0,1\r1,2\r", "mac.csv"); });
+  EXPECT_TRUE(contains(cr, "mac.csv:1: a carriage return inside the line")) << cr;
+  EXPECT_EQ(cr.find('\n'), std::string::npos);
+  const std::string mid = error_of([] { CsvTable::parse("a,b\n1,2\r3\n", "mid.csv"); });
+  EXPECT_TRUE(contains(mid, "mid.csv:2:")) << mid;
+}
+
+// finite(): what a computation starts from; nan, inf and overflowing cells name file, line, column.
+TEST(CsvParse, FiniteRefusesNanInfAndOverflowNamingLineAndColumn) {
+  const CsvTable t = CsvTable::parse("a,b,c,d\n1,nan,2,3\n4,5,-inf,1e999\n", "f.csv");
+  EXPECT_EQ(t.finite("a"), (std::vector<double>{1.0, 4.0}));
+  std::string e = error_of([&] { t.finite("b"); });
+  EXPECT_TRUE(contains(e, "f.csv:2: column 'b' is 'nan'; give a finite number")) << e;
+  e = error_of([&] { t.finite("c"); });
+  EXPECT_TRUE(contains(e, "f.csv:3: column 'c' is '-inf'")) << e;
+  e = error_of([&] { t.finite("d"); });
+  EXPECT_TRUE(contains(e, "f.csv:3: column 'd' is '1e999'")) << e;
+  EXPECT_TRUE(std::isnan(t.numeric("b")[0]));  // numeric() still reads them (metrics leave them)
+  EXPECT_EQ(t.line_of_row(1), 3u);
+}
+
 TEST(CsvParse, StructuralErrors) {
   EXPECT_TRUE(contains(error_of([] { CsvTable::parse("", "e.csv"); }), "e.csv"));
   EXPECT_TRUE(contains(error_of([] { CsvTable::parse("\n\r\n", "e2.csv"); }), "empty"));

@@ -78,6 +78,38 @@ TEST(YamlConfig, WrongTypeAndOutOfRangeNameKeyValueAndRange) {
   EXPECT_NE(e.find("'sub' must be a mapping"), std::string::npos) << e;
 }
 
+// nan, infinities, huge and fractional numbers, and an empty value (`key:` or --set key=) are
+// refused naming the key and the value; an empty value is not "a mapping".
+TEST(YamlConfig, NonFiniteHugeFractionalAndEmptyValuesNameKeyAndValue) {
+  for (const char* v : {".nan", ".inf", "-.inf", "1e308"}) {
+    const std::string e = error_of(std::string("dt: ") + v + "\n");
+    EXPECT_NE(e.find("cfg.yaml: dt: "), std::string::npos) << e;
+    EXPECT_NE(e.find("allowed [0.001, 1]"), std::string::npos) << e;
+  }
+  for (const char* v : {"nan", "inf", "1.5", "1e308", "99999999999999999999"}) {
+    const std::string e = error_of(std::string("n: ") + v + "\n");
+    EXPECT_NE(e.find(std::string("cfg.yaml: n: expected an integer, got '") + v + "'"), std::string::npos) << e;
+  }
+  std::string e = error_of("n:\n");
+  EXPECT_NE(e.find("cfg.yaml: n: expected an integer, got an empty value"), std::string::npos) << e;
+  e = error_of("dt:\n");
+  EXPECT_NE(e.find("dt: expected a number, got an empty value"), std::string::npos) << e;
+  e = error_of("mode:\n");
+  EXPECT_NE(e.find("mode: expected a string, got an empty value"), std::string::npos) << e;
+  e = error_of("hidden:\n");
+  EXPECT_NE(e.find("hidden: expected a list of integers like [64, 64], got an empty value"), std::string::npos) << e;
+  YAML::Node root = YAML::Load("n: 8\n");
+  apply_override(root, "n=");
+  try {
+    ConfigReader r(root, "cfg.yaml");
+    int n = 0;
+    r.read("n", &n, 1, 1024);
+    ADD_FAILURE() << "--set n= was read as " << n;
+  } catch (const ConfigError& err) {
+    EXPECT_NE(std::string(err.what()).find("n: expected an integer, got an empty value"), std::string::npos) << err.what();
+  }
+}
+
 TEST(YamlConfig, OverridesSetNestedKeysAndTheirErrorsAreCaught) {
   YAML::Node root = YAML::Load("n: 8\nsub: {inner: 1}\n");
   apply_override(root, "sub.inner=7");

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "dynamics/inner_loop.hpp"
+#include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "race/ranking.hpp"
 #include "random/random_stream.hpp"
@@ -793,6 +794,44 @@ TEST(RaceEnv, LaneOriginGoalsAreOffsetsFromTheAircraftsOwnLane) {
   ASSERT_TRUE(env.alive(1));
   ASSERT_GT(env.goal_progress_ft(1), goal1);
   EXPECT_NEAR(frac(1, true).first, lane1, 1e-6);
+}
+
+// A bad race: section is refused on load, one line naming the keys (under race:) and their
+// values: every cross-key rule, and tracks too long to sample (gigabytes per race).
+std::string race_config_error(const std::string& yaml) {
+  try {
+    io::ConfigReader r(YAML::Load(yaml), "cfg.yaml", "race");
+    RaceConfig c;
+    read_race_config(r, &c);
+  } catch (const io::ConfigError& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"{time_limit_s: 5, dt_hl_s: 8}", "race: dt_hl_s (8) must be <= time_limit_s (5)"},
+      {"{track: {leg_min_ft: 9000}}", "race: track.leg_min_ft (9000) must be <= track.leg_max_ft (8000)"},
+      {"{track: {alt_min_ft: 15000, alt_max_ft: 15000}}", "track.alt_min_ft (15000) must be < track.alt_max_ft (15000)"},
+      {"{track: {radius_min_ft: 2000}}", "track.radius_min_ft (2000) must be <= track.radius_max_ft (1800)"},
+      {"{alt_min_ft: 40000}", "alt_min_ft (40000) must be < alt_max_ft (40000)"},
+      {"{alt_min_ft: 4000}", "[3200, 16800] must lie inside [alt_min_ft, alt_max_ft] = [4000, 40000]"},
+      {"{nz_ref_min_g: 3, nz_ref_max_g: 2}", "nz_ref_min_g (3) must be < nz_ref_max_g (2)"},
+      {"{hl_bins: 6}", "hl_bins (6) must be odd"},
+      {"{goal_refresh_ft: 20000}", "goal_refresh_ft (20000) must be < goal_ahead_ft (12000: 0, so the preview horizon"},
+      {"{start_s_ft: 100000}", "start_s_ft (1e+05) + finish_margin_ft (1500) leaves no race"},
+      {"{track: {spacing_ft: 1, leg_max_ft: 1000000, n_waypoints: 1000}}",
+       "track.n_waypoints (1000), track.leg_max_ft (1e+06) and track.spacing_ft (1) make tracks of up to 1.5e+09 samples"},
+      {"{dt_ll_s: .nan}", "cfg.yaml: race.dt_ll_s: value nan is out of range"},
+      {"{n_env: }", "cfg.yaml: race.n_env: expected an integer, got an empty value"},
+  };
+  for (const auto& [yaml, message] : cases) {
+    const std::string e = race_config_error(yaml);
+    EXPECT_NE(e.find(message), std::string::npos) << yaml << " -> " << e;
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+  }
+  EXPECT_EQ(race_config_error("{track: {spacing_ft: 10}}"), "(accepted)");
 }
 
 }  // namespace
