@@ -1028,46 +1028,12 @@ MetricsRow Trainer::State::make_row(const char* phase_name) {
   return r;
 }
 
-namespace {
-const std::vector<std::string>& metrics_header() {
-  static const std::vector<std::string> h = {
-      "update", "phase_hl", "env_steps", "wall_s", "samples_per_s", "ll_return", "hl_return", "goal_dist_ft",
-      "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
-      "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
-      "q_mean", "epsilon", "hl_grad_steps", "es_loss_heldout", "es_end_atom_share", "es_huber_share", "q_spread", "greedy_entropy",
-      "off_center_share", "airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z"};
-  return h;
-}
-// The header as metrics.csv's first line holds it (no newline).
-std::string metrics_header_line() {
-  const auto& h = metrics_header();
-  std::string line;
-  for (std::size_t k = 0; k < h.size(); ++k) line += (k ? "," : "") + h[k];
-  return line;
-}
-std::vector<double> metrics_values(const MetricsRow& r) {
-  return {static_cast<double>(r.update), r.phase == "hl" ? 1.0 : 0.0, static_cast<double>(r.env_steps), r.wall_s,
-          r.samples_per_s, r.ll_return, r.hl_return, r.goal_dist_ft, r.winrate, r.finish_rate, r.races, r.term[1],
-          r.term[2], r.term[3], r.term[4], r.term[5], r.term[6], r.policy_loss, r.value_loss, r.entropy, r.approx_kl,
-          r.lr, r.es_loss, r.q_mean, r.epsilon, static_cast<double>(r.hl_grad_steps), r.es_loss_heldout, r.es_end_atom_share,
-          r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share, r.airspeed_ftps,
-          r.middle_share[0], r.middle_share[1], r.middle_share[2]};
-}
-}  // namespace
-
 void Trainer::State::write_row(const MetricsRow& r) {
   if (!writes()) return;
   // Appended line by line: a crash loses at most the row being written, and resume drops rows
   // past the checkpoint it continues from.
   const std::string path = run_dir + "/metrics.csv";
-  std::string line;
-  if (!fs::exists(path)) line = metrics_header_line() + "\n";
-  const auto v = metrics_values(r);
-  // An update without the event a column averages (no race ended, no ES update yet) leaves the
-  // cell empty: gnuplot and the curves skip it, and nobody reads "nan" as a diverged run.
-  for (std::size_t k = 0; k < v.size(); ++k) line += (k ? "," : "") + (std::isnan(v[k]) ? "" : io::format_double(v[k]));
-  line += "\n";
-  io::append_file(path, line);
+  io::append_file(path, (fs::exists(path) ? std::string() : metrics_header_line() + "\n") + metrics_csv_line(r));
 }
 
 void Trainer::State::snapshot_pool() {
@@ -1349,32 +1315,10 @@ void Trainer::State::load_checkpoint() {
 }
 
 void Trainer::State::truncate_metrics() {
-  // Drop metrics rows written after this checkpoint (the resumed run writes them again). A run
-  // written by a build with fewer columns (a prefix of today's header) gets today's header and
-  // empty cells for the new columns in its old rows, so every row has the header's width.
+  // Rows written after this checkpoint go (the resumed run writes them again).
   const std::string mpath = run_dir + "/metrics.csv";
   if (!fs::exists(mpath)) return;
-  std::istringstream in(read_text(mpath));
-  std::string line, out, pad;
-  bool header = true;
-  const std::int64_t upd = ppo_updates + es_updates;
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    if (header) {
-      const std::string now = metrics_header_line();
-      if (line != now && now.compare(0, line.size() + 1, line + ",") == 0) {
-        pad.assign(static_cast<std::size_t>(std::count(now.begin(), now.end(), ',') -
-                                            std::count(line.begin(), line.end(), ',')),
-                   ',');
-        line = now;
-      }
-      out += line + "\n";
-    } else if (std::stoll(line.substr(0, line.find(','))) <= upd) {
-      out += line + pad + "\n";
-    }
-    header = false;
-  }
-  io::write_file_atomic(mpath, out);
+  io::write_file_atomic(mpath, metrics_kept_up_to(read_text(mpath), ppo_updates + es_updates, mpath));
 }
 
 TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_updates,
