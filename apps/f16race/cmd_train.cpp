@@ -214,9 +214,21 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
                 100.0 * sum.communication_s / std::max(sum.time.total, 1e-9));
   if (!sum.curves_problem.empty()) std::printf("no curves.png: %s\n", sum.curves_problem.c_str());
   if (sum.rows.empty()) return;  // a resumed run that had already reached its budget: no trend to show
-  std::printf("first -> last tenth: goal distance %.0f -> %.0f ft, finish rate %.2f -> %.2f, "
-              "LL return %.2f -> %.2f, HL return %.2f -> %.2f, airspeed %.0f -> %.0f ft/s\n",
-              goal.first, goal.last, fin.first, fin.last, ll.first, ll.last, hl.first, hl.last, vt.first, vt.last);
+  // Only what was measured: a run in which no race ended has no finish rate to compare.
+  std::string line;
+  auto add = [&](const char* name, const Trend& t, const char* format) {
+    if (std::isnan(t.first)) return;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, format, t.first, t.last);
+    line += (line.empty() ? "" : ", ") + std::string(name) + " " + buf;
+  };
+  add("goal distance", goal, "%.0f -> %.0f ft");
+  add("finish rate", fin, "%.2f -> %.2f");
+  add("LL return", ll, "%.2f -> %.2f");
+  add("HL return", hl, "%.2f -> %.2f");
+  add("airspeed", vt, "%.0f -> %.0f ft/s");
+  if (line.empty()) std::printf("no race ended in this run yet: nothing to compare between its first and last tenth\n");
+  else std::printf("first -> last tenth: %s\n", line.c_str());
 }
 
 }  // namespace
@@ -231,7 +243,7 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--agent", o->agent, "High-level agent: es, es_d1, es_d2, es_d3")
       ->check(CLI::IsMember({"es", "es_d1", "es_d2", "es_d3"}));
   cmd->add_option("--seed", o->seed, "Seed (overrides the config's)")->check(kNonNegativeSeed);
-  cmd->add_option("--max-updates", o->max_updates, "Stop (with a checkpoint) after this many updates");
+  CLI::Option* max_updates = cmd->add_option("--max-updates", o->max_updates, "Stop (with a checkpoint) after this many updates");
   cmd->add_flag("--quiet", o->quiet, "No progress output");
   cmd->add_flag("--overwrite", o->overwrite,
                 "Start afresh in a --run folder that holds a run, moving the old one aside to RUN.old-N");
@@ -239,7 +251,12 @@ void add_train_command(CLI::App& app) {
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
   auto dist_flags = std::make_shared<DistFlags>();
   dist_flags->add_to(cmd);
-  cmd->callback([o, dist_flags]() { run_train(*o, dist_flags->resolve()); });
+  cmd->callback([o, dist_flags, max_updates]() {
+    if (max_updates->count() > 0 && o->max_updates < 1)
+      throw io::InputError("--max-updates " + std::to_string(o->max_updates) + ": must be at least 1 (leave it out to "
+                           "train to the run's budget)");
+    run_train(*o, dist_flags->resolve());
+  });
 }
 
 }  // namespace f16race::app

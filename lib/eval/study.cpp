@@ -33,7 +33,9 @@ StudyConfig read_study_config(const std::string& path) {
       if (interval_name(c.dt_hl_s[i]) == interval_name(c.dt_hl_s[j]))
         r.fail("dt_hl_s", interval_name(c.dt_hl_s[i]) + " is listed twice");
   r.read("total_env_steps", &c.total_env_steps);
-  if (c.total_env_steps < 1000) r.fail("total_env_steps", "must be at least 1000");
+  // train reads the count as a signed 64-bit number: the study refuses what every cell would.
+  if (c.total_env_steps < 1000 || c.total_env_steps > (std::uint64_t{1} << 62))
+    r.fail("total_env_steps", "must be in [1000, 2^62]");
   r.read("jobs", &c.jobs, 1, 64);
   r.read("races_per_pair", &c.races_per_pair, 2, 1000000);
   r.read("controls", &c.controls);

@@ -51,16 +51,18 @@ io::PlotPanel matrix_panel(const std::string& title, const std::string& what, co
 
 // column,row,winrate,text of a k x k matrix for matrix_panel.
 void write_matrix_csv(const std::string& path, const std::vector<std::vector<double>>& m) {
-  std::vector<std::vector<double>> cols(3);
-  std::vector<std::vector<std::string>> text(1);
+  std::vector<std::vector<double>> cols(2);
+  std::vector<std::vector<std::string>> text(2);
   for (std::size_t i = 0; i < m.size(); ++i)
     for (std::size_t j = 0; j < m.size(); ++j) {
       cols[0].push_back(static_cast<double>(j));
       cols[1].push_back(static_cast<double>(i));
-      cols[2].push_back(m[i][j]);
-      text[0].push_back(std::isfinite(m[i][j]) ? fixed3(m[i][j]) : "-");
+      // A pairing that was not raced (an entry against itself) is an empty cell: gnuplot skips it.
+      const bool raced = std::isfinite(m[i][j]);
+      text[0].push_back(raced ? io::format_double(m[i][j]) : "");
+      text[1].push_back(raced ? fixed3(m[i][j]) : "-");
     }
-  io::write_csv(path, {"column", "row", "winrate"}, cols, {"text"}, text);
+  io::write_csv(path, {"column", "row"}, cols, {"winrate", "text"}, text);
 }
 
 std::string hl_description(const Entry& e) {

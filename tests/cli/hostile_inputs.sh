@@ -128,7 +128,7 @@ case_ "tournament negative seed" -- "$bin" tournament --runs "$run" --seed -1 --
 case_ "tournament rank outside the group" -- env WORLD_SIZE=2 RANK=2 "$bin" tournament --runs "$run" --out t11
 case_ "tournament world size text" -- env WORLD_SIZE=two "$bin" tournament --runs "$run" --out t12
 case_ "tournament master port 0" -- env WORLD_SIZE=2 MASTER_PORT=0 "$bin" tournament --runs "$run" --out t13
-case_ "tournament no group there" -- "$bin" tournament --runs "$run" --dist-world-size 2 --dist-rank 1 --dist-port 1 --dist-timeout 1 --out t14
+F16RACE_GROUP_TOKEN=0123456789abcdef0123 case_ "tournament no group there" "no group at" -- "$bin" tournament --runs "$run" --dist-world-size 2 --dist-rank 1 --dist-port 1 --dist-timeout 1 --out t14
 case_ "launch without a command" -- "$bin" launch --nproc 2
 case_ "launch 0 ranks" -- "$bin" launch --nproc 0 -- tournament --runs "$run"
 case_ "launch itself" -- "$bin" launch --nproc 2 -- launch --nproc 2 -- race
@@ -227,6 +227,15 @@ case_ "start altitude nan" "alt_nan_starts.csv:2: column 'alt_ft' is 'nan'" -- "
 case_ "reference start alpha beyond the tables" "alpha_reference.csv:2: start state alpha_rad = -0.5" -- "$bin" simulate --reference alpha_reference.csv --out s26.csv
 case_ "derivative point at airspeed 0" "vt0_points.csv:2: state vt_ftps = 0" -- "$bin" simulate --derivatives vt0_points.csv --out s27.csv
 case_ "waypoint nan" "nan_waypoints.csv:2: column 'e_ft'" -- "$bin" simulate --autopilot waypoint --init "$starts" --waypoints nan_waypoints.csv --duration 1 --out s28.csv
+# metrics.csv read back on --resume: a row that is not one, a foreign header (copies of the run).
+for m in abc_row foreign_header; do cp -r "$run" "metrics_$m" && rm -f "metrics_$m/.lock"; done
+sed -i '2s/^[0-9]*,/abc,/' metrics_abc_row/metrics.csv
+sed -i '1s/.*/time,value/' metrics_foreign_header/metrics.csv
+case_ "resume: metrics row not a row" "metrics_abc_row/metrics.csv:2: 'abc' is not an update count" -- "$bin" train --resume metrics_abc_row
+case_ "resume: metrics header foreign" "metrics_foreign_header/metrics.csv:1: not the header" -- "$bin" train --resume metrics_foreign_header
+case_ "train --max-updates -1" "--max-updates" -- "$bin" train --config "$smoke" --run "$work/mu" --max-updates -1
+printf 'base_config: %s\ntotal_env_steps: 9223372036854775808\n' "$smoke" > study_huge_steps.yaml
+case_ "study total_env_steps beyond 2^62" "total_env_steps" -- "$bin" study --config study_huge_steps.yaml --out "$work/st6" --plan
 # study: bad study configs, a base config with a typo, a folder of another configuration.
 printf 'variants: [es, es_d9]\n' > study_bad_variant.yaml
 printf 'seeds: [1, 1]\n' > study_dup_seed.yaml
