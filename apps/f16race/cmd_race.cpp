@@ -31,6 +31,7 @@ struct RaceOptions {
   int races = 4;
   long long seed = -1;
   int plot_race = 0;
+  std::vector<double> airspeeds;  // the pilots' set points: one for all, or blue's and red's
 };
 
 void run_race(const RaceOptions& o) {
@@ -54,16 +55,27 @@ void run_race(const RaceOptions& o) {
 
   std::vector<float> actions(static_cast<std::size_t>(n) * kActionDim);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * kHlDims, cfg.hl_center_bin());
-  ScriptedPilotConfig pilot;
-  pilot.speed_ftps = cfg.start_speed_ftps;
-  AutopilotPilotConfig autopilot;
-  autopilot.airspeed_ftps = cfg.start_speed_ftps;
+  if (o.airspeeds.size() > 2) throw io::InputError("--airspeed: one set point for both teams, or blue's and red's");
+  // Each team's pilot: the set points given, else the start speed (scripted) and the autopilot's.
+  ScriptedPilotConfig pilot[2];
+  AutopilotPilotConfig autopilot[2];
+  std::vector<std::int64_t> rows[2];
+  for (int team = 0; team < 2; ++team) {
+    const double given = o.airspeeds.empty() ? 0.0 : o.airspeeds[std::min<std::size_t>(team, o.airspeeds.size() - 1)];
+    pilot[team].speed_ftps = given > 0.0 ? given : cfg.start_speed_ftps;
+    autopilot[team].airspeed_ftps = given > 0.0 ? given : cfg.autopilot_airspeed();
+    for (int i = 0; i < n; ++i)
+      if (RaceEnv::team_of(i % n_agent, cfg.team_size) == team) rows[team].push_back(i);
+  }
   RaceRecorder rec(env);
   StepStats totals;
   while (rec.remaining() > 0) {
     env.set_hl_actions(bins.data());  // center-line goals; the built-in pilots ignore them (none recorded)
-    if (o.policy == "autopilot") autopilot_actions(env, autopilot, actions.data());
-    else scripted_actions(env, pilot, actions.data());
+    for (int team = 0; team < 2; ++team) {
+      const auto nr = static_cast<std::int64_t>(rows[team].size());
+      if (o.policy == "autopilot") autopilot_actions(env, autopilot[team], actions.data(), rows[team].data(), nr);
+      else scripted_actions(env, pilot[team], actions.data(), rows[team].data(), nr);
+    }
     rec.before_step(env);
     const StepStats st = env.step(actions.data());
     rec.after_step(env);
@@ -74,9 +86,11 @@ void run_race(const RaceOptions& o) {
   std::vector<std::vector<double>> cols(5);
   std::vector<std::string> reasons;
   std::vector<std::vector<std::string>> scols(1);
-  int alive_total = 0;
+  int alive_total = 0, blue_wins = 0, draws = 0;
   for (int e = 0; e < cfg.n_env; ++e) {
     const RaceTrace& r = rec.trace(e);
+    blue_wins += r.winner == 0;
+    draws += r.winner < 0;
     const int alive = static_cast<int>(std::count(r.cause.begin(), r.cause.end(), static_cast<int>(kCauseNone)));
     alive_total += alive;
     cols[0].push_back(e);
@@ -95,6 +109,7 @@ void run_race(const RaceOptions& o) {
   std::printf("%d races (%d vs %d, %s pilot, seed %llu): %d of %d aircraft alive at the end\n", cfg.n_env,
               cfg.team_size, cfg.team_size, o.policy.c_str(), static_cast<unsigned long long>(cfg.seed), alive_total,
               cfg.n_env * n_agent);
+  std::printf("blue won %d, red %d, drawn %d\n", blue_wins, cfg.n_env - blue_wins - draws, draws);
   std::printf("terminations:");
   for (int k = 1; k < kNumCauses; ++k) std::printf(" %s %d", cause_name(k), totals.terminations[k]);
   std::printf("\ntrajectories and tracks: %s/\n", o.out.c_str());
@@ -123,6 +138,11 @@ void add_race_command(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Seed (default: the config's race.seed)")->check(kNonNegativeSeed);
   cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)")->check(CLI::Range(-1, 100000));
   cmd->add_option("--out", o->out, "Output folder");
+  cmd->add_option("--airspeed", o->airspeeds,
+                  "The pilots' airspeed set point [ft/s]: one for both teams, or blue's then red's (default: the "
+                  "start speed; the autopilot's race.autopilot_airspeed_ftps)")
+      ->delimiter(',')
+      ->check(CLI::Range(300.0, 3000.0));
   cmd->callback([o]() { run_race(*o); });
 }
 

@@ -124,6 +124,9 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--axis-controls", o->axis_controls,
                 "Add RUN@center_x, RUN@center_y and RUN@center_z for every run: its trained high level with one goal "
                 "axis (track frame: along, right, up) held on the middle bin; listed, never in the variant statistics");
+  cmd->add_option("--autopilot-airspeed", o->autopilot_airspeed_ftps,
+                  "The autopilot entry's airspeed set point [ft/s] (default: the first run's race.autopilot_airspeed_ftps)")
+      ->check(CLI::Range(300.0, 3000.0));
   cmd->add_option("--out", o->out_dir,
                   "Output folder, replaced whole when the tournament is written (a folder holding other files than "
                   "a tournament's is refused)");

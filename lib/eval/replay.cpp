@@ -78,7 +78,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
   race::ScriptedPilotConfig pilot;
   pilot.speed_ftps = rc.start_speed_ftps;
   race::AutopilotPilotConfig autopilot;
-  autopilot.airspeed_ftps = rc.start_speed_ftps;
+  autopilot.airspeed_ftps = rc.autopilot_airspeed();
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something

@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <numeric>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -126,7 +127,7 @@ struct Game {
 // Every rank's race records, on every rank: fixed-width rows of doubles (each field a small
 // integer or the duration, exact in a double), padded to the longest rank's count.
 std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceRecord>& mine, std::uint64_t track_seed) {
-  constexpr std::size_t kFields = 13;
+  constexpr std::size_t kBase = 13, kFields = kBase + 2 * race::kNumCauses;
   std::vector<std::int64_t> counts(group.size(), 0);
   counts[group.rank()] = static_cast<std::int64_t>(mine.size());
   group.allreduce_sum(counts);
@@ -138,7 +139,12 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
                                double(r.race),     double(r.track),     double(r.winner),    double(r.end_reason),
                                r.duration_s,       double(r.blue_out),  double(r.red_out),   double(r.blue_blocks),
                                double(r.red_blocks)};
-    std::copy(f, f + kFields, packed.begin() + static_cast<std::ptrdiff_t>(i * kFields));
+    double* row = packed.data() + i * kFields;
+    std::copy(f, f + kBase, row);
+    for (int c = 0; c < race::kNumCauses; ++c) {
+      row[kBase + c] = r.blue_lost[c];
+      row[kBase + race::kNumCauses + c] = r.red_lost[c];
+    }
   }
   const std::vector<double> all = group.allgather(packed);
   std::vector<RaceRecord> out;
@@ -159,6 +165,10 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
       r.red_out = static_cast<int>(f[10]);
       r.blue_blocks = static_cast<int>(f[11]);
       r.red_blocks = static_cast<int>(f[12]);
+      for (int c = 0; c < race::kNumCauses; ++c) {
+        r.blue_lost[c] = static_cast<int>(f[kBase + c]);
+        r.red_lost[c] = static_cast<int>(f[kBase + race::kNumCauses + c]);
+      }
       r.track_seed = track_seed;
       out.push_back(r);
     }
@@ -243,7 +253,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   // decisions.
   std::vector<RandomStream> control_rng(nl, control_stream(o.seed, 0));
   std::vector<long> env_game(n, -1);  // game index raced in each env of the whole batch, -1 idle
-  std::vector<int> out_blue(nl, 0), out_red(nl, 0);
+  using Lost = std::array<int, race::kNumCauses>;
+  std::vector<Lost> lost_blue(nl), lost_red(nl);  // [n_env_local][cause]
   std::vector<int> owner(static_cast<std::size_t>(nl) * n_agent, -1);  // entry flying this rank's aircraft i
   std::size_t next_game = 0;
   // Every rank makes the same assignments (global env order), its own envs' owners only.
@@ -251,7 +262,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     env_game[eg] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
     if (eg < lo || eg >= hi) return;
     const int e = eg - lo;
-    out_blue[e] = out_red[e] = 0;
+    lost_blue[e].fill(0);
+    lost_red[e].fill(0);
     const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
     for (int a = 0; a < n_agent; ++a) owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
     if (!g) return;
@@ -265,7 +277,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   std::vector<std::int64_t> bins(static_cast<std::size_t>(nl) * n_agent * 3, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(nl) * n_agent * 3, 0.0f);
   race::AutopilotPilotConfig autopilot;
-  autopilot.airspeed_ftps = rc.start_speed_ftps;
+  autopilot.airspeed_ftps = o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : rc.autopilot_airspeed();
   // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
   // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
   // env and team order, so independent of the thread count).
@@ -320,7 +332,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     for (int e = 0; e < nl; ++e) {
       if (env_game[lo + e] < 0) continue;
       for (int a = 0; a < n_agent; ++a)
-        if (env.step_cause()[e * n_agent + a] != race::kCauseNone) (a < ts ? out_blue[e] : out_red[e]) += 1;
+        if (const int c = env.step_cause()[e * n_agent + a]; c != race::kCauseNone) (a < ts ? lost_blue[e] : lost_red[e])[c] += 1;
       if (!env.env_done()[e]) continue;
       const Game& g = games[env_game[lo + e]];
       RaceRecord r;
@@ -335,8 +347,10 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
       r.end_reason = env.race_end()[e];
       r.duration_s = t_before[e] + rc.dt_ll_s;
-      r.blue_out = out_blue[e];
-      r.red_out = out_red[e];
+      r.blue_lost = lost_blue[e];
+      r.red_lost = lost_red[e];
+      r.blue_out = std::accumulate(r.blue_lost.begin(), r.blue_lost.end(), 0);
+      r.red_out = std::accumulate(r.red_lost.begin(), r.red_lost.end(), 0);
       r.blue_blocks = blocks.race_blocks(e, 0);
       r.red_blocks = blocks.race_blocks(e, 1);
       res.races.push_back(r);

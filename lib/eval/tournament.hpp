@@ -2,12 +2,14 @@
 // Round-robin tournaments between trained runs (and a built-in untrained entry), raced in large
 // batches on the batched simulator with both teams acting greedily. Optional control entries fly
 // a run's trained low level under a fixed high level, to show what the high level adds.
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "race/race_env.hpp"
 #include "random/random_stream.hpp"
 
 namespace f16race::dist {
@@ -65,6 +67,7 @@ struct TournamentOptions {
   bool controls = false;          // adds RUN@center and RUN@random for every run
   bool axis_controls = false;     // adds RUN@center_x, @center_y, @center_z for every run
   bool include_autopilot = false;  // adds "autopilot": AeroBench's waypoint autopilot, no learning
+  double autopilot_airspeed_ftps = 0.0;  // its set point; 0: the first run's race.autopilot_airspeed_ftps
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams
   double epsilon = 0.0;           // HL exploration during evaluation
@@ -104,6 +107,8 @@ struct RaceRecord {
   int end_reason = 0;               // RaceEnv::EndReason
   double duration_s = 0.0;
   int blue_out = 0, red_out = 0;    // aircraft terminated per team
+  // The same per race::TerminationCause (index kCauseNone unused): what each team lost its aircraft to.
+  std::array<int, race::kNumCauses> blue_lost{}, red_lost{};
   int blue_blocks = 0, red_blocks = 0;  // blocks by each team (race/block_events.hpp)
 };
 

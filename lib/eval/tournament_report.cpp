@@ -154,32 +154,40 @@ TournamentStatistics tournament_statistics(const TournamentResult& r, const Tour
   return s;
 }
 
+// One row per race; the last columns count each team's aircraft lost per termination cause.
 void write_races_csv(const TournamentResult& r, const std::string& path) {
-  std::vector<std::vector<double>> cols(13);
+  constexpr int kBase = 13;
+  std::vector<std::vector<double>> cols(kBase + 2 * (race::kNumCauses - 1));
   std::vector<std::vector<std::string>> names(3);
   for (const RaceRecord& x : r.races) {
-    const double f[13] = {double(x.pair),
-                          double(x.race),
-                          static_cast<double>(r.entries[x.blue].seed),
-                          static_cast<double>(r.entries[x.red].seed),
-                          static_cast<double>(x.track_seed),
-                          double(x.track),
-                          double(x.env),
-                          double(x.end_reason),
-                          double(x.blue_out),
-                          double(x.red_out),
-                          x.duration_s,
-                          double(x.blue_blocks),
-                          double(x.red_blocks)};
-    for (int c = 0; c < 13; ++c) cols[c].push_back(f[c]);
+    const double f[kBase] = {double(x.pair),
+                             double(x.race),
+                             static_cast<double>(r.entries[x.blue].seed),
+                             static_cast<double>(r.entries[x.red].seed),
+                             static_cast<double>(x.track_seed),
+                             double(x.track),
+                             double(x.env),
+                             double(x.end_reason),
+                             double(x.blue_out),
+                             double(x.red_out),
+                             x.duration_s,
+                             double(x.blue_blocks),
+                             double(x.red_blocks)};
+    for (int c = 0; c < kBase; ++c) cols[c].push_back(f[c]);
+    for (int c = 1; c < race::kNumCauses; ++c) {
+      cols[kBase + c - 1].push_back(x.blue_lost[c]);
+      cols[kBase + race::kNumCauses - 1 + c - 1].push_back(x.red_lost[c]);
+    }
     names[0].push_back(r.entries[x.blue].name);
     names[1].push_back(r.entries[x.red].name);
     names[2].push_back(x.winner < 0 ? "draw" : r.entries[x.winner].name);
   }
-  io::write_csv(path,
-                {"pair", "race", "blue_seed", "red_seed", "track_seed", "track", "env", "end_reason",
-                 "blue_terminated", "red_terminated", "duration_s", "blue_blocks", "red_blocks"},
-                cols, {"blue", "red", "winner"}, names);
+  std::vector<std::string> header = {"pair",           "race",          "blue_seed",  "red_seed",    "track_seed",
+                                     "track",          "env",           "end_reason", "blue_terminated",
+                                     "red_terminated", "duration_s",    "blue_blocks", "red_blocks"};
+  for (const char* team : {"blue", "red"})
+    for (int c = 1; c < race::kNumCauses; ++c) header.push_back(std::string(team) + "_out_" + race::cause_name(c));
+  io::write_csv(path, header, cols, {"blue", "red", "winner"}, names);
 }
 
 void write_pairings_csv(const TournamentResult& r, const TournamentStatistics& s, const std::string& path) {

@@ -58,18 +58,21 @@ static_assert(kGoalDim == 3 && contiguous(kGoalFields), "goal layout");
 
 // ado: one row per other aircraft, in the ego's heading frame (x forward, y right, z up).
 inline constexpr int kAdoRange = 0, kAdoAzimuth = 1, kAdoSinElevation = 3, kAdoRelVelocity = 4, kAdoProgress = 7,
-                     kAdoSameTeam = 8, kAdoAlive = 9;
+                     kAdoClosing = 8, kAdoTimeToClosest = 9, kAdoMissDistance = 10, kAdoSameTeam = 11, kAdoAlive = 12;
 inline constexpr ObsField kAdoFields[] = {
     {kAdoRange, 1, "range / 5 000 ft, ≤ 10"},
     {kAdoAzimuth, 2, "y/ρ, x/ρ: sin and cos of azimuth (ρ horizontal range; 0, 1 if ρ ≤ 1e-3 ft)"},
     {kAdoSinElevation, 1, "Δz / range: sin of elevation"},
     {kAdoRelVelocity, 3, "relative velocity (other − ego) along x, y, up, / 500 ft/s"},
     {kAdoProgress, 1, "(progress_other − progress_ego) / 5 000 ft, clamped ±10"},
+    {kAdoClosing, 1, "closing speed (− d range / dt) / 500 ft/s, clamped ±10"},
+    {kAdoTimeToClosest, 1, "time to the closest approach if both hold their velocity / 10 s, clamped [0, 1]"},
+    {kAdoMissDistance, 1, "distance at that closest approach / 1 000 ft, clamped [0, 10]"},
     {kAdoSameTeam, 1, "1 if same team, else 0"},
     {kAdoAlive, 1, "1 if alive, else 0 (the entries before are zero for a terminated aircraft)"},
 };
 inline constexpr int kAdoDim = fields_width(kAdoFields);
-static_assert(kAdoDim == 10 && contiguous(kAdoFields), "ado layout");
+static_assert(kAdoDim == 13 && contiguous(kAdoFields), "ado layout");
 
 // task: kPreviewWidth entries per preview point (p = 0 .. preview_points − 1, at progress +
 // (p+1)·preview_spacing_ft), then the tail, whose offsets count from preview_points·kPreviewWidth.

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 
+#include "dynamics/engine.hpp"
 #include "io/csv_table.hpp"
 #include "io/yaml_config.hpp"
 
@@ -58,6 +59,9 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("nz_min_g", &c->nz_min_g, -20.0, 0.0);
   r.read("nz_max_g", &c->nz_max_g, 1.0, 20.0);
   r.read("turn_rate_max_dps", &c->turn_rate_max_dps, 1.0, 360.0);
+  r.read("mach_max", &c->mach_max, 0.0, 3.0);
+  r.read("mach_governor", &c->mach_governor);
+  r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 3000.0);
   std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";
   r.read("tube_exit", &exit, {"grace", "terminate"});
   c->tube_exit = exit == "grace" ? TubeExit::kGrace : TubeExit::kTerminate;
@@ -83,6 +87,9 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("goal_scale_ft", &c->goal_scale_ft, 1.0, 1e6);
   r.read("w_goal_lane", &c->w_goal_lane, -1e6, 1e6);
   r.read("goal_lane_scale_ft", &c->goal_lane_scale_ft, 1.0, 1e6);
+  r.read("separation_ft", &c->separation_ft, 0.0, 1e5);
+  r.read("w_separation", &c->w_separation, -1e6, 1e6);
+  r.read("goal_min_separation_ft", &c->goal_min_separation_ft, 0.0, 1e5);
   r.read("w_tube", &c->w_tube, -1e6, 1e6);
   r.read("w_collision", &c->w_collision, -1e6, 1e6);
   r.read("w_termination", &c->w_termination, -1e6, 1e6);
@@ -132,6 +139,17 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
   if (c.nz_ref_min_g >= c.nz_ref_max_g)
     fail("nz_ref_min_g (" + v(c.nz_ref_min_g) + ") must be < nz_ref_max_g (" + v(c.nz_ref_max_g) + ")");
   if (c.hl_bins % 2 == 0) fail("hl_bins (" + v(c.hl_bins) + ") must be odd so that the middle bin is the center-line");
+  if (c.mach_max > 0.0 && c.mach_max < 0.2) fail("mach_max (" + v(c.mach_max) + ") must be 0 (no limit) or >= 0.2");
+  if (c.autopilot_airspeed_ftps != 0.0 && c.autopilot_airspeed_ftps < 300.0)
+    fail("autopilot_airspeed_ftps (" + v(c.autopilot_airspeed_ftps) + ") must be 0 (the start speed) or >= 300 ft/s");
+  if (c.mach_governor && c.mach_max == 0.0) fail("mach_governor needs a mach_max > 0 to hold the aircraft below");
+  if (c.mach_max > 0.0) {  // the fastest start: start speed at the lowest start altitude's speed of sound
+    const double lowest_ft = c.track.alt_min_ft - c.track.radius_max_ft;
+    const double start_mach = dynamics::air_data(c.start_speed_ftps, lowest_ft).mach;
+    if (start_mach > c.mach_max - 0.05)
+      fail("start_speed_ftps (" + v(c.start_speed_ftps) + ") is Mach " + v(start_mach) + " at " + v(lowest_ft) +
+           " ft, too close to mach_max (" + v(c.mach_max) + "): start slower (or raise mach_max)");
+  }
   if (c.goal_origin == GoalOrigin::kLane && c.goal_frame != GoalFrame::kTrack)
     fail("goal_origin: lane needs goal_frame: track (a lane is an offset across the track)");
   if (c.goal_refresh_ft >= c.goal_ahead())

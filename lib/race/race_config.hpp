@@ -45,7 +45,8 @@ struct RaceConfig {
 
   // Start: same forward displacement for all, random offsets inside the tube, level trim.
   double start_s_ft = 1500.0;
-  double start_speed_ftps = 700.0;
+  // Inside the envelope (mach_max) at every start altitude; AeroBench's own examples fly ~540.
+  double start_speed_ftps = 560.0;
   double start_offset_frac = 0.6;    // offsets drawn within this fraction of the tube radius
   double start_min_separation_ft = 300.0;
   double finish_margin_ft = 1500.0;  // finish line this far before the end of the center-line
@@ -57,6 +58,16 @@ struct RaceConfig {
   double nz_min_g = -3.0;            // structural load limits on AeroBench's Nz
   double nz_max_g = 9.0;
   double turn_rate_max_dps = 40.0;   // heading rate; beyond this the manoeuvre is not realistic
+  // The aero data (NASA TP-1538 wind-tunnel data, fitted by Stevens & Lewis' tables and Morelli's
+  // polynomials) are low-speed data with no Mach terms: an aircraft above mach_max is out
+  // (cause "envelope"; 0: no limit). docs/race.md "The envelope" gives the sources.
+  double mach_max = 0.6;
+  // A governor in the fly-by-wire throttle path keeps the aircraft below mach_max: the throttle
+  // the policy commands is capped, from full below mach_max - 0.05 to idle at mach_max - 0.01.
+  bool mach_governor = true;
+  // The `autopilot` baseline's airspeed set point (tournament, replay, race); 0: start_speed_ftps.
+  // Tuned over set points against the start speed (docs/race.md "The autopilot baseline").
+  double autopilot_airspeed_ftps = 640.0;
   TubeExit tube_exit = TubeExit::kGrace;
   double tube_grace_s = 3.0;         // time allowed outside the tube before termination
 
@@ -96,6 +107,16 @@ struct RaceConfig {
   // high-level waypoint", measured where the high level's offsets act: across the track).
   double w_goal_lane = 0.15;        // measured against 0.05: docs/learning.md
   double goal_lane_scale_ft = 500.0;
+  // The proximity and lane terms are paid per foot of progress along the track, in units of the
+  // start speed's step (start_speed_ftps x dt_ll_s): at that speed on the goal they pay what a
+  // per-step term would, faster pays more, and time alone earns nothing (docs/race.md "Reward").
+  // Teammates closer than separation_ft cost w_separation x (1 - d / separation_ft)^2 each, per
+  // step: a gradient towards separation before the collision's one-off penalty.
+  double separation_ft = 400.0;
+  double w_separation = 0.5;
+  // HL goals of teammates closer than this are pushed apart across the track (0: never), so a
+  // team's decision never sends two aircraft to one point.
+  double goal_min_separation_ft = 500.0;
   double w_tube = 0.5;               // per second outside the tube, scaled by how far outside
   double w_collision = 5.0;          // once, when taken out by a collision
   double w_termination = 5.0;        // once, for any other termination
@@ -103,6 +124,7 @@ struct RaceConfig {
   double w_rates = 0.01;             // p^2 + q^2 + r^2 [rad^2/s^2]
 
   int n_agent() const { return 2 * team_size; }
+  double autopilot_airspeed() const { return autopilot_airspeed_ftps > 0.0 ? autopilot_airspeed_ftps : start_speed_ftps; }
   // Distance of the goal's center-line point ahead of the aircraft [ft].
   double goal_ahead() const { return goal_ahead_ft > 0.0 ? goal_ahead_ft : preview_points * preview_spacing_ft; }
   // The middle bin on every HL axis: the center-line point itself.

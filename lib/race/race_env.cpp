@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynamics/engine.hpp"
 #include "dynamics/inner_loop.hpp"
 #include "dynamics/physical_constants.hpp"
 #include "dynamics/vector_math.hpp"
@@ -25,6 +26,14 @@ namespace {
 float clampf(double v, double lo, double hi) { return static_cast<float>(std::min(std::max(v, lo), hi)); }
 
 Vec3 position(const F16Batch& sim, int i) { return {sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i]}; }
+
+double mach_of(const F16Batch& sim, int i) { return air_data(sim.state(kVt)[i], sim.state(kAlt)[i]).mach; }
+
+// The most throttle the Mach governor lets through: all of it below mach_max - 0.05, none from
+// mach_max - 0.01 on, linear between; the engine's lag and a dive make up the last 0.01.
+double governor_throttle_limit(double mach, double mach_max) {
+  return std::clamp((mach_max - 0.01 - mach) / 0.04, 0.0, 1.0);
+}
 
 // Heading-aligned ego frame: x forward along psi, y to the right, z up.
 struct EgoFrame {
@@ -47,6 +56,8 @@ const char* cause_name(int cause) {
     case kCauseTurnRate: return "turn_rate";
     case kCauseTube: return "tube";
     case kCauseSimulator: return "simulator";
+    case kCauseTeamCollision: return "team_collision";
+    case kCauseEnvelope: return "envelope";
     default: return "unknown";
   }
 }
@@ -249,11 +260,8 @@ void RaceEnv::reset_env(int env) {
     // than the rest of the reset, and the start point's nearest sample is known.
     track_hint_[i] = std::clamp(static_cast<int>(config_.start_s_ft / tr.spacing_ft()), 0, tr.n_samples() - 1);
     // The trim's own commands, in action units, are the "previous action" of the first step.
-    float* la = &prev_action_[static_cast<std::size_t>(i) * kActionDim];
-    la[0] = static_cast<float>(2.0 * (trim.u_ref[kThrottleDelta] + lqr::kThrottleEquil) - 1.0);
-    la[1] = static_cast<float>(2.0 * (trim.u_ref[kNzRef] - config_.nz_ref_min_g) /
-                                   (config_.nz_ref_max_g - config_.nz_ref_min_g) - 1.0);
-    la[2] = 0.0f;
+    const auto trim_a = action_of(trim);
+    std::copy(trim_a.begin(), trim_a.end(), &prev_action_[static_cast<std::size_t>(i) * kActionDim]);
   }
   // Velocities and Nz of the new race's first observation come from the outputs: evaluated here,
   // they would otherwise be the ended race's (or zeros in a new env).
@@ -266,6 +274,14 @@ void RaceEnv::reset_env(int env) {
     const std::int64_t mid[3] = {config_.hl_center_bin(), config_.hl_center_bin(), config_.hl_center_bin()};
     place_goal(i, mid);  // until the HL policy decides (hl_due is up)
   }
+  separate_goals(env, -1);
+}
+
+std::array<float, kActionDim> RaceEnv::action_of(const TrimResult& trim) const {
+  return {static_cast<float>(2.0 * (trim.u_ref[kThrottleDelta] + lqr::kThrottleEquil) - 1.0),
+          static_cast<float>(2.0 * (trim.u_ref[kNzRef] - config_.nz_ref_min_g) /
+                                 (config_.nz_ref_max_g - config_.nz_ref_min_g) - 1.0),
+          0.0f};
 }
 
 void RaceEnv::update_track_geometry(int env) {
@@ -344,8 +360,9 @@ void RaceEnv::set_hl_actions(const std::int64_t* bins) {
     for (int a = 0; a < n_agent_; ++a) {
       const int i = e * n_agent_ + a;
       if (alive_[i]) place_goal(i, bins + static_cast<std::size_t>(i) * kHlDims);
-      write_goal_observation(i);
     }
+    separate_goals(e, -1);
+    for (int a = 0; a < n_agent_; ++a) write_goal_observation(e * n_agent_ + a);
     hl_due_[e] = 0;
     hl_time_left_s_[e] = config_.dt_hl_s;
     for (int a = 0; a < n_agent_; ++a)  // the task entry "time to the next HL decision"
@@ -420,7 +437,8 @@ void RaceEnv::apply_actions(int i0, int i1, const float* actions) {
       la[k] = v;
     }
     ll_reward_[i] = static_cast<float>(-c.w_action_change * da2);
-    const double throttle = 0.5 * (la[0] + 1.0);
+    double throttle = 0.5 * (la[0] + 1.0);
+    if (c.mach_governor) throttle = std::min(throttle, governor_throttle_limit(mach_of(sim_, i), c.mach_max));
     sim_.ref(kThrottleDelta)[i] = throttle - lqr::kThrottleEquil;
     sim_.ref(kNzRef)[i] = c.nz_ref_min_g + 0.5 * (la[1] + 1.0) * (c.nz_ref_max_g - c.nz_ref_min_g);
     sim_.ref(kPsRef)[i] = la[2] * c.ps_ref_max_radps;
@@ -434,6 +452,8 @@ void RaceEnv::step_env(int e) {
   StepStats& st = step_stats_[e];
   const int base = e * n_agent_;
   time_s_[e] += c.dt_ll_s;
+  double progress_before_ft[16];  // [n_agent]: the progress rewards pay for the step's advance
+  for (int a = 0; a < n_agent_; ++a) progress_before_ft[a] = progress_ft_[base + a];
   update_track_geometry(e);
   std::int8_t new_cause[16] = {};
   double sphi[16], cphi[16], sth[16], cth[16];
@@ -460,6 +480,7 @@ void RaceEnv::step_env(int e) {
     else if (nz < c.nz_min_g || nz > c.nz_max_g) cause = kCauseLoad;
     else if (std::fabs(psi_dot) * 180.0 / kPi > c.turn_rate_max_dps) cause = kCauseTurnRate;
     else if (outside && (c.tube_exit == TubeExit::kTerminate || tube_out_s_[i] > c.tube_grace_s)) cause = kCauseTube;
+    else if (c.mach_max > 0.0 && mach_of(sim_, i) > c.mach_max) cause = kCauseEnvelope;
     new_cause[a] = cause;
   }
   // Collisions between any two aircraft that flew this step: both are out.
@@ -471,8 +492,11 @@ void RaceEnv::step_env(int e) {
       if (!acted_[j]) continue;
       const Vec3 d = position(sim_, i) - position(sim_, j);
       if (dot(d, d) < c.collision_radius_ft * c.collision_radius_ft) {
-        if (new_cause[a] == kCauseNone) new_cause[a] = kCauseCollision;
-        if (new_cause[b] == kCauseNone) new_cause[b] = kCauseCollision;
+        // A teammate's collision outranks an opponent's in the same step.
+        const std::int8_t hit = team_of(a, c.team_size) == team_of(b, c.team_size) ? kCauseTeamCollision : kCauseCollision;
+        for (const int k : {a, b})
+          if (new_cause[k] == kCauseNone || (new_cause[k] == kCauseCollision && hit == kCauseTeamCollision))
+            new_cause[k] = hit;
       }
     }
   }
@@ -494,8 +518,10 @@ void RaceEnv::step_env(int e) {
   if (c.goal_refresh_ft > 0.0) {
     for (int a = 0; a < n_agent_; ++a) {
       const int i = base + a;
-      if (alive_[i] && progress_ft_[i] + c.goal_refresh_ft >= goal_progress_ft_[i])
+      if (alive_[i] && progress_ft_[i] + c.goal_refresh_ft >= goal_progress_ft_[i]) {
         place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims], /*refresh=*/true);
+        separate_goals(e, i);  // the teammates keep their goals: only the new one moves
+      }
     }
   }
 
@@ -513,8 +539,11 @@ void RaceEnv::step_env(int e) {
     const double gd = std::sqrt(dot(d, d));
     double r = ll_reward_[i];  // already holds the action-change penalty
     r += c.w_goal_progress * (goal_dist_ft_[i] - gd) / c.goal_scale_ft;
-    r += c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
-    r += c.w_goal_lane * std::exp(-goal_lane_error_ft(i) / c.goal_lane_scale_ft);
+    // Paid per start-speed step of progress (capped at 2: a projection jump at a corner pays no more).
+    const double advance = std::clamp((progress_ft_[i] - progress_before_ft[a]) / (c.start_speed_ftps * c.dt_ll_s), 0.0, 2.0);
+    r += advance * c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
+    r += advance * c.w_goal_lane * std::exp(-goal_lane_error_ft(i) / c.goal_lane_scale_ft);
+    r -= separation_penalty(i);
     goal_dist_ft_[i] = gd;
     if (dist_ft_[i] > radius_ft_[i]) r -= c.w_tube * c.dt_ll_s * (dist_ft_[i] - radius_ft_[i]) / radius_ft_[i];
     const double p = sim_.state(kP)[i], q = sim_.state(kQ)[i], rr = sim_.state(kR)[i];
@@ -564,6 +593,65 @@ void RaceEnv::step_env(int e) {
     if (hl_time_left_s_[e] <= 1e-9) hl_due_[e] = 1;
   }
   write_observations(e);
+}
+
+void RaceEnv::shift_goal(int i, double right_ft, double up_ft) {
+  const TrackFrame fr = tracks_[i / n_agent_].frame_at(goal_progress_ft_[i]);
+  Vec3 off = goal_point_[i] - fr.center + right_ft * fr.right + up_ft * fr.up;
+  const Vec3 along = dot(off, fr.tangent) * fr.tangent, cross = off - along;
+  const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
+  if (c > limit) off = along + (limit / c) * cross;  // at the outer bins' radius the best it can do
+  goal_point_[i] = fr.center + off;
+  goal_lateral_ft_[i] = dot(off, fr.right);
+  goal_vertical_ft_[i] = dot(off, fr.up);
+  const Vec3 d = goal_point_[i] - position(sim_, i);
+  goal_dist_ft_[i] = std::sqrt(dot(d, d));  // the progress reward counts from the moved goal
+}
+
+void RaceEnv::separate_goals(int env, int mover) {
+  const double sep = config_.goal_min_separation_ft;
+  if (sep <= 0.0) return;
+  const int ts = config_.team_size;
+  // Pairwise relaxation: each close pair parts across the track by the shortfall, half each (all
+  // of it for `mover`); a few sweeps settle a team of four.
+  for (int sweep = 0; sweep < 16; ++sweep) {
+    bool moved = false;
+    for (int a = 0; a < n_agent_; ++a)
+      for (int b = a + 1; b < n_agent_; ++b) {
+        const int i = env * n_agent_ + a, j = env * n_agent_ + b;
+        if (team_of(a, ts) != team_of(b, ts) || !alive_[i] || !alive_[j]) continue;
+        if (mover >= 0 && i != mover && j != mover) continue;
+        const Vec3 d = goal_point_[i] - goal_point_[j];
+        const double dist = std::sqrt(dot(d, d));
+        if (dist >= sep) continue;
+        double dr = goal_lateral_ft_[i] - goal_lateral_ft_[j], du = goal_vertical_ft_[i] - goal_vertical_ft_[j];
+        if (dr * dr + du * du < 1e-6) {  // one point: part along the team slots' directions
+          const double ta = 2.0 * kPi * (a % ts) / ts, tb = 2.0 * kPi * (b % ts) / ts;
+          dr = std::cos(ta) - std::cos(tb), du = std::sin(ta) - std::sin(tb);
+        }
+        const double n = std::sqrt(dr * dr + du * du), push = (sep - dist) / n;
+        const double wi = mover < 0 ? 0.5 : (i == mover ? 1.0 : 0.0);
+        if (wi > 0.0) shift_goal(i, wi * push * dr, wi * push * du);
+        if (wi < 1.0) shift_goal(j, -(1.0 - wi) * push * dr, -(1.0 - wi) * push * du);
+        moved = true;
+      }
+    if (!moved) break;
+  }
+}
+
+double RaceEnv::separation_penalty(int i) const {
+  const RaceConfig& c = config_;
+  if (c.separation_ft <= 0.0 || c.w_separation == 0.0) return 0.0;
+  const int env = i / n_agent_, a = i % n_agent_, team = team_of(a, c.team_size);
+  double sum = 0.0;
+  for (int b = 0; b < n_agent_; ++b) {
+    const int j = env * n_agent_ + b;
+    if (b == a || !alive_[j] || team_of(b, c.team_size) != team) continue;
+    const Vec3 d = position(sim_, i) - position(sim_, j);
+    const double closeness = 1.0 - std::sqrt(dot(d, d)) / c.separation_ft;
+    if (closeness > 0.0) sum += closeness * closeness;
+  }
+  return c.w_separation * sum;
 }
 
 double RaceEnv::goal_lane_error_ft(int i) const {
@@ -675,6 +763,14 @@ void RaceEnv::write_observations(int env) {
       f[kAdoRelVelocity + 1][b] = m * ((-sa * vn + ca * ve) * (1.0f / 500.0f));
       f[kAdoRelVelocity + 2][b] = m * ((vu_ftps[b] - vu_ftps[a]) * (1.0f / 500.0f));
       f[kAdoProgress][b] = m * std::min(std::max(prog[b] - prog[a], -10.0f), 10.0f);
+      // Closest approach if both hold their velocity (what TCAS computes): when, and how close.
+      const float vu = vu_ftps[b] - vu_ftps[a];
+      const float rv = dn * vn + de * ve + du * vu, v2 = vn * vn + ve * ve + vu * vu;
+      const float t_cpa = v2 > 1e-6f ? std::max(-rv / v2, 0.0f) : 0.0f;
+      const float mn = dn + vn * t_cpa, me = de + ve * t_cpa, mu = du + vu * t_cpa;
+      f[kAdoClosing][b] = m * std::min(std::max(-rv * inv_r * (1.0f / 500.0f), -10.0f), 10.0f);
+      f[kAdoTimeToClosest][b] = m * std::min(t_cpa * 0.1f, 1.0f);
+      f[kAdoMissDistance][b] = m * std::min(std::sqrt(mn * mn + me * me + mu * mu) * (1.0f / 1000.0f), 10.0f);
     }
     // Other aircraft in agent order (self skipped), so permuting them permutes rows only.
     const bool a_blue = a < my_team_end;

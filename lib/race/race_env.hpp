@@ -6,6 +6,7 @@
 // a fresh track -> observations written in one pass into preallocated float buffers that a
 // tensor can wrap without a copy. Every HL interval the caller picks 7-bin goal offsets per
 // aircraft (set_hl_actions). Torch-free; see docs/race.md for every number and formula.
+#include <array>
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
@@ -32,13 +33,15 @@ int ado_dim(const RaceConfig& config);
 // Why an aircraft left the race. Each is counted separately in StepStats.
 enum TerminationCause : std::int8_t {
   kCauseNone = 0,
-  kCauseCollision = 1,
+  kCauseCollision = 1,      // with an opponent
   kCauseAltitude = 2,
   kCauseLoad = 3,
   kCauseTurnRate = 4,
   kCauseTube = 5,
-  kCauseSimulator = 6,  // the flight model's envelope or a non-finite state
-  kNumCauses = 7
+  kCauseSimulator = 6,      // the flight model's envelope or a non-finite state
+  kCauseTeamCollision = 7,  // with a teammate (counted before an opponent in the same step)
+  kCauseEnvelope = 8,       // faster than race.mach_max, where the aero data end
+  kNumCauses = 9
 };
 const char* cause_name(int cause);
 
@@ -204,6 +207,7 @@ class RaceEnv {
   }
 
   void apply_actions(int i0, int i1, const float* actions);
+  std::array<float, kActionDim> action_of(const dynamics::TrimResult& trim) const;  // in action units
   void prefetch_track(int env) const;
   void step_env(int env);  // race logic, rewards, resets and observations after the flight step
   void reset_env(int env);
@@ -213,6 +217,13 @@ class RaceEnv {
   void write_goal_observation(int i);
   void write_lane_observations(int env);
   double goal_lane_error_ft(int i) const;
+  // Pushes apart, across the track, the goals of env's live teammates closer than
+  // race.goal_min_separation_ft; mover >= 0: only that aircraft's goal moves (a refresh).
+  void separate_goals(int env, int mover);
+  // Moves aircraft i's goal across the track at its goal point, inside the outer bins' radius.
+  void shift_goal(int i, double right_ft, double up_ft);
+  // Penalty weight of the step for the teammates within race.separation_ft of aircraft i.
+  double separation_penalty(int i) const;
   // refresh: the same decision placed again at the horizon (keeps a goal_origin lane's lane).
   void place_goal(int i, const std::int64_t* bins3, bool refresh = false);
 

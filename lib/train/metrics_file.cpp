@@ -16,7 +16,8 @@ const std::vector<std::string>& metrics_header() {
       "winrate", "finish_rate", "races", "term_collision", "term_altitude", "term_load", "term_turn_rate",
       "term_tube", "term_simulator", "policy_loss", "value_loss", "entropy", "approx_kl", "lr", "es_loss",
       "q_mean", "epsilon", "hl_grad_steps", "es_loss_heldout", "es_end_atom_share", "es_huber_share", "q_spread", "greedy_entropy",
-      "off_center_share", "airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z"};
+      "off_center_share", "airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z",
+      "term_team_collision", "term_envelope"};
   return h;
 }
 }  // namespace
@@ -34,7 +35,8 @@ std::vector<double> metrics_values(const MetricsRow& r) {
           r.term[2], r.term[3], r.term[4], r.term[5], r.term[6], r.policy_loss, r.value_loss, r.entropy, r.approx_kl,
           r.lr, r.es_loss, r.q_mean, r.epsilon, static_cast<double>(r.hl_grad_steps), r.es_loss_heldout, r.es_end_atom_share,
           r.es_huber_share, r.q_spread, r.greedy_entropy, r.off_center_share, r.airspeed_ftps,
-          r.middle_share[0], r.middle_share[1], r.middle_share[2]};
+          r.middle_share[0], r.middle_share[1], r.middle_share[2], r.term[race::kCauseTeamCollision],
+          r.term[race::kCauseEnvelope]};
 }
 }  // namespace
 

@@ -153,7 +153,7 @@ std::uint64_t steps_as_read(const YAML::Node& root) {
 race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& c) {
   race::AutopilotPilotConfig pilot;
   pilot.follow_goal = true;
-  pilot.airspeed_ftps = c.loop.autopilot_airspeed_ftps > 0.0 ? c.loop.autopilot_airspeed_ftps : c.race.start_speed_ftps;
+  pilot.airspeed_ftps = c.loop.autopilot_airspeed_ftps > 0.0 ? c.loop.autopilot_airspeed_ftps : c.race.autopilot_airspeed();
   return pilot;
 }
 

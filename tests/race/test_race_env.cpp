@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "dynamics/engine.hpp"
 #include "dynamics/inner_loop.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
@@ -92,7 +93,9 @@ TEST(RaceEnv, CollisionTakesBothAircraftOut) {
   RaceEnv env(c);
   StepStats first;
   run_until(env, {0.0f, -0.7f, 0.0f}, 1, [&](const StepStats& st) { first = st; return true; });
-  EXPECT_EQ(first.terminations[kCauseCollision], env.n_aircraft());
+  // Each aircraft counts once, under a teammate's collision when it had one.
+  EXPECT_EQ(first.terminations[kCauseCollision] + first.terminations[kCauseTeamCollision], env.n_aircraft());
+  EXPECT_EQ(first.terminations[kCauseTeamCollision], env.n_aircraft());  // 2 vs 2: every aircraft has a teammate in reach
   EXPECT_EQ(first.races_finished, 2);              // a whole team is out: the race ends
   EXPECT_EQ(first.races_by_elimination, 2);
   for (int i = 0; i < env.n_aircraft(); ++i) EXPECT_TRUE(env.alive(i));  // ...and was reset
@@ -114,6 +117,8 @@ TEST(RaceEnv, EachTerminationCauseIsDetectedAndCounted) {
          c.alt_min_ft = c.track.alt_min_ft - c.track.radius_max_ft - 1.0;
          c.tube_grace_s = 1000.0;
          c.nz_min_g = -20.0;
+         c.mach_max = 0.0;  // the dive would leave the envelope first
+         c.mach_governor = false;
        },
        {1.0f, -1.0f, 0.0f}},
       {"simulator", kCauseSimulator,
@@ -170,6 +175,7 @@ TEST(RaceEnv, GraceTimeDelaysTheTubeTermination) {
 
 TEST(RaceEnv, ObservationBuffersHaveTheDocumentedShapes) {
   RaceConfig c = small_config(3, 4);
+  c.goal_min_separation_ft = 0.0;  // the bins' own geometry: teammates' goals are not pushed apart
   RaceEnv env(c);
   EXPECT_EQ(env.task_dim(), 5 * c.preview_points + 8);
   const int n = env.n_aircraft();
@@ -212,7 +218,7 @@ TEST(RaceEnv, PermutingOtherAircraftPermutesAdoRowsOnly) {
   // Rows 0 and 1 of aircraft 0's o_ado (others 1 and 2) trade places, except the team flag,
   // which belongs to the slot (agent 1 is blue, agent 2 red).
   for (int k = 0; k < kAdoDim; ++k) {
-    if (k == 8) continue;
+    if (k == kAdoSameTeam) continue;
     EXPECT_EQ(ado0[0 * kAdoDim + k], ado1[1 * kAdoDim + k]) << k;
     EXPECT_EQ(ado0[1 * kAdoDim + k], ado1[0 * kAdoDim + k]) << k;
     EXPECT_EQ(ado0[2 * kAdoDim + k], ado1[2 * kAdoDim + k]) << k;
@@ -365,7 +371,7 @@ TEST(RaceEnv, ScriptedPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
 // must fly the tracks to the finish line, not merely run.
 TEST(RaceEnv, AutopilotPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
   AutopilotPilotConfig k;
-  k.airspeed_ftps = small_config(8, 4).start_speed_ftps;
+  k.airspeed_ftps = small_config(8, 4).autopilot_airspeed();
   const PilotOutcome r = race_built_in_pilot([&](const RaceEnv& env, float* a) { autopilot_actions(env, k, a); });
   std::printf("autopilot pilot: %d races ended, %d at the finish line, %d of 64 aircraft alive at the end\n",
               r.finished, r.by_finish_line, r.alive_at_end);
@@ -443,7 +449,7 @@ TEST(RaceEnv, EveryListedArrayIsSizedOnceAndSnapshotted) {
 namespace f16race::race {
 namespace {
 
-// Blue aircraft 0 is flown out of the tube at once (a 6 g rolling pull, tube exits terminate)
+// Blue aircraft 0 is flown out of the tube at once (a rolling pull, tube exits terminate)
 // and blue 1 flies at low throttle, so red leads: from its elimination to the race's end aircraft 0 must be paid its
 // team's term, -1 per step while trailing, exactly what a teammate holding its rank gets. Today's
 // code before this rule paid it 0, so leaving the race raised a trailing team's return.
@@ -451,6 +457,7 @@ TEST(RaceEnv, EliminatedAircraftKeepsTheTeamTermToTheRaceEnd) {
   RaceConfig c = small_config(1, 2);
   c.tube_exit = TubeExit::kTerminate;
   c.time_limit_s = 40.0;
+  c.turn_rate_max_dps = 1e3;  // the pull must take it out of the tube, not over the turn-rate limit first
   RaceEnv env(c);
   std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
@@ -460,7 +467,7 @@ TEST(RaceEnv, EliminatedAircraftKeepsTheTeamTermToTheRaceEnd) {
   for (int s = 0; s < 2000 && !done; ++s) {
     env.set_hl_actions(bins.data());
     scripted_actions(env, ScriptedPilotConfig{}, a.data());
-    a[0] = 0.0f, a[1] = 1.0f, a[2] = 0.3f;  // aircraft 0: rolling pull out of the tube
+    a[0] = 0.0f, a[1] = 0.4f, a[2] = 0.3f;  // aircraft 0: rolling 4.5 g pull out of the tube
     a[kActionDim] = -0.8f;                  // aircraft 1: throttle 0.1
     env.step(a.data());
     done = env.env_done()[0] != 0;
@@ -600,6 +607,7 @@ TEST(RaceEnv, GoalSitsAtThePreviewHorizonAndStaysAheadThroughA20sInterval) {
 TEST(RaceEnv, GoalFrameBinsMoveTheGoalAlongRightAndUpOrNorthEastUp) {
   RaceConfig c = small_config(4, 4);
   c.goal_frame = GoalFrame::kTrack;
+  c.goal_min_separation_ft = 0.0;  // the bins' own geometry: teammates' goals are not pushed apart
   const std::int64_t lo = 0, mid = c.hl_center_bin(), hi = c.hl_bins - 1;
   struct Case {
     std::int64_t bins[kHlDims];
@@ -738,6 +746,7 @@ TEST(RaceEnv, GoalFollowingAutopilotFliesTheLaneTheHighLevelChose) {
 TEST(RaceEnv, LaneOriginGoalsAreOffsetsFromTheAircraftsOwnLane) {
   RaceConfig c = small_config(2, 2);
   c.goal_origin = GoalOrigin::kLane;
+  c.goal_min_separation_ft = 0.0;  // the bins' own geometry: teammates' goals are not pushed apart
   c.dt_hl_s = 20.0;  // long enough for a refresh (at ~9 000 ft, ~13 s) inside one decision
   RaceEnv env(c);
   auto frac = [&](int i, bool goal) {
@@ -832,6 +841,67 @@ TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
     EXPECT_EQ(e.find('\n'), std::string::npos) << e;
   }
   EXPECT_EQ(race_config_error("{track: {spacing_ft: 10}}"), "(accepted)");
+}
+
+
+// Teammates given one goal are sent to points at least goal_min_separation_ft apart (or to the
+// tube's edge); opponents are not moved for each other.
+TEST(RaceEnv, TeammatesGoalsAreKeptApartOpponentsAreNot) {
+  RaceConfig c = small_config(3, 4);
+  RaceEnv env(c);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+  env.set_hl_actions(bins.data());
+  int pairs = 0, opponents_close = 0;
+  for (int e = 0; e < c.n_env; ++e)
+    for (int a = 0; a < env.n_agent(); ++a)
+      for (int b = a + 1; b < env.n_agent(); ++b) {
+        const int i = e * env.n_agent() + a, j = e * env.n_agent() + b;
+        const Vec3 d = env.goal_point(i) - env.goal_point(j);
+        const double dist = std::sqrt(dot(d, d));
+        if ((a < c.team_size) == (b < c.team_size)) {
+          EXPECT_GT(dist, c.goal_min_separation_ft - 1.0) << "env " << e << " teammates " << a << ", " << b;
+          ++pairs;
+        } else {
+          opponents_close += dist < c.goal_min_separation_ft;
+        }
+      }
+  EXPECT_EQ(pairs, c.n_env * 2 * 6);
+  EXPECT_GT(opponents_close, 0);  // the middle bin is one point for every aircraft of a team and the other
+}
+
+// The Mach governor caps the commanded throttle: full throttle in level flight for 40 s ends near
+// mach_max and never beyond it; without the governor the same flight leaves the envelope.
+TEST(RaceEnv, MachGovernorHoldsFullThrottleInsideTheEnvelope) {
+  for (const bool governor : {true, false}) {
+    RaceConfig c = small_config(1, 1);
+    c.mach_governor = governor;
+    c.tube_grace_s = 1e6;
+    c.turn_rate_max_dps = 1e3;
+    c.time_limit_s = 1e3;
+    RaceEnv env(c);
+    std::vector<float> a(2 * kActionDim);
+    for (int i = 0; i < 2; ++i) {
+      a[i * 3 + 0] = 1.0f;  // full throttle, Nz of the trim (level flight), no roll
+      a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
+    }
+    double mach_peak = 0.0;
+    int envelope = 0, other = 0;
+    for (int s = 0; s < 500 && envelope == 0; ++s) {
+      const StepStats st = env.step(a.data());
+      envelope += st.terminations[kCauseEnvelope];
+      for (int q = 1; q < kNumCauses; ++q) other += q == kCauseEnvelope ? 0 : st.terminations[q];
+      for (int i = 0; i < 2; ++i)
+        mach_peak = std::max(mach_peak, dynamics::air_data(env.sim().state(dynamics::kVt)[i], env.sim().state(kAlt)[i]).mach);
+    }
+    EXPECT_EQ(other, 0) << "governor " << governor;
+    if (governor) {
+      EXPECT_EQ(envelope, 0);
+      EXPECT_LE(mach_peak, c.mach_max);
+      EXPECT_GT(mach_peak, c.mach_max - 0.03);
+    } else {
+      EXPECT_GT(envelope, 0);
+    }
+  }
 }
 
 }  // namespace

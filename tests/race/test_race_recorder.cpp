@@ -22,6 +22,7 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
   c.team_size = 2;
   c.seed = 11;
   c.time_limit_s = 30.0;
+  c.goal_min_separation_ft = 0.0;  // middle bins stay the center-line point (no de-confliction)
   RaceEnv env(c);
   RaceRecorder rec(env);
   std::vector<float> actions(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);

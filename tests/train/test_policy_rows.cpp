@@ -74,7 +74,7 @@ TEST(GreedyLowLevel, NetworkMeanOrGoalFollowingAutopilotOnTheGivenRowsOnly) {
     if (autopilot) {
       race::AutopilotPilotConfig k;
       k.follow_goal = true;
-      k.airspeed_ftps = c.race.start_speed_ftps;
+      k.airspeed_ftps = c.race.autopilot_airspeed();  // loop.autopilot_airspeed_ftps 0: the race's set point
       race::autopilot_actions(env, k, want.data(), rows.data_ptr<std::int64_t>(), rows.numel());
     } else {
       scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, want.data());

@@ -543,9 +543,10 @@ TEST(Trainer, MetricsNewColumnsAndAnOlderRunUpgradedOnResume) {
   ASSERT_EQ(lines.size(), 4u);
   const std::string header = lines[0];
   const std::vector<std::string> names = cells(header);
-  const std::vector<std::string> added = {"airspeed_ftps", "middle_share_x", "middle_share_y", "middle_share_z"};
+  const std::vector<std::string> added = {"airspeed_ftps",  "middle_share_x",      "middle_share_y",
+                                          "middle_share_z", "term_team_collision", "term_envelope"};
   ASSERT_GE(names.size(), added.size());
-  ASSERT_TRUE(std::equal(added.begin(), added.end(), names.end() - 4)) << header;
+  ASSERT_TRUE(std::equal(added.begin(), added.end(), names.end() - static_cast<long>(added.size()))) << header;
   const std::size_t first_added = names.size() - added.size();
   for (std::size_t k = 1; k < lines.size(); ++k) {
     const std::vector<std::string> row = cells(lines[k]);
