@@ -375,9 +375,11 @@
     const c = cam.mode === 'orbit' ? '' : cam.mode === 'chase' ? '&cam=chase' : `&cam=follow${cam.who}`;
     try { history.replaceState(null, '', `#t=${t.toFixed(2)}${c}`); } catch (e) { /* some file:// settings refuse it */ }
   }
-  // `#t=20` opens paused at 20 s; `&cam=orbit|chase|followK` picks the camera.
+  // `#t=20` opens paused at 20 s; `&cam=orbit|chase|followK` picks the camera; `&ui=0` hides the
+  // panels (figures, and tests that measure the 3-D view alone).
   function readFragment() {
     const p = new URLSearchParams(location.hash.replace(/^#/, ''));
+    ['title', 'events', 'board', 'controls'].forEach((id) => { $(id).style.display = p.get('ui') === '0' ? 'none' : ''; });
     const c = p.get('cam') || '';
     if (c === 'chase' || c === 'orbit') cam = { mode: c, who: 0 };
     const m = /^follow(\d+)$/.exec(c);
