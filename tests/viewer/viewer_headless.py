@@ -91,7 +91,7 @@ def main():
     shots = [read_png_rgb(chrome.screenshot(url + f"#t={t}&ui=0", work, f"shot_{n}")) for n, t in (("early", 2), ("late", late))]
     for name, img in zip(("2 s", f"{late} s"), shots):
         check(img.shape == (chrome.HEIGHT, chrome.WIDTH, 3), f"screenshot at {name} is {chrome.WIDTH}x{chrome.HEIGHT}")
-        check(img.std() > 10.0, f"screenshot at {name} is not blank (pixel std {img.std():.1f} > 10)")
+        check(img.std() > 6.0, f"screenshot at {name} is not blank (pixel std {img.std():.1f} > 6; one colour: 0)")
     changed = (abs(shots[0] - shots[1]).max(axis=2) > 24).mean()
     check(changed > 0.002, f"the screenshots at 2 s and {late} s differ ({100 * changed:.2f} % of pixels)")
 
