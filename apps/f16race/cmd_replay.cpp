@@ -26,11 +26,14 @@ struct ReplayCliOptions {
 
 // Where --html goes: "" to write it at o.html after the folder, or its name inside --out, which
 // is swapped in whole, so the page is staged with the rest. Refuses, before the race, a path that
-// is a folder, or that lies in --out under a name the next replay would not own.
+// is a folder or under a file, or that lies in --out under a name the next replay would not own.
 std::string html_in_out_folder(const ReplayCliOptions& o) {
   if (o.html.empty()) return "";
   std::error_code ec;
   if (fs::is_directory(o.html, ec)) throw io::InputError("--html " + o.html + ": is a folder; name the page's file, e.g. race.html");
+  const fs::path parent = fs::absolute(o.html).parent_path();
+  if (fs::exists(parent, ec) && !fs::is_directory(parent, ec))
+    throw io::InputError("--html " + o.html + ": " + parent.string() + " is not a folder");
   const fs::path page = fs::weakly_canonical(fs::absolute(o.html));
   fs::path out = fs::weakly_canonical(fs::absolute(o.out));
   if (out.filename().empty()) out = out.parent_path();  // "runs/replay/"
@@ -86,7 +89,9 @@ void add_replay_command(CLI::App& app) {
                   "is refused)");
   cmd->add_option("--html", o->html,
                   "Also write the race as one self-contained 3-D page (three.js inlined, opens from disk with no "
-                  "network; race.html#t=20 opens at 20 s): docs/viewer.md");
+                  "network; race.html#t=20 opens at 20 s): docs/viewer.md")
+      ->check(CLI::Validator([](std::string& v) { return v.empty() ? std::string("needs a file name, e.g. race.html") : std::string(); },
+                             "FILE"));
   cmd->callback([o]() { run_replay_command(*o); });
 }
 
