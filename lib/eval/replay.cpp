@@ -129,7 +129,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
     rec.after_step(env);
     block_counter.after_step(race::block_view(env));
   }
-  return RaceReplay{rec.trace(0), blue.name, red.name, block_counter.events()};
+  return RaceReplay{rec.trace(0), blue.name, red.name, block_counter.events(), rc};
 }
 
 bool write_replay(const RaceReplay& r, const std::string& out_dir, std::string* message) {

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "race/block_events.hpp"
+#include "race/race_config.hpp"
 #include "race/race_recorder.hpp"
 
 namespace f16race::eval {
@@ -28,6 +29,7 @@ struct RaceReplay {
   race::RaceTrace trace;
   std::string blue, red;                 // entry names
   std::vector<race::BlockEvent> blocks;  // in the order they happened (race/block_events.hpp)
+  race::RaceConfig race;                 // the race flown (n_env 1): its step, finish line and goal frame
 };
 
 // Throws io::InputError naming the folder when a run is missing, corrupt or was trained for

@@ -140,6 +140,10 @@ case_ "replay missing run" -- "$bin" replay --run "$work/nothing" --out r1
 case_ "replay bad opponent" -- "$bin" replay --run "$run" --opponent bogus --out r2
 case_ "replay negative seed" -- "$bin" replay --run "$run" --seed -1 --out r3
 case_ "replay out under a device" -- "$bin" replay --run "$run" --out /dev/null/r4
+case_ "replay html empty" "--html" -- "$bin" replay --run "$run" --out r6 --html ""
+case_ "replay html a folder" "--html" -- "$bin" replay --run "$run" --out r6 --html "$work"
+case_ "replay html in out, foreign name" "--html" -- "$bin" replay --run "$run" --out r6 --html r6/page.html
+case_ "replay html under a device" "/dev/null/race.html" -- "$bin" replay --run "$run" --out r6 --html /dev/null/race.html
 case_ "export not a run" -- "$bin" export --run not_a_run --out e1
 case_ "export out under a device" -- "$bin" export --run "$run" --out /dev/null/e2
 "$bin" train --config "$smoke" --run "$work/ap_run" --set train.ll_pilot=autopilot --max-updates 1 --quiet >/dev/null ||

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# shipped_team (issue 52): examples/trained_team/ still loads with this build in replay (with
+# --html), tournament, export and Python's f16race.load_policy, and still beats AeroBench's
+# autopilot in a short tournament. When it no longer loads, says how to retrain and reship it.
+# usage: shipped_team.sh F16RACE SOURCE_DIR WORK_DIR [PYTHON PYTHONPATH]  (the last two: the module's tests)
+set -uo pipefail
+bin=$1 src=$2 work=$3 python=${4:-} pypath=${5:-}
+team=$src/examples/trained_team
+min_winrate=0.5   # vs the autopilot, over RACES races
+races=32
+rm -rf "$work" && mkdir -p "$work"
+
+if [ ! -f "$team/config.yaml" ]; then
+  echo "FAIL: $team holds no trained run: train one (f16race train --config configs/default.yaml --run runs/team)" \
+       "and ship it with scripts/ship_team.sh runs/team \"THE TRAIN COMMAND\" (docs/viewer.md, \"The shipped team\")"
+  exit 1
+fi
+retrain=$(sed -n 's/^- command: `\(.*\)`$/\1/p' "$team/provenance.md" 2>/dev/null | head -1)
+unloadable() {
+  echo "FAIL: the shipped team no longer loads with this build: retrain with \`${retrain:-f16race train --config configs/default.yaml --run runs/team}\`" \
+       "and run scripts/ship_team.sh RUN (docs/viewer.md, \"The shipped team\"). $1 said:"
+  sed 's/^/  /' "$work/out.txt"
+  exit 1
+}
+
+"$bin" replay --run "$team" --opponent autopilot --out "$work/replay" --html "$work/race.html" >"$work/out.txt" 2>&1 ||
+  unloadable "replay"
+[ -s "$work/race.html" ] || { echo "FAIL: replay --html wrote no page"; exit 1; }
+echo "ok    replay --html: $(head -1 "$work/out.txt")"
+"$bin" export --run "$team" --out "$work/export" >"$work/out.txt" 2>&1 || unloadable "export"
+echo "ok    export: $(sed -n 3p "$work/out.txt" | sed 's/^ *//')"
+if [ -n "$python" ]; then
+  PYTHONPATH=$pypath "$python" - "$team" >"$work/out.txt" 2>&1 <<'PY' || unloadable "f16race.load_policy"
+import sys
+import f16race
+import numpy as np
+p = f16race.load_policy(sys.argv[1])
+env = p.make_env(n_env=2, seed=1)  # the shipped config, so the observations match the networks
+obs, _ = env.reset()
+env.set_hl_actions(p.hl_bins(obs))
+actions = p.act(obs)
+assert actions.shape == (2, 2 * env.team_size, 3) and np.isfinite(actions).all(), actions.shape
+obs, *_ = env.step(actions)
+print(f"{p!r} flew a step of 2 races ({env.team_size} vs {env.team_size}) with the shipped config")
+PY
+  echo "ok    f16race.load_policy: $(tail -1 "$work/out.txt")"
+else
+  echo "note  f16race.load_policy not checked: the Python module is not built (F16RACE_PYTHON off)"
+fi
+"$bin" tournament --runs "$team" --with-autopilot --no-untrained --races "$races" --out "$work/tour" >"$work/out.txt" 2>&1 ||
+  unloadable "tournament"
+winrate=$(awk -F, '$7 == "trained_team" && $8 == "autopilot" { print $3 }' "$work/tour/pairings.csv")
+[ -n "$winrate" ] || { echo "FAIL: no trained_team vs autopilot pairing in $work/tour/pairings.csv"; exit 1; }
+if awk -v w="$winrate" -v m="$min_winrate" 'BEGIN { exit !(w > m) }'; then
+  echo "ok    beats the autopilot: winrate $winrate over $races races (> $min_winrate)"
+else
+  echo "FAIL: the shipped team no longer beats the autopilot: winrate $winrate over $races races (needs > $min_winrate);" \
+       "retrain with \`${retrain:-f16race train --config configs/default.yaml --run runs/team}\` and run scripts/ship_team.sh RUN"
+  exit 1
+fi
+echo "shipped_team: all checks passed"
