@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The main job on the default configuration: set up, build, and train a 4 vs 4 es_d2 agent
-# (10-14 minutes on 2 cores with the build: 13 min 39 s on a fresh clone, Intel Xeon, stop 48; training ~5-6 min). Progress is shown live; results go to runs/default_<time>/.
+# (its time: docs/results.md "The main job"). Progress is shown live; results go to runs/default_<time>/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds everything with AddressSanitizer and UndefinedBehaviorSanitizer in build-sanitize/ and
-# runs the whole test suite there. Not part of CI: about 20 min on 2 cores from an empty folder,
-# on top of CI's own build and tests (README "Sanitizers": the run time and the result).
+# runs the whole test suite there. Not part of CI: minutes to tens of minutes on 2 cores from an empty folder,
+# on top of CI's own build and tests (docs/robustness.md: the run time and the result).
 # Usage: scripts/run_sanitizers.sh [--quick] [ctest arguments, e.g. -R RaceEnv]
 #   --quick: only the torch-free half (simulator, AeroBench files, race env, I/O and their tests),
 #            a few minutes.

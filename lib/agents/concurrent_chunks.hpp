@@ -19,7 +19,7 @@ namespace f16race::agents {
 // Returns the call's wall time beyond an even split of its chunks' own run times over the threads
 // that ran them (the slower core's lead at the end, the fork and join; 0 when run inline). A step's
 // two equal chunks finish up to ~25 % apart on the 2-vCPU VMs, one core being slower for whole runs:
-// `bench train` reports the sum (docs/performance.md, stop 46).
+// `bench train` reports the sum (docs/performance.md).
 template <class Run>
 double run_chunks(int64_t n_chunks, const Run& run) {
   if (n_chunks == 1 || omp_get_max_threads() == 1) {

@@ -1,6 +1,6 @@
 #pragma once
 // Where a result comes from: the commit this binary was built from and the CPU it runs on, for
-// every report and benchmark that quotes numbers (README, "Measuring").
+// every report and benchmark that quotes numbers (docs/performance.md).
 #include <string>
 
 namespace f16race::io {

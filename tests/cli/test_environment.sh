@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Every GoogleTest case ctest runs gets OMP_WAIT_POLICY=PASSIVE and OPENBLAS_NUM_THREADS=1: under
 # ctest -j2 on 2 cores, two tests whose idle OpenMP threads spin took 53-56 s where each alone
-# takes 1 s (stop 42: a ';' inside gtest_discover_tests' PROPERTIES had silently dropped the
+# takes 1 s (once, a ';' inside gtest_discover_tests' PROPERTIES had silently dropped the
 # first). Usage: test_environment.sh BUILD_DIR
 set -uo pipefail
 cd "$1" || { echo "FAIL: no build folder $1"; exit 1; }

@@ -271,7 +271,7 @@ TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
 }
 
 // A finished run extended by a tail (its config's budget raised, train.hl_tail_share set, the
-// checkpoint's hash rewritten: the way stop 37-39's tail arms were made) whose last checkpoint lies
+// checkpoint's hash rewritten: the way the tail experiments' arms were made) whose last checkpoint lies
 // inside an LL phase finishes that phase's PPO update before the tail: a tail member's streams
 // begin after it, so every member keeps the run's final low level (bit for bit).
 TEST(Trainer, TailMemberStreamsBeginAfterTheLastLowLevelUpdate) {
