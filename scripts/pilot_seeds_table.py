@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""Notebook 64's table: learned low levels against the tuned autopilot, per seed and over seeds.
+
+    scripts/pilot_seeds_table.py EXPERIMENT_DIR
+
+EXPERIMENT_DIR holds, per seed S, the run `sS` (its metrics.csv) and the tournament `t_sS`
+(`tournament --runs sS --no-untrained --with-autopilot --controls`; a seed counts once
+`t_sS/done.txt` exists). Prints Markdown: per seed the winrate against the autopilot, `@center`
+and `@random` (Wilson 95 %), airspeed of training's last tenth, the median race, aircraft lost per
+race by cause for both teams of the autopilot pairing, and the winrate in the races neither team
+lost an aircraft; then the pre-registered claims over seeds (bootstrap 95 % CIs). Standard library.
+"""
+import csv
+import math
+import os
+import random
+import sys
+
+CAUSES = ["team_collision", "collision", "tube", "altitude", "load", "turn_rate", "simulator", "envelope"]
+
+
+def wilson(w, n, z=1.96):
+    if n == 0:
+        return (float("nan"),) * 2
+    p = w / n
+    d = 1 + z * z / n
+    c = p + z * z / (2 * n)
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return ((c - h) / d, (c + h) / d)
+
+
+def boot(xs, reps=10000, seed=1):
+    """Percentile bootstrap 95 % CI of the mean over seeds."""
+    rng = random.Random(seed)
+    n = len(xs)
+    ms = sorted(sum(rng.choice(xs) for _ in range(n)) / n for _ in range(reps))
+    return ms[int(0.025 * reps)], ms[int(0.975 * reps) - 1]
+
+
+def head_to_head(rows, me, opp):
+    """Score of `me` against `opp` (a draw is half a win), each team's losses per race by cause,
+    the median race, and the score over the races in which neither team lost an aircraft."""
+    h = dict(w=0.0, n=0, clean_w=0.0, clean_n=0, durations=[],
+             lost={c: 0 for c in CAUSES}, opp_lost={c: 0 for c in CAUSES})
+    for r in rows:
+        if {r["blue"], r["red"]} != {me, opp}:
+            continue
+        side, other = ("blue", "red") if r["blue"] == me else ("red", "blue")
+        score = 1.0 if r["winner"] == me else (0.5 if r["winner"] == "draw" else 0.0)
+        h["n"] += 1
+        h["w"] += score
+        for c in CAUSES:
+            h["lost"][c] += int(float(r[f"{side}_out_{c}"]))
+            h["opp_lost"][c] += int(float(r[f"{other}_out_{c}"]))
+        if int(r["blue_terminated"]) == 0 and int(r["red_terminated"]) == 0:
+            h["clean_n"] += 1
+            h["clean_w"] += score
+        h["durations"].append(float(r["duration_s"]))
+    n = max(h["n"], 1)
+    for key in ("lost", "opp_lost"):
+        h[key] = {c: v / n for c, v in h[key].items()}
+    d = sorted(h["durations"])
+    h["median_s"] = d[len(d) // 2] if d else float("nan")
+    return h
+
+
+def last_tenth(path, col):
+    rows = list(csv.DictReader(open(path)))
+    k = max(1, len(rows) // 10)
+    xs = [float(r[col]) for r in rows[-k:] if r[col] not in ("", "nan")]
+    return sum(xs) / len(xs) if xs else float("nan")
+
+
+def fmt_ci(w, n):
+    lo, hi = wilson(w, n)
+    return f"{w / n:.3f} [{lo:.3f}, {hi:.3f}]"
+
+
+def seed_row(folder, s):
+    rows = list(csv.DictReader(open(os.path.join(folder, f"t_s{s}", "races.csv"))))
+    me = f"s{s}"
+    ap = head_to_head(rows, me, "autopilot")
+    c = head_to_head(rows, me, me + "@center")
+    r = head_to_head(rows, me, me + "@random")
+    v = last_tenth(os.path.join(folder, me, "metrics.csv"), "airspeed_ftps")
+    lost = lambda d: ", ".join(f"{d[k]:.3f}" for k in ("team_collision", "collision", "tube", "envelope"))
+    print(f"| {s} | {fmt_ci(ap['w'], ap['n'])} | {fmt_ci(c['w'], c['n'])} | {fmt_ci(r['w'], r['n'])} | {v:.0f} "
+          f"| {ap['median_s']:.1f} | {lost(ap['lost'])} | {lost(ap['opp_lost'])} "
+          f"| {fmt_ci(ap['clean_w'], ap['clean_n'])} ({ap['clean_n']}) |")
+    others = [k for k in CAUSES if k not in ("team_collision", "collision", "tube", "envelope")]
+    return dict(ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
+                clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"],
+                other_lost=sum(ap["lost"][k] + ap["opp_lost"][k] for k in others))
+
+
+def summary(per):
+    k = sum(p["ap_lo"] > 0.6 for p in per)
+    lo, hi = wilson(k, len(per))
+    print(f"\nClaim A, seeds beating the tuned autopilot (Wilson lower bound > 0.6): {k} of {len(per)} [{lo:.2f}, {hi:.2f}]")
+    m, b = mean_ci([p["lost"]["team_collision"] for p in per])
+    print(f"Claim B, teammate collisions per race vs the autopilot: mean {m:.3f} bootstrap 95% [{b[0]:.3f}, {b[1]:.3f}]")
+    for key, name in (("ap", "vs autopilot"), ("clean", "vs autopilot, races without losses"), ("c", "vs @center"),
+                      ("r", "vs @random"), ("v", "airspeed ft/s")):
+        xs = [p[key] for p in per]
+        m, b = mean_ci(xs)
+        sd = math.sqrt(sum((x - m) ** 2 for x in xs) / (len(xs) - 1)) if len(xs) > 1 else 0.0
+        print(f"{name}: mean {m:.3f} std {sd:.3f} bootstrap 95% [{b[0]:.3f}, {b[1]:.3f}]")
+    for c in CAUSES:
+        m, b = mean_ci([p["lost"][c] for p in per])
+        print(f"run's team lost per race vs the autopilot, {c}: mean {m:.3f} [{b[0]:.3f}, {b[1]:.3f}]")
+
+
+def mean_ci(xs):
+    m = sum(xs) / len(xs)
+    return m, (boot(xs) if len(xs) > 1 else (m, m))
+
+
+def main():
+    if len(sys.argv) != 2 or not os.path.isdir(sys.argv[1]):
+        sys.exit("usage: scripts/pilot_seeds_table.py EXPERIMENT_DIR (a folder with sS/ and t_sS/)")
+    folder = sys.argv[1]
+    seeds = [s for s in range(1, 100) if os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt"))]
+    if not seeds:
+        sys.exit(f"{folder}: no finished seed (t_sS/done.txt); run the tournaments first")
+    print("| seed | vs autopilot [95 % Wilson] | vs @center | vs @random | airspeed ft/s (last tenth) "
+          "| median race s | run lost per race: team collision, collision, tube, envelope "
+          "| autopilot lost per race: same causes | vs autopilot, races without losses (races) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    per = [seed_row(folder, s) for s in seeds]
+    summary(per)
+
+
+if __name__ == "__main__":
+    main()
