@@ -29,8 +29,7 @@ struct RunPolicy {
   std::vector<std::unique_ptr<agents::EsAgent>> hl_members;
 };
 
-// Loads the LATEST checkpoint of `run_dir`; a run trained with train.hl_average_share acts on its
-// high level's weight average (EsAgent::act_with_average), a finished run with train.hl_tail_members
+// Loads the LATEST checkpoint of `run_dir`; a finished run with train.hl_tail_members
 // K > 1 on the ensemble of its K tails (RUN and RUN/members/1..K-1, as load_ensemble_policy). Throws io::InputError naming the file and the
 // fix when the folder is not a run, has no checkpoint, was written by another config.yaml
 // (hash mismatch) or a checkpoint file is unreadable.
