@@ -250,6 +250,9 @@ void ConfigReader::read(const char* key, std::vector<std::string>* value, const 
 }
 
 namespace {
+// The commit that removed the keys ConfigReader::retired names (issue 51).
+constexpr const char* kKeysRetiredIn = "06d4cb7";
+
 // `n` holds `value`: the same text, or the same number (0 and 0.0) or boolean (false and no).
 bool holds(const YAML::Node& n, const char* value) {
   if (!n.IsScalar()) return false;

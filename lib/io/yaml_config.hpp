@@ -31,9 +31,8 @@ void apply_override(YAML::Node& root, const std::string& assignment);
 // load_yaml_file(path), then every override in order (what `--config F --set k=v ...` means).
 YAML::Node load_yaml_with_overrides(const std::string& path, const std::vector<std::string>& overrides);
 
-// Keys retired by issue 51 (experiment switches measured not to help, a test hook): the commit
-// that removed them, and the last commit that reads them all.
-inline constexpr const char* kKeysRetiredIn = "issue 51";
+// Keys retired by issue 51 (experiment switches measured not to help, a test hook): the last
+// commit that reads them all (ConfigReader::retired).
 inline constexpr const char* kLastCommitWithRetiredKeys = "b8c9f8c";
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
