@@ -55,6 +55,8 @@ class ConfigReader {
   // boolean compares as one: 0 and 0.0), it is consumed and changes nothing; at any other value
   // the config asks for code that is gone, and the error names the key, the value and the commits.
   void retired(const char* key, const char* value);
+  // A key another reader of this mapping takes care of: not an unknown key here.
+  void skip(const char* key) { used_.insert(key); }
 
   // Sub-mapping (possibly absent: then an empty reader that keeps every default).
   ConfigReader child(const char* key);
@@ -84,6 +86,7 @@ class ConfigWriter {
   void read(const char* key, bool* value) { node_[key] = *value; }
   void read(const char* key, std::string* value, const std::vector<std::string>&) { node_[key] = *value; }
   void retired(const char*, const char*) {}  // never written again
+  void skip(const char*) {}
   void read(const char* key, std::vector<int>* value, int, int) {
     YAML::Node seq(YAML::NodeType::Sequence);
     seq.SetStyle(YAML::EmitterStyle::Flow);

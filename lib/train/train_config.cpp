@@ -104,6 +104,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
   r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
   r.retired("hl_average_share", "0");  // docs/notebook/33, 35
+  r.skip("tail_member");  // read_tail_member's, from run folders only
   r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
   r.finish();
 }
@@ -142,9 +143,9 @@ namespace {
 // train.tail_member, the tail member a run folder under RUN/members/m is (train writes it there
 // when it forks them): read from run folders only. A user's config may hold it at 0 only, as the
 // config.yaml of a run from before issue 51 lists it.
-int take_tail_member(YAML::Node& root, const std::string& source, ConfigOrigin origin) {
+int read_tail_member(const YAML::Node& root, const std::string& source, ConfigOrigin origin) {
   if (!root.IsMap()) return 0;  // the reader says what is wrong with it
-  YAML::Node loop = root["train"];
+  const YAML::Node loop = root["train"];
   if (!loop || !loop.IsMap() || !loop["tail_member"]) return 0;
   io::ConfigReader reader(loop, source, "train");
   int m = 0;
@@ -153,7 +154,6 @@ int take_tail_member(YAML::Node& root, const std::string& source, ConfigOrigin o
     throw io::ConfigError(source + ": train.tail_member = " + std::to_string(m) +
                           " is written by train into the members of a train.hl_tail_members run, not read from "
                           "a config: set train.hl_tail_members instead");
-  loop.remove("tail_member");
   return m;
 }
 
@@ -199,11 +199,9 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
 
 }  // namespace
 
-TrainConfig read_train_config(const YAML::Node& given, const std::string& source, ConfigOrigin origin) {
-  // A copy: train.tail_member is taken out of it before the sections are read.
-  YAML::Node root = YAML::Clone(given);
+TrainConfig read_train_config(const YAML::Node& root, const std::string& source, ConfigOrigin origin) {
   TrainConfig c;
-  c.loop.tail_member = take_tail_member(root, source, origin);
+  c.loop.tail_member = read_tail_member(root, source, origin);
   io::ConfigReader top(root, source);
   top.read("seed", &c.seed);
   io::ConfigReader race = top.child("race");

@@ -89,7 +89,7 @@ race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& config);
 // also list the internal train.tail_member).
 enum class ConfigOrigin { kUser, kRunFolder };
 
-// Reads `root` (already loaded, --set overrides applied; not modified). Unknown top-level sections
+// Reads `root` (already loaded, --set overrides applied). Unknown top-level sections
 // or keys, wrong types and out-of-range values throw io::ConfigError naming `source` and the key;
 // so does a retired key (io::ConfigReader::retired) at another value than this build behaves as,
 // and a race.seed other than seed.

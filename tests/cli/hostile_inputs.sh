@@ -133,7 +133,8 @@ h = 1469598103934665603  # train::config_hash, FNV-1a
 for b in t.encode():
     h = ((h ^ b) * 1099511628211) % 2**64
 meta = d + "/checkpoint/" + open(d + "/checkpoint/LATEST").read().strip() + "/meta.yaml"
-open(meta, "w").write(re.sub(r"config_hash: \d+", "config_hash: %d" % h, open(meta).read()))
+text = re.sub(r"config_hash: \d+", "config_hash: %d" % h, open(meta).read())
+open(meta, "w").write(text)
 PY
 }
 cp -r "$run" old_defaults && rm -f old_defaults/.lock && as_older_build old_defaults aircraft
