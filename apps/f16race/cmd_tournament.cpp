@@ -33,7 +33,8 @@ std::string fingerprint(const eval::TournamentOptions& o) {
   f << "\n--races " << o.races_per_pair << "\n--seed " << o.seed << "\n--epsilon " << o.epsilon << "\n--batch "
     << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
-    << "\n--axis-controls " << o.axis_controls
+    << "\n--axis-controls " << o.axis_controls << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
+    << "\n--tracks " << o.tracks_config
     << "\n--out " << o.out_dir;
   return f.str();
 }
@@ -127,6 +128,10 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_option("--autopilot-airspeed", o->autopilot_airspeed_ftps,
                   "The autopilot entry's airspeed set point [ft/s] (default: the first run's race.autopilot_airspeed_ftps)")
       ->check(CLI::Range(300.0, 3000.0));
+  cmd->add_option("--tracks", o->tracks_config,
+                  "Race on this config's tracks and time limit (race.track, race.time_limit_s), e.g. configs/long.yaml; "
+                  "default: the first run's")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out_dir,
                   "Output folder, replaced whole when the tournament is written (a folder holding other files than "
                   "a tournament's is refused)");

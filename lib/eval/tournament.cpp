@@ -195,6 +195,12 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
                                 pol.back().config.seed, HlOverride::none, static_cast<int>(pol.size()) - 1});
   }
   race::RaceConfig rc = pol.front().config.race;
+  if (!o.tracks_config.empty()) {
+    const train::TrainConfig t = train::read_train_config(io::load_yaml_file(o.tracks_config), o.tracks_config);
+    rc.track = t.race.track;
+    rc.time_limit_s = t.race.time_limit_s;
+  }
+  res.race = rc;
   if (o.include_untrained) {
     pol.push_back(train::untrained_policy(pol.front().config, o.seed));
     res.entries.push_back(

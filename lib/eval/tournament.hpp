@@ -68,6 +68,9 @@ struct TournamentOptions {
   bool axis_controls = false;     // adds RUN@center_x, @center_y, @center_z for every run
   bool include_autopilot = false;  // adds "autopilot": AeroBench's waypoint autopilot, no learning
   double autopilot_airspeed_ftps = 0.0;  // its set point; 0: the first run's race.autopilot_airspeed_ftps
+  // Non-empty: race on this config file's tracks (race.track) and time limit (race.time_limit_s)
+  // instead of the first run's, e.g. trained runs on configs/long.yaml's long tracks.
+  std::string tracks_config;
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams
   double epsilon = 0.0;           // HL exploration during evaluation
@@ -115,6 +118,7 @@ struct RaceRecord {
 struct TournamentResult {
   std::vector<Entry> entries;  // runs in --runs order, then "untrained", "autopilot", the controls
   std::vector<RaceRecord> races;
+  race::RaceConfig race;  // what the races were run with (the first run's, or --tracks' tracks)
   // wins[i][j]: races entry i won against j (draws count half); games[i][j]: races played.
   std::vector<std::vector<double>> wins, games;
 };

@@ -1,5 +1,6 @@
 #include "race/race_config.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 #include "dynamics/engine.hpp"
@@ -141,12 +142,12 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
   if (c.autopilot_airspeed_ftps != 0.0 && c.autopilot_airspeed_ftps < 300.0)
     fail("autopilot_airspeed_ftps (" + v(c.autopilot_airspeed_ftps) + ") must be 0 (the start speed) or >= 300 ft/s");
   if (c.mach_governor && c.mach_max == 0.0) fail("mach_governor needs a mach_max > 0 to hold the aircraft below");
-  if (c.mach_max > 0.0) {  // the fastest start: start speed at the lowest start altitude's speed of sound
-    const double lowest_ft = c.track.alt_min_ft - c.track.radius_max_ft;
-    const double start_mach = dynamics::air_data(c.start_speed_ftps, lowest_ft).mach;
+  if (c.mach_max > 0.0) {  // the highest start: the slowest speed of sound, so the start's highest Mach
+    const double highest_ft = c.track.alt_max_ft + c.track.radius_max_ft;
+    const double start_mach = dynamics::air_data(c.start_speed_ftps, highest_ft).mach;
     if (start_mach > c.mach_max - 0.05)
-      fail("start_speed_ftps (" + v(c.start_speed_ftps) + ") is Mach " + v(start_mach) + " at " + v(lowest_ft) +
-           " ft, too close to mach_max (" + v(c.mach_max) + "): start slower (or raise mach_max)");
+      fail("start_speed_ftps (" + v(c.start_speed_ftps) + ") is Mach " + v(std::round(start_mach * 1000.0) / 1000.0) +
+           " at " + v(highest_ft) + " ft, too close to mach_max (" + v(c.mach_max) + "): start slower (or raise mach_max)");
   }
   if (c.goal_refresh_ft >= c.goal_ahead())
     fail("goal_refresh_ft (" + v(c.goal_refresh_ft) + ") must be < goal_ahead_ft (" + v(c.goal_ahead()) +

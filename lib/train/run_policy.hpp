@@ -59,9 +59,7 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
                        const torch::Tensor& rows, at::Generator& gen, float* actions);
 
 // Writes policy p's HL bins [n_env * n_agent, 3] for the aircraft in `rows` (ascending indices as
-// above), eps-greedy with `epsilon`. A run trained with hl.lateral: team takes one lane per team
-// (aircraft i's team is i / team_size), so the rows go in with their teams. The one high-level act
-// of the tournament and replay.
+// above), eps-greedy with `epsilon`. The one high-level act of the tournament and replay.
 void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,
                     at::Generator& gen, std::int64_t* bins);
 

@@ -106,6 +106,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.retired("hl_average_share", "0");  // docs/notebook/33, 35
   r.skip("tail_member");  // read_tail_member's, from run folders only
   r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
+  r.read("ll_from", &c->ll_from, {});
   r.finish();
 }
 
@@ -175,6 +176,12 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
                             ".d_model (" + std::to_string(d_model) + "): attention splits d_model over the heads");
   if (c.loop.ll_pilot == LowLevelPilot::kAutopilot && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
+                          "train.hl_phase_updates must be > 0");
+  if (!c.loop.ll_from.empty() && c.loop.ll_pilot == LowLevelPilot::kAutopilot)
+    throw io::ConfigError(source + ": train.ll_from names a trained low level and train.ll_pilot is autopilot: "
+                          "use one of the two");
+  if (!c.loop.ll_from.empty() && c.loop.hl_phase_updates == 0)
+    throw io::ConfigError(source + ": train.ll_from freezes the low level, so only the high level learns: "
                           "train.hl_phase_updates must be > 0");
   if (c.pool.p_center_tail > 0.0 && c.loop.hl_tail_share == 0.0)
     throw io::ConfigError(source + ": pool.p_center_tail = " + io::format_double(c.pool.p_center_tail) +

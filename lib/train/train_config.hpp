@@ -44,6 +44,11 @@ struct LoopConfig {
   // writes a checkpoint and forks RUN/members/1..K-1 (run folders of this config with
   // tail_member m), which `train` trains after it, each as long as the run's own tail.
   int hl_tail_members = 1;
+  // A trained run folder whose low level this run flies, frozen, from its first update: only the
+  // high level learns, every update an ES update. High-level rules are then compared on one pilot
+  // that races (the Fig. 3 study); the run copies the weights into its own checkpoints, so it
+  // never reads the folder again after it started. Empty: the run learns its own low level.
+  std::string ll_from;
 };
 
 struct PoolConfig {

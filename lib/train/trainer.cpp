@@ -317,6 +317,8 @@ struct Trainer::State {
   // A run folder resumed before its first checkpoint: everything but config.yaml (and the lock)
   // removed, so the run starts again.
   void clear_for_fresh_start();
+  // train.ll_from: the named run's latest low level (weights and observation statistics).
+  void load_frozen_low_level();
   // At a resume: checkpoint folders other than LATEST's (written, never committed) are removed.
   void remove_uncommitted_checkpoints() const;
   void truncate_metrics();
@@ -660,9 +662,34 @@ void Trainer::State::build(bool fresh) {
   open.actions = torch::zeros({n_env, ts, 3}, torch::kInt64);
   open.reward = torch::zeros({n_env, ts});
   open.active = torch::zeros({n_env, ts}, torch::kBool);
-  if (fresh && cfg.loop.ll_pilot == LowLevelPilot::kAutopilot) phase = 1;
+  if (fresh && !cfg.loop.ll_from.empty()) load_frozen_low_level();
+  if (fresh && (cfg.loop.ll_pilot == LowLevelPilot::kAutopilot || !cfg.loop.ll_from.empty())) phase = 1;
   if (fresh)
     for (int e = 0; e < n_env; ++e) draw_matchup(e);
+}
+
+void Trainer::State::load_frozen_low_level() {
+  const std::string& from = cfg.loop.ll_from;
+  const std::string name = latest_checkpoint_name(from);
+  if (name.empty())
+    throw io::InputError(from + ": train.ll_from names no trained run (no checkpoint/LATEST there): give a run "
+                         "folder written by f16race train");
+  const std::string path = from + "/checkpoint/" + name + "/ll.pt";
+  const auto shapes = [this] {  // a load replaces tensors whole: a different network would just take their place
+    std::vector<std::vector<std::int64_t>> out;
+    for (const auto& p : ppo->net()->named_parameters()) out.push_back(p.value().sizes().vec());
+    return out;
+  };
+  const auto before = shapes();
+  bool fits = true;
+  try {
+    ppo->load(path);  // the networks, the observation statistics and the (unused) optimiser state
+  } catch (const c10::Error&) {
+    fits = false;
+  }
+  if (!fits || shapes() != before)
+    throw io::InputError(path + ": train.ll_from's low level does not fit this config (observation sizes or the "
+                         "ll: network differ): use the race: and ll: sections of " + from + "/config.yaml");
 }
 
 Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available, bool in_tail) {
@@ -1354,7 +1381,8 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
     // Phase switch: the other level learns next; a new pool opponent for the new phase.
     const int phase_len = ll_phase ? s.cfg.loop.ll_phase_updates : s.cfg.loop.hl_phase_updates;
     // In the HL-only tail (train.hl_tail_share) an LL phase ends at once and never comes back.
-    const bool hl_only = s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot || s.in_hl_tail();
+    const bool hl_only =
+        s.cfg.loop.ll_pilot == LowLevelPilot::kAutopilot || !s.cfg.loop.ll_from.empty() || s.in_hl_tail();
     if ((s.phase_updates >= phase_len || (hl_only && s.phase == 0)) && s.cfg.loop.hl_phase_updates > 0) {
       // With only the high level learning its phase repeats, each time against a newly drawn pool
       // opponent.

@@ -45,6 +45,42 @@ train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
   return dir.string();
 }
 
+// --tracks: the same runs race on another config's tracks and time limit (and nothing else of
+// it); no race outlasts its limit, and the per-cause counts of each team add up to its losses.
+TEST(Tournament, TracksOfAnotherConfig) {
+  TournamentOptions o;
+  o.runs = {trained_run("tracks", 1)};
+  o.include_untrained = false;
+  o.include_autopilot = true;
+  o.races_per_pair = 4;
+  o.bootstrap_replicates = 200;
+  const TournamentResult short_races = run_tournament(o);
+  const fs::path cfg = fs::temp_directory_path() / "f16race_tour_tracks.yaml";
+  {
+    std::ofstream f(cfg);
+    f << "race: {time_limit_s: 30.0, track: {n_waypoints: 9}}\n";
+  }
+  o.tracks_config = cfg.string();
+  const TournamentResult long_races = run_tournament(o);
+  double short_s = 0.0, long_s = 0.0;
+  for (const RaceRecord& x : short_races.races) short_s = std::max(short_s, x.duration_s);
+  for (const RaceRecord& x : long_races.races) {
+    long_s = std::max(long_s, x.duration_s);
+    int blue = 0, red = 0;
+    for (int c = 0; c < race::kNumCauses; ++c) blue += x.blue_lost[c], red += x.red_lost[c];
+    EXPECT_EQ(blue, x.blue_out);
+    EXPECT_EQ(red, x.red_out);
+  }
+  EXPECT_EQ(short_races.race.track.n_waypoints, 5);
+  EXPECT_EQ(long_races.race.track.n_waypoints, 9);
+  EXPECT_EQ(long_races.race.time_limit_s, 30.0);
+  EXPECT_EQ(long_races.race.team_size, short_races.race.team_size);  // the run's own, not the file's default
+  EXPECT_LE(short_s, 10.0 + 0.1);
+  EXPECT_LE(long_s, 30.0 + 0.1);
+  o.tracks_config = (fs::temp_directory_path() / "f16race_tour_no_such.yaml").string();
+  EXPECT_THROW(run_tournament(o), std::exception);
+}
+
 TEST(Tournament, CountsEveryRaceOnceWithSidesSwapped) {
   TournamentOptions o;
   o.runs = {trained_run("a", 1), trained_run("b", 2)};

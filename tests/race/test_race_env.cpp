@@ -768,6 +768,10 @@ TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
        "track.n_waypoints (1000), track.leg_max_ft (1e+06) and track.spacing_ft (1) make tracks of up to 1.5e+09 samples"},
       {"{dt_ll_s: .nan}", "cfg.yaml: race.dt_ll_s: value nan is out of range"},
       {"{n_env: }", "cfg.yaml: race.n_env: expected an integer, got an empty value"},
+      // The highest start altitude has the slowest speed of sound: 600 ft/s is fine at the lowest.
+      {"{start_speed_ftps: 600}", "start_speed_ftps (600) is Mach 0.572 at 16800 ft, too close to mach_max (0.6)"},
+      {"{mach_max: 0.1}", "mach_max (0.1) must be 0 (no limit) or >= 0.2"},
+      {"{mach_max: 0}", "mach_governor needs a mach_max > 0"},
   };
   for (const auto& [yaml, message] : cases) {
     const std::string e = race_config_error(yaml);

@@ -182,6 +182,52 @@ TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
             std::string::npos);
 }
 
+// train.ll_from: a run flies another run's trained low level, frozen, from its first update: its
+// LL weights are the pilot's to the bit before and after training, only the high level learns,
+// and the run resumes exactly without reading the pilot's folder again.
+TEST(Trainer, LowLevelFromAnotherRunIsFlownFrozen) {
+  const std::string pilot_dir = fresh_dir("llfrom_pilot");
+  Trainer pilot(smoke(), pilot_dir);
+  pilot.run();
+  const std::vector<float> pilot_ll = pilot.ll_parameters();
+  const std::string extra = "train.ll_from=" + pilot_dir;
+  Trainer a(smoke(extra), fresh_dir("llfrom_whole"));
+  EXPECT_EQ(a.ll_parameters(), pilot_ll);
+  const std::vector<float> hl0 = a.hl_parameters();
+  const TrainSummary full = a.run();
+  ASSERT_GT(full.updates, 4);
+  for (const MetricsRow& r : full.rows) EXPECT_EQ(r.phase, "hl") << "update " << r.update;
+  EXPECT_EQ(a.ll_parameters(), pilot_ll);
+  EXPECT_NE(a.hl_parameters(), hl0);
+  const std::string split = fresh_dir("llfrom_split");
+  {
+    Trainer b(smoke(extra), split);
+    b.run(nullptr, 3);
+  }
+  fs::rename(pilot_dir, pilot_dir + ".moved");  // a resume reads its own checkpoint only
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+  EXPECT_EQ(resumed->ll_parameters(), pilot_ll);
+  fs::rename(pilot_dir + ".moved", pilot_dir);
+  // A folder without a run, and a low level of another network size, are one line each.
+  try {
+    Trainer bad(smoke("train.ll_from=" + fresh_dir("llfrom_nothing")), fresh_dir("llfrom_bad1"));
+    ADD_FAILURE() << "a folder without a run was accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("train.ll_from names no trained run"), std::string::npos) << e.what();
+  }
+  try {
+    TrainConfig wide = smoke(extra);
+    wide.ll.net.hidden = {32, 32};
+    Trainer bad(wide, fresh_dir("llfrom_bad2"));
+    ADD_FAILURE() << "a low level of another size was accepted";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("does not fit this config"), std::string::npos) << e.what();
+  }
+  EXPECT_NE(error_of("train: {ll_from: runs/x, ll_pilot: autopilot}").find("use one of the two"), std::string::npos);
+}
+
 // train.hl_tail_share: once the run has used (1 - share) of its env steps the low level stops
 // learning (its weights are those at the switch, to the bit), every later update is an ES update,
 // and a run stopped in the tail resumes exactly.
