@@ -4,9 +4,7 @@
 //   decoupled (es_d1, es_d2, es_d3): per action dimension j in {n, e, a} and bin b, a utility
 //     Q^j(o, b) (n_atoms == 1) or a categorical over n_atoms return atoms (C51, n_atoms > 1);
 //   joint (es): one value per joint action a = b_n * n_bins^2 + b_e * n_bins + b_a.
-// Decoupled heads may sit on one shared encoder and trunk (the paper's reading) or on one
-// encoder, trunk and head per goal axis (per_axis): then no parameter is shared between axes and
-// what one axis's utilities learn cannot move another's through a common representation.
+// The decoupled heads share one encoder and trunk (the paper's reading).
 //
 //   forward(HlObs with batch B) -> HlOutput
 //     q          decoupled: [B, 3, n_bins]        joint: [B, n_bins^3]
@@ -28,7 +26,6 @@ struct HlCriticConfig {
   int64_t n_heads = 4;
   std::vector<int64_t> hidden{64, 64};  // paper Table I h_dim
   bool decoupled = true;
-  bool per_axis = false;  // decoupled only: a separate encoder + trunk + head per goal axis
   int64_t n_bins = 7;   // paper Table I n_ES,bin
   int64_t n_atoms = 1;  // 51 for the distributional critic (C51)
   double v_min = -10.0;  // atom support, used when n_atoms > 1
@@ -56,19 +53,15 @@ class HlCriticImpl : public torch::nn::Module {
   // (axis-major, atoms innermost), for an output computed elsewhere (AttentionMlpForward).
   HlOutput from_head(const torch::Tensor& out, bool with_q = true) const;
   int64_t head_width() const;
-  // The network as AttentionMlpForward runs it (ReLU trunk and head as its one MLP): for one shared
-  // branch only, not per_axis.
-  bool has_eigen_weights() const { return !cfg_.per_axis; }
+  // The network as AttentionMlpForward runs it (ReLU trunk and head as its one MLP).
   AttentionMlpWeights eigen_weights() const;
 
  private:
   HlCriticConfig cfg_;
-  // One branch (shared: modules "encoder", "trunk", "head", as in every checkpoint before
-  // per_axis) or three (per_axis: "encoder_x", "trunk_x", "head_x", ... for axes x, y, z); each
-  // branch's head writes its axes' columns, concatenated in axis order.
-  std::vector<AttentionEncoder> encoders_;
-  std::vector<torch::nn::Sequential> trunks_;
-  std::vector<torch::nn::Linear> heads_;
+  // Modules "encoder", "trunk", "head": the names every checkpoint holds.
+  AttentionEncoder encoder_{nullptr};
+  torch::nn::Sequential trunk_{nullptr};
+  torch::nn::Linear head_{nullptr};
   torch::Tensor atoms_;
 };
 TORCH_MODULE(HlCritic);

@@ -121,7 +121,7 @@ void run_bench_nets(const NetsBenchOptions& o) {
     }
     std::fflush(stdout);
   }
-  // The forwards on the Eigen kernels (ll.inference and hl.inference eigen, rollouts only):
+  // The forwards on the Eigen kernels (PpoConfig and EsConfig::eigen_inference, rollouts only):
   // forward alone. The HL one for the shared es_d1/es_d2 critic.
   hc.n_atoms = 1;
   const struct {

@@ -197,10 +197,6 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   const Trend vt = trend(sum.rows, &train::MetricsRow::airspeed_ftps);
   std::printf("done: %lld updates, %lld env steps, %lld HL gradient steps\n", static_cast<long long>(sum.updates),
               static_cast<long long>(sum.env_steps), static_cast<long long>(sum.hl_grad_steps));
-  if (sum.hl_average_count > 0)
-    std::printf("high-level policy: the weight average of the critic over its last %lld ES updates "
-                "(train.hl_average_share)\n",
-                static_cast<long long>(sum.hl_average_count));
   if (!budget_reached)
     std::printf("stopped by --max-updates at %lld of %lld env steps (checkpoint written); continue with --resume %s\n",
                 static_cast<long long>(sum.env_steps), static_cast<long long>(cfg.loop.total_env_steps),

@@ -115,7 +115,7 @@ SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch
     return out.log_probs.defined() ? out.log_probs.sum() : out.q.sum();
   };
   SampleCost c = measure_cost<models::HlCritic, models::HlObs>(net, obs, loss_of, batch, repeats);
-  if (eigen_forward && net->has_eigen_weights()) {
+  if (eigen_forward) {
     // As EsAgent::q_values runs it: the Eigen forward into the heads' output, q from it.
     const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
     models::AttentionMlpForward fast;

@@ -32,14 +32,14 @@ struct SampleCost {
 
 // A sample cost at batch `batch`: each timed run repeats the call until it has seen about 8192
 // samples, so small batches (one HL decision) are timed over many calls.
-// LL options: `eigen_forward` prices the forward on the Eigen kernels (ll.inference eigen);
+// LL options: `eigen_forward` prices the forward on the Eigen kernels (the rollout's, PpoConfig::eigen_inference);
 // `concurrent` > 1 times that many forward+backward passes at once on the OpenMP threads, as
 // PpoAgent::update runs the chunks of a minibatch (per-sample cost = wall time / all samples).
 // `alive_share`: of the other aircraft in the random rows (the attention core skips the dead).
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
                            bool eigen_forward = false, int concurrent = 1, double alive_share = kDefaultAliveShare);
 // HL: `concurrent` as for the LL (EsAgent::update's chunks of a gradient step); `eigen_forward`
-// prices the forward on the Eigen kernels (hl.inference eigen; a per_axis critic stays on LibTorch).
+// prices the forward on the Eigen kernels (the decisions', EsConfig::eigen_inference).
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent = 1,
                            bool eigen_forward = false, double alive_share = kDefaultAliveShare);
 

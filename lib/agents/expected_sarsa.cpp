@@ -38,7 +38,6 @@ models::HlCriticConfig es_critic_config(const EsConfig& cfg) {
   c.n_heads = cfg.n_heads;
   c.hidden = cfg.hidden;
   c.decoupled = es_is_decoupled(cfg.variant);
-  c.per_axis = cfg.per_axis_critic;
   c.n_bins = cfg.n_bins;
   c.n_atoms = cfg.variant == EsVariant::kEsD3 ? cfg.n_atoms : 1;
   c.v_min = cfg.v_min;
@@ -57,38 +56,10 @@ torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps) {
   return torch::einsum("nabc,na,nb,nc->n", {q.view({n, nb, nb, nb}), pi.select(1, 0), pi.select(1, 1), pi.select(1, 2)});
 }
 
-namespace {
-// The eps-greedy value over q's last dimension (the bins): (1 - eps) max + eps mean. eps is a
-// double or a float tensor broadcast against q with its last dimension reduced.
-template <class Eps>
-torch::Tensor egreedy_over_bins(const torch::Tensor& q, const Eps& eps) {
-  return (1.0 - eps) * std::get<0>(q.max(-1)) + eps * q.mean(-1);
-}
-}  // namespace
-
 torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps) {
   check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
-  return egreedy_over_bins(q, eps);
-}
-
-torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps, const std::array<double, 3>& scale) {
-  check_tensor(q, "q", {-1, 3, -1}, torch::kFloat32);
-  return egreedy_over_bins(q, torch::tensor({eps * scale[0], eps * scale[1], eps * scale[2]}, torch::kFloat32));
-}
-
-std::array<bool, 3> team_drawn_axes(const EsConfig& cfg) {
-  auto per_team = cfg.explore_per_team;
-  per_team[1] = per_team[1] || cfg.team_lateral;
-  return per_team;
-}
-
-EsTargetRule es_target_rule(const EsConfig& cfg) {
-  EsTargetRule rule;
-  rule.per_axis_target = cfg.per_axis_target;
-  rule.team_lateral = cfg.team_lateral;
-  const auto per_team = team_drawn_axes(cfg);
-  for (int j = 0; j < 3; ++j) rule.axis_epsilon_scale[j] = per_team[j] ? cfg.team_explore_scale : 1.0;
-  return rule;
+  // The eps-greedy value over the bins: (1 - eps) max + eps mean.
+  return (1.0 - eps) * std::get<0>(q.max(-1)) + eps * q.mean(-1);
 }
 
 torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps) {
@@ -139,13 +110,8 @@ torch::Tensor masked_mean(const torch::Tensor& x, const torch::Tensor& mask) {
 
 EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
                    const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
-                   double next_epsilon, double gamma, const C51Support& support, const EsTargetRule& rule) {
+                   double next_epsilon, double gamma, const C51Support& support) {
   check_tensor(reward, "reward", {-1, -1}, torch::kFloat32);
-  TORCH_CHECK(!rule.per_axis_target || v == EsVariant::kEsD2, "es_target: a per-axis team target is es_d2's only");
-  TORCH_CHECK(!rule.team_lateral || v == EsVariant::kEsD2, "es_target: a team lateral lane is es_d2's only");
-  const auto& scale = rule.axis_epsilon_scale;
-  const bool scaled = scale[0] != 1.0 || scale[1] != 1.0 || scale[2] != 1.0;
-  TORCH_CHECK(!scaled || v == EsVariant::kEsD2, "es_target: a per-axis epsilon is es_d2's only");
   const int64_t t = reward.size(0), n_a = reward.size(1);
   check_tensor(done, "done", {t}, torch::kBool);
   check_tensor(active, "active", {t, n_a}, torch::kBool);
@@ -164,21 +130,6 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
   }
   const auto team_reward = masked_team_mean(reward, active).first;
   const auto team_live = done.logical_not().logical_and(next_active.any(1)).to(torch::kFloat32);
-  if (v == EsVariant::kEsD2 && (rule.per_axis_target || rule.team_lateral || scaled)) {
-    // Per axis j: the eps-greedy value of Q^{i,j}, averaged over the members alive next.
-    const auto next_value = egreedy_value_per_axis(next_out.q, next_epsilon, scale).view({t, n_a, 3});
-    auto team_next = masked_team_mean(next_value, next_active).first;  // [T, 3]
-    if (rule.team_lateral) {
-      // The lane is the team's: eps-greedy over the members' mean lateral utilities.
-      const auto q_y = next_out.q.select(1, 1).reshape({t, n_a, -1});              // [T, n_a, bins]
-      const auto team_q_y = masked_team_mean(q_y, next_active).first.unsqueeze(1);  // [T, 1, bins]
-      const auto lane = egreedy_over_bins(team_q_y, next_epsilon * scale[1]);  // [T, 1]
-      team_next = torch::cat({team_next.narrow(1, 0, 1), lane, team_next.narrow(1, 2, 1)}, 1);
-    }
-    target.value = rule.per_axis_target ? team_reward.unsqueeze(1) + gamma * team_live.unsqueeze(1) * team_next
-                                        : team_reward + gamma * team_live * team_next.mean(1);
-    return target;
-  }
   if (v == EsVariant::kEsD2) {
     const auto next_value = egreedy_value_decoupled(next_out.q, next_epsilon).view({t, n_a});
     const auto team_next = masked_team_mean(next_value, next_active).first;
@@ -198,11 +149,9 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
 }
 
 EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
-               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight,
-               bool per_axis_target) {
+               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight) {
   check_tensor(actions, "actions", {-1, -1, 3}, torch::kInt64);
   const int64_t t = actions.size(0), n_a = actions.size(1);
-  TORCH_CHECK(!per_axis_target || v == EsVariant::kEsD2, "es_loss: a per-axis team target is es_d2's only");
   check_tensor(active, "active", {t, n_a}, torch::kBool);
   EsLoss result;
   const auto huber = [&](const torch::Tensor& pred, const torch::Tensor& y, const torch::Tensor& valid) {
@@ -218,13 +167,6 @@ EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& ac
     return result;
   }
   const auto idx = actions.reshape({t * n_a, 3, 1});
-  if (per_axis_target) {
-    const auto q_axes = out.q.gather(2, idx).squeeze(2).view({t, n_a, 3});  // Q^{i,j}(a^{i,j})
-    result.prediction = masked_team_mean(q_axes, active).first;            // [T, 3]
-    result.valid = active.any(1).unsqueeze(1).expand({t, 3});
-    result.loss = huber(result.prediction, target.value, result.valid);
-    return result;
-  }
   const auto q_taken = out.q.gather(2, idx).squeeze(2).mean(1).view({t, n_a});  // mean_j Q^j(a^j)
   if (v == EsVariant::kEsD1) {
     result.prediction = q_taken;
@@ -267,11 +209,6 @@ EsAgent::EsAgent(const EsConfig& cfg)
       support_{cfg.v_min, cfg.v_max, cfg.n_atoms},
       generator_(models::make_generator(cfg.seed)) {
   TORCH_CHECK(cfg.epsilon >= 0.0 && cfg.epsilon <= 1.0, "EsConfig.epsilon must be in [0, 1]");
-  TORCH_CHECK(!cfg.per_axis_target || cfg.variant == EsVariant::kEsD2, "EsConfig.per_axis_target is es_d2's only");
-  TORCH_CHECK(!cfg.team_lateral || cfg.variant == EsVariant::kEsD2, "EsConfig.team_lateral is es_d2's only");
-  TORCH_CHECK(cfg.team_explore_scale > 0.0 && cfg.team_explore_scale <= 1.0, "EsConfig.team_explore_scale must be in (0, 1]");
-  TORCH_CHECK(cfg.team_explore_scale == 1.0 || cfg.variant == EsVariant::kEsD2,
-              "EsConfig.team_explore_scale is es_d2's only");
   TORCH_CHECK(cfg.target_update_interval > 0 && cfg.n_epochs > 0 && cfg.n_minibatches > 0,
               "EsConfig: target_update_interval, n_epochs, n_minibatches must be > 0");
   const auto critic_cfg = es_critic_config(cfg);
@@ -282,8 +219,7 @@ EsAgent::EsAgent(const EsConfig& cfg)
   sync_target();
   optimizer_ = std::make_unique<torch::optim::Adam>(
       critic_->parameters(), torch::optim::AdamOptions(cfg.learning_rate).eps(cfg.adam_eps));
-  // A per_axis critic has no single-branch copy: it stays on LibTorch.
-  if (cfg.eigen_inference && critic_->has_eigen_weights())
+  if (cfg.eigen_inference)
     eigen_.follow(critic_->parameters(), [critic = critic_] { return critic->eigen_weights(); });
 }
 
@@ -295,36 +231,16 @@ void EsAgent::sync_target() {
   for (auto& item : target_->named_buffers()) item.value().copy_(src_buf[item.key()]);
 }
 
-void EsAgent::add_to_average() {
-  torch::NoGradGuard no_grad;
-  const auto params = critic_->parameters();
-  ++average_count_;
-  if (average_.empty()) {
-    for (const auto& p : params) average_.push_back(p.detach().clone());
-    return;
-  }
-  const double w = 1.0 / static_cast<double>(average_count_);
-  for (std::size_t k = 0; k < params.size(); ++k) average_[k].add_(params[k] - average_[k], w);
-}
-
-void EsAgent::act_with_average() {
-  if (average_count_ == 0) return;
-  torch::NoGradGuard no_grad;
-  auto params = critic_->parameters();
-  for (std::size_t k = 0; k < params.size(); ++k) params[k].copy_(average_[k]);
-}
-
 models::HlObs EsAgent::prepare(const models::HlObs& flat_obs, bool update_stats) {
   return cfg_.normalize_obs ? normalizer_->normalize(flat_obs, update_stats) : flat_obs;
 }
 
-EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& generator, const torch::Tensor& group) {
-  return choose(q_values(obs), epsilon, generator, group);
+EsAction EsAgent::act(const models::HlObs& obs, double epsilon, at::Generator& generator) {
+  return choose(q_values(obs), epsilon, generator);
 }
 
-EsAction EsAgent::act(const models::HlObs& obs, const torch::Tensor& rows, double epsilon, at::Generator& generator,
-                      const torch::Tensor& group) {
-  return choose(q_values(obs, rows), epsilon, generator, group);
+EsAction EsAgent::act(const models::HlObs& obs, const torch::Tensor& rows, double epsilon, at::Generator& generator) {
+  return choose(q_values(obs, rows), epsilon, generator);
 }
 
 torch::Tensor EsAgent::q_values(const models::HlObs& obs, const torch::Tensor& rows) {
@@ -361,55 +277,16 @@ torch::Tensor EsAgent::q_values(const models::HlObs& obs) {
   return critic_->from_head(head).q;
 }
 
-EsAction EsAgent::choose(const torch::Tensor& q, double epsilon, at::Generator& generator,
-                         const torch::Tensor& group) const {
+EsAction EsAgent::choose(const torch::Tensor& q, double epsilon, at::Generator& generator) const {
   torch::NoGradGuard no_grad;
   const int64_t b = q.size(0);
   EsAction a;
   a.q = q;
   a.greedy_bins = es_is_decoupled(cfg_.variant) ? q.argmax(2) : decode_joint_index(q.argmax(1), cfg_.n_bins);
-  // One coin per action dimension (see the header: keeps the other dimensions greedy while one
-  // explores, so a dimension's value is not confounded by the others' exploration).
-  TORCH_CHECK(group.defined() || !cfg_.team_lateral, "EsAgent::act: a team lateral lane needs the teams (group)");
-  if (!group.defined()) {
-    const auto explore = torch::rand({b, 3}, generator) < epsilon;
-    const auto random_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
-    a.bins = torch::where(explore, random_bins, a.greedy_bins);
-    return a;
-  }
-  check_tensor(group, "group", {b}, torch::kInt64);
-  // Index of each row's group among the groups present, in row order: 0, 0, 1, 1, 1, 2, ...
-  const auto g = group.contiguous();
-  const std::int64_t* gp = g.data_ptr<std::int64_t>();
-  auto slot = torch::empty({b}, torch::kInt64);
-  std::int64_t* sp = slot.data_ptr<std::int64_t>();
-  std::int64_t n_groups = 0;
-  for (std::int64_t k = 0; k < b; ++k) {
-    TORCH_CHECK(k == 0 || gp[k] >= gp[k - 1], "EsAgent::act: group ids must be non-decreasing");
-    if (k > 0 && gp[k] != gp[k - 1]) ++n_groups;
-    sp[k] = n_groups;
-  }
-  n_groups += b > 0 ? 1 : 0;
-  if (cfg_.team_lateral) {
-    // One lane per team: the argmax of the members' summed lateral utilities (first maximum).
-    const auto team_q_y = torch::zeros({n_groups, cfg_.n_bins}, q.options()).index_add_(0, slot, q.select(1, 1));
-    a.greedy_bins.select(1, 1).copy_(team_q_y.argmax(1).index_select(0, slot));
-  }
-  const auto per_team = team_drawn_axes(cfg_);
-  // The team coin's probability per axis (the row axes' team coins are drawn and not used).
-  const double team_eps = epsilon * cfg_.team_explore_scale;
-  const auto team_threshold = torch::tensor({per_team[0] ? team_eps : epsilon, per_team[1] ? team_eps : epsilon,
-                                             per_team[2] ? team_eps : epsilon},
-                                            torch::kFloat32);
-  auto explore = (torch::rand({n_groups, 3}, generator) < team_threshold).index_select(0, slot);
-  auto random_bins = torch::randint(0, cfg_.n_bins, {n_groups, 3}, generator, torch::kInt64).index_select(0, slot);
-  if (!(per_team[0] && per_team[1] && per_team[2])) {  // the other axes: a draw per row
-    const auto team_axis = torch::tensor({per_team[0], per_team[1], per_team[2]}, torch::kBool);
-    const auto row_explore = torch::rand({b, 3}, generator) < epsilon;
-    const auto row_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
-    explore = torch::where(team_axis, explore, row_explore);
-    random_bins = torch::where(team_axis, random_bins, row_bins);
-  }
+  // One coin per aircraft and action dimension (see the header: keeps the other dimensions greedy
+  // while one explores, so a dimension's value is not confounded by the others' exploration).
+  const auto explore = torch::rand({b, 3}, generator) < epsilon;
+  const auto random_bins = torch::randint(0, cfg_.n_bins, {b, 3}, generator, torch::kInt64);
   a.bins = torch::where(explore, random_bins, a.greedy_bins);
   return a;
 }
@@ -460,7 +337,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     torch::NoGradGuard no_grad;
     const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
     target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
-                       cfg_.gamma, support_, es_target_rule(cfg_));
+                       cfg_.gamma, support_);
   }
   if (t > 0) {
     torch::NoGradGuard no_grad;
@@ -468,7 +345,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
     const auto out = critic_(obs);
     es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, &stats);
     const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
-                           cfg_.component_ce_weight, cfg_.per_axis_target);
+                           cfg_.component_ce_weight);
     stats.loss_before = l.loss.item<double>();
     if (cfg_.variant == EsVariant::kEsD3) {
       const auto k = target.dist.size(1);
@@ -529,7 +406,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
         const EsTarget target_c{target.value.index_select(0, k.teams),
                                 target.dist.defined() ? target.dist.index_select(0, k.teams) : torch::Tensor()};
         const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
-        const bool fused_d2 = cfg_.variant == EsVariant::kEsD2 && !cfg_.per_axis_target;
+        const bool fused_d2 = cfg_.variant == EsVariant::kEsD2;
         const auto out = critic_->forward(models::index_rows(obs, rows_c), /*with_q=*/!fused_d3);
         const double weight = n_chunks == 1 ? 1.0 : k.units / units;
         if (fused_d2 || fused_d3) {
@@ -548,7 +425,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
         }
         const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, k.teams),
                                active.index_select(0, k.teams), target_c, cfg_.huber_delta, support_,
-                               cfg_.component_ce_weight, cfg_.per_axis_target);
+                               cfg_.component_ce_weight);
         k.grads = torch::autograd::grad({n_chunks == 1 ? l.loss : l.loss * weight}, params, /*grad_outputs=*/{},
                                         /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
         torch::NoGradGuard no_grad;
@@ -599,8 +476,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
   stats.loss = loss_sum / n;
   stats.q_mean = q_sum / n;
   stats.td_abs_mean = td_sum / n;
-  auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
-  if (t > 0 && target.value.dim() == 2 && valid.dim() == 1) valid = valid.unsqueeze(1).expand_as(target.value);
+  const auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
   stats.target_mean = t > 0 ? masked_mean(target.value, valid).item<double>() : std::nan("");
   return stats;
 }
@@ -611,11 +487,6 @@ void EsAgent::save(const std::string& path) const {
   write_sub_archive(root, "target", *target_);
   root.write("variant", torch::tensor(static_cast<int64_t>(cfg_.variant)));
   write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
-  if (average_count_ > 0) {  // a file without these fields is a run without the average
-    const auto params = critic_->named_parameters();
-    for (std::size_t k = 0; k < params.size(); ++k) root.write("average/" + params[k].key(), average_[k]);
-    root.write("average_count", torch::tensor(average_count_));
-  }
   save_archive_atomic(root, path);
 }
 
@@ -643,18 +514,6 @@ void EsAgent::load_archive(torch::serialize::InputArchive& root) {
   read_sub_archive(root, "critic", *critic_);
   read_sub_archive(root, "target", *target_);
   read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
-  torch::Tensor count;
-  average_count_ = root.try_read("average_count", count) ? count.item<int64_t>() : 0;
-  average_.clear();
-  if (average_count_ > 0) {
-    for (const auto& item : critic_->named_parameters()) {
-      torch::Tensor a;
-      root.read("average/" + item.key(), a);
-      TORCH_CHECK(a.sizes() == item.value().sizes(), "EsAgent::load: average/", item.key(), " has shape ", a.sizes(),
-                  ", the critic's parameter ", item.value().sizes());
-      average_.push_back(a);
-    }
-  }
 }
 
 }  // namespace f16race::agents

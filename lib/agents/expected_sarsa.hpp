@@ -68,33 +68,7 @@ struct EsConfig {
   // scaled reward). The trainer's default is dt_ll / dt_hl: the interval's mean reward.
   double reward_scale = 1.0;
   double gamma = 0.99;    // per HL decision
-  double epsilon = 0.1;   // paper Table I eps_ES
-  // Exploration draws per goal axis x, y, z: per aircraft (false, the paper's), or per team
-  // (true): an exploring team-axis puts all of the team's aircraft on one random bin there, so
-  // joint moves of the team are sampled. Each aircraft's marginal policy is the same eps-greedy
-  // one either way, so the ES targets (expectations per aircraft and axis) hold as they are. The
-  // trainer passes the teams to act() when any axis is per team.
-  std::array<bool, 3> explore_per_team{false, false, false};
-  // es_d2: on the axes drawn per team, the team's exploration coin comes up with probability
-  // team_explore_scale x epsilon (1: the same epsilon as a per-aircraft draw). A team draw moves
-  // every member at once, so at epsilon / n_a it varies the team's behaviour about as much as n_a
-  // independent draws at epsilon do. Each aircraft's policy on such an axis is then eps-greedy
-  // with that smaller epsilon, and the target values it so (EsTargetRule::axis_epsilon_scale).
-  double team_explore_scale = 1.0;
-  // Decoupled variants: the axes' utilities on one shared encoder and trunk (false, the paper's)
-  // or on one critic per goal axis, no parameter shared (models::HlCriticConfig::per_axis).
-  bool per_axis_critic = false;
-  // es_d2: one TD error per team on the mean of every member's and axis's utilities (false, the
-  // paper's Eq. 1), or one per team and goal axis (true): each axis's utilities then fit the team's
-  // return on their own instead of whatever part of it the other axes' utilities leave over.
-  bool per_axis_target = false;
-  // es_d2: a lateral goal bin per aircraft (false, the paper's) or one lane per team (true): every
-  // member of a team takes argmax_b sum_i Q^{i,y}(o^i, b) over the members deciding, the team
-  // draws the lateral exploration, and the target values that team policy, (1 - eps) max_b
-  // mean_i Q^{i,y}(b) + eps mean_b mean_i Q^{i,y}(b), instead of mean_i of each member's own.
-  // Coordinating the lane is then an action the critic values, not a pattern of four argmaxes.
-  // act() needs the teams (`group`) then.
-  bool team_lateral = false;
+  double epsilon = 0.1;   // paper Table I eps_ES: drawn per aircraft and goal axis
   int64_t n_steps_per_update = 10;  // n_ES,step: HL transitions per env per update (read by the trainer)
   int64_t target_update_interval = 10;  // updates between hard target-network syncs
   int64_t n_epochs = 1;       // passes over each batch
@@ -121,7 +95,8 @@ struct EsConfig {
   // The decisions' action values (act, q_values): the critic on Eigen float kernels
   // (models/kernels/attention_mlp_forward.hpp, equal to HlCritic::forward to float rounding; the
   // decisions come a few at a time, where LibTorch's per-op cost is most of the price), or
-  // LibTorch's ops (hl.inference: torch). per_axis critics and all training use LibTorch.
+  // LibTorch's ops (false). Not a config key: tests and benchmarks compare the two paths. All
+  // training uses LibTorch.
   bool eigen_inference = true;
 };
 
@@ -182,8 +157,6 @@ void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stat
 torch::Tensor egreedy_value_joint(const torch::Tensor& q, double eps);
 // (1 - eps) max_b + eps mean_b per axis j: q [N, 3, n_bins] -> [N, 3].
 torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps);
-// The same with axis j at eps x scale[j].
-torch::Tensor egreedy_value_per_axis(const torch::Tensor& q, double eps, const std::array<double, 3>& scale);
 // Its mean over the axes: q [N, 3, n_bins] -> [N].
 torch::Tensor egreedy_value_decoupled(const torch::Tensor& q, double eps);
 // mean_j [(1 - eps) p_j(argmax_b q_j) + eps mean_b p_j(b)]: log_probs [N, 3, n_bins, K],
@@ -193,37 +166,17 @@ torch::Tensor egreedy_mixture_decoupled(const torch::Tensor& log_probs, const to
 torch::Tensor joint_index(const torch::Tensor& bins, int64_t n_bins);
 torch::Tensor decode_joint_index(const torch::Tensor& index, int64_t n_bins);
 
-// How es_d2's team target is formed (EsConfig::per_axis_target, EsConfig::team_lateral).
-struct EsTargetRule {
-  bool per_axis_target = false;
-  bool team_lateral = false;
-  // es_d2: per goal axis, the factor on next_epsilon of the policy the target values (the axes
-  // drawn per team at EsConfig::team_explore_scale).
-  std::array<double, 3> axis_epsilon_scale{1.0, 1.0, 1.0};
-};
-// Which goal axes x, y, z an agent's config draws per team: EsConfig::explore_per_team, plus the
-// lateral axis with a team lateral lane (the lane is the team's, so is its exploration).
-std::array<bool, 3> team_drawn_axes(const EsConfig& cfg);
-// The rule of an agent's config.
-EsTargetRule es_target_rule(const EsConfig& cfg);
-
 struct EsTarget {
-  // es, es_d1: [T, n_a]; es_d2: [T] ([T, 3] with a per-axis team target); es_d3: [T] expected
-  // value of `dist`
+  // es, es_d1: [T, n_a]; es_d2: [T]; es_d3: [T] expected value of `dist`
   torch::Tensor value;
   torch::Tensor dist;   // es_d3: [T, K] projected target distribution
 };
 
 // Targets from the target network's output on the next observations (fields over T*n_a rows,
 // aircraft-major within a team). reward [T, n_a]; done [T]; active, next_active [T, n_a] bool.
-// rule.per_axis_target (es_d2 only, EsConfig::per_axis_target): one team target per goal axis j,
-// r + gamma mean_i V^{i,j}(o'^i), instead of one on the mean over every member and axis.
-// rule.team_lateral (es_d2 only, EsConfig::team_lateral): the lateral axis's next value is the
-// team lane's, (1 - eps) max_b mean_i Q^{i,y}(b) + eps mean_b mean_i Q^{i,y}(b) over the members
-// alive next, in place of mean_i V^{i,y}.
 EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::Tensor& reward,
                    const torch::Tensor& done, const torch::Tensor& active, const torch::Tensor& next_active,
-                   double next_epsilon, double gamma, const C51Support& support, const EsTargetRule& rule = {});
+                   double next_epsilon, double gamma, const C51Support& support);
 
 struct EsLoss {
   torch::Tensor loss;        // scalar
@@ -231,48 +184,31 @@ struct EsLoss {
   torch::Tensor valid;       // bool, same shape: samples that count in the loss
 };
 
-// Loss of the online output (over T*n_a rows) for the taken actions [T, n_a, 3]. With a per-axis
-// team target (es_d2) the prediction is [T, 3], mean_i Q^{i,j}(o^i, a^{i,j}) per axis j, and the
-// loss the mean of the three axes' Huber losses.
+// Loss of the online output (over T*n_a rows) for the taken actions [T, n_a, 3].
 EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
                const EsTarget& target, double huber_delta, const C51Support& support,
-               double component_ce_weight = 0.0, bool per_axis_target = false);
+               double component_ce_weight = 0.0);
 
 class EsAgent {
  public:
   explicit EsAgent(const EsConfig& cfg);
   // Decentralised eps-greedy action of each aircraft; obs fields have batch B. No gradients.
-  // `group` (optional, [B] int64, non-decreasing): on the axes of cfg.explore_per_team, rows with
-  // the same value share one exploration coin and one random bin (a team's aircraft); undefined,
-  // or on the other axes: every row draws its own. With cfg.team_lateral the group is required,
-  // and its rows share the lateral bin, greedy and explored (a per-team draw on that axis).
-  EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator,
-               const torch::Tensor& group = torch::Tensor());
+  EsAction act(const models::HlObs& obs, double epsilon, at::Generator& generator);
   // The same for the rows `rows` (int64 [R]) of obs, read in place: act(index_rows(obs, rows))
   // bit for bit (the Eigen path normalises the picked rows in the forward's blocks, without the
-  // gathered copy); `group` has R rows.
-  EsAction act(const models::HlObs& obs, const torch::Tensor& rows, double epsilon, at::Generator& generator,
-               const torch::Tensor& group = torch::Tensor());
+  // gathered copy).
+  EsAction act(const models::HlObs& obs, const torch::Tensor& rows, double epsilon, at::Generator& generator);
   // act() in two halves: the critic's action values on `obs` (EsAction::q's shape; no gradients),
   // and the eps-greedy choice on given values of that shape (an ensemble's mean, or q_values').
   torch::Tensor q_values(const models::HlObs& obs);
   torch::Tensor q_values(const models::HlObs& obs, const torch::Tensor& rows);
-  EsAction choose(const torch::Tensor& q, double epsilon, at::Generator& generator,
-                  const torch::Tensor& group = torch::Tensor()) const;
+  EsAction choose(const torch::Tensor& q, double epsilon, at::Generator& generator) const;
   // With replicas set (issue 18), every rank calls update() at the same point with its own batch
   // (T may differ, even be 0), and each gradient step is the step on the union of the ranks'
   // minibatches. The diagnostics of EsStats (loss_before, shares, spread) are this rank's.
   EsStats update(const EsBatch& batch);
   void set_replicas(const Replicas& replicas);
   void sync_target();
-  // Weight average (train.hl_average_share): the uniform mean of the online critic's parameters
-  // after each call, a_n = a_{n-1} + (w - a_{n-1}) / n (stochastic weight averaging, Izmailov et
-  // al. 2018). act() and update() never read it; it is saved in hl.pt beside the online critic.
-  void add_to_average();
-  int64_t average_count() const { return average_count_; }
-  // For an evaluation copy (train::load_run_policy): the online critic's parameters become the
-  // average, so act() is the averaged policy. Nothing happens without one (count 0).
-  void act_with_average();
   void save(const std::string& path) const;
   void load(const std::string& path);
   void load_bytes(const std::string& bytes);  // a file's bytes, received instead of read
@@ -298,13 +234,8 @@ class EsAgent {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
-  // One tensor per online critic parameter, in named_parameters() order; empty without an average.
-  // Plain tensors, not a second module: building one would draw initial weights from LibTorch's
-  // global generator in the middle of a run.
-  std::vector<torch::Tensor> average_;
-  int64_t average_count_ = 0;
   // The online critic for q_values on Eigen kernels; it follows every write to the critic's
-  // weights (an optimiser step, a load, the average, a write through critic()).
+  // weights (an optimiser step, a load, a write through critic()).
   EigenMirror eigen_;
   std::vector<float> norm_terms_;  // the raw-rows forward's float normalisation terms, reused
 };

@@ -55,8 +55,8 @@ struct PpoConfig {
   uint64_t seed = 1;  // minibatch order
   // No-grad forward passes of act() and value(): the same network on Eigen float kernels
   // (models/kernels/attention_mlp_forward.hpp, equal to LibTorch's to float rounding; faster at rollout
-  // batch sizes, README Performance), or LibTorch's ops (ll.inference: torch). Training always
-  // uses LibTorch.
+  // batch sizes, docs/performance.md), or LibTorch's ops (false). Not a config key: tests and
+  // benchmarks compare the two paths. Training always uses LibTorch.
   bool eigen_inference = true;
 };
 

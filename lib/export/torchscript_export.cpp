@@ -70,9 +70,6 @@ struct Shape {
   models::ObsDims dims;
   int64_t d_model = 0, n_heads = 0;
   double clip = 10.0;
-  // One encoder ("": modules net_encoder_*) or one per goal axis ("_x", "_y", "_z": the HL
-  // critic's per_axis branches, modules net_encoder_x_*, ...).
-  std::vector<std::string> branches{""};
 };
 
 // Input checks, normalisation (as models::ObsNormalizer) and the attention encoder (as
@@ -98,36 +95,32 @@ std::string common_source(const Shape& s, const char* extra_name) {
     << "    return b\n\n";
   o << "def norm(self, x: Tensor, mean: Tensor, inv_std: Tensor) -> Tensor:\n"
     << "    return torch.clamp((x - mean) * inv_std, -" << clip << ", " << clip << ")\n\n";
-  for (const std::string& br : s.branches) {
-    const std::string enc = "net_encoder" + br;
-    o << "def encode" << br << "(self, ego: Tensor, ado: Tensor, ado_alive: Tensor) -> Tensor:\n"
-      << "    b = ego.size(0)\n"
-      << "    q = " << linear("ego", enc + "_q_proj") << ".view([b, 1, " << s.n_heads << ", " << dh << "])\n"
-      << "    k = " << linear("ado", enc + "_k_proj") << ".view([b, " << d.n_other << ", " << s.n_heads << ", " << dh << "])\n"
-      << "    v = " << linear("ado", enc + "_v_proj") << ".view([b, " << d.n_other << ", " << s.n_heads << ", " << dh << "])\n"
-      << "    scores = (k * q).sum(-1) / " << num(std::sqrt(static_cast<double>(dh))) << "\n"
-      << "    alive = ado_alive.view([b, " << d.n_other << ", 1])\n"
-      << "    scores = scores.masked_fill(alive.logical_not(), -1000000000.0)\n"
-      << "    weights = torch.softmax(scores, 1) * alive.to(" << f32 << ")\n"
-      << "    attended = (weights.unsqueeze(-1) * v).sum(1).reshape([b, " << s.d_model << "])\n"
-      << "    any_alive = ado_alive.any(1, keepdim=True).to(" << f32 << ")\n"
-      << "    return " << linear("attended", enc + "_out_proj") << " * any_alive\n\n";
-  }
+  const std::string enc = "net_encoder";
+  o << "def encode(self, ego: Tensor, ado: Tensor, ado_alive: Tensor) -> Tensor:\n"
+    << "    b = ego.size(0)\n"
+    << "    q = " << linear("ego", enc + "_q_proj") << ".view([b, 1, " << s.n_heads << ", " << dh << "])\n"
+    << "    k = " << linear("ado", enc + "_k_proj") << ".view([b, " << d.n_other << ", " << s.n_heads << ", " << dh << "])\n"
+    << "    v = " << linear("ado", enc + "_v_proj") << ".view([b, " << d.n_other << ", " << s.n_heads << ", " << dh << "])\n"
+    << "    scores = (k * q).sum(-1) / " << num(std::sqrt(static_cast<double>(dh))) << "\n"
+    << "    alive = ado_alive.view([b, " << d.n_other << ", 1])\n"
+    << "    scores = scores.masked_fill(alive.logical_not(), -1000000000.0)\n"
+    << "    weights = torch.softmax(scores, 1) * alive.to(" << f32 << ")\n"
+    << "    attended = (weights.unsqueeze(-1) * v).sum(1).reshape([b, " << s.d_model << "])\n"
+    << "    any_alive = ado_alive.any(1, keepdim=True).to(" << f32 << ")\n"
+    << "    return " << linear("attended", enc + "_out_proj") << " * any_alive\n\n";
   return o.str();
 }
 
-// Shared head of both forwards: checks, normalised fields, encoder, MLP input x (per branch:
-// x_x, x_y, x_z for per-axis encoders).
-std::string forward_prologue(const char* extra_name, const std::vector<std::string>& branches) {
+// Shared head of both forwards: checks, normalised fields, encoder, MLP input x.
+std::string forward_prologue(const char* extra_name) {
   std::ostringstream o;
   o << "    b = self.check(ego, " << extra_name << ", ado, ado_alive, task)\n"
     << "    ego_n = self.norm(ego, self.norm_ego_mean, self.norm_ego_inv_std)\n"
     << "    extra_n = self.norm(" << extra_name << ", self.norm_extra_mean, self.norm_extra_inv_std)\n"
     << "    ado_n = self.norm(ado, self.norm_ado_mean, self.norm_ado_inv_std) * ado_alive.unsqueeze(-1).to(" << dtype_code(torch::kFloat32) << ")\n"
     << "    task_n = self.norm(task, self.norm_task_mean, self.norm_task_inv_std)\n";
-  for (const std::string& br : branches)
-    o << "    enc" << br << " = self.encode" << br << "(ego_n, ado_n, ado_alive)\n"
-      << "    x" << br << " = torch.cat([ego_n, extra_n, enc" << br << ", task_n], 1)\n";
+  o << "    enc = self.encode(ego_n, ado_n, ado_alive)\n"
+    << "    x = torch.cat([ego_n, extra_n, enc, task_n], 1)\n";
   return o.str();
 }
 
@@ -140,7 +133,7 @@ torch::jit::Module start_module(const char* class_name, const torch::nn::Module&
   copy_normalizer(m, norm, normalize, s.dims);
   o << common_source(s, extra_name) << "def forward(self, ego: Tensor, " << extra_name
     << ": Tensor, ado: Tensor, ado_alive: Tensor, task: Tensor) -> Dict[str, Tensor]:\n"
-    << forward_prologue(extra_name, s.branches);
+    << forward_prologue(extra_name);
   return m;
 }
 
@@ -226,16 +219,12 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   // Entry lists from the one observation spec (race/observation_spec.hpp).
   o << "ego: " << field_list(race::kEgoFields, 0) << ".\n\n"
     << "goal: " << field_list(race::kGoalFields, 0) << " (the goal distance is " << rc.goal_ahead() << " ft).\n\n"
-    << "ado row: " << field_list(race::kAdoFields, 0)
-    << (rc.observe_team_lanes ? "; " + field_list(race::kAdoTeamLaneFields, 0) : std::string()) << ".\n\n"
+    << "ado row: " << field_list(race::kAdoFields, 0) << ".\n\n"
     << "task: for p = 0.." << rc.preview_points - 1 << ", entries " << race::kPreviewWidth << "p.."
     << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
     << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
     << field_list(race::kPreviewFields, 0) << "; then "
-    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points)
-    << (rc.observe_team_lanes ? "; " + field_list(race::kTaskOwnLaneFields, race::kPreviewWidth * rc.preview_points)
-                              : std::string())
-    << ".\n\n";
+    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points) << ".\n\n";
   o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
     << "| bins | [B, 3] int64 | greedy goal bin per axis ("
@@ -250,10 +239,6 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   if (d3)
     o << "| probs | [B, 3, " << nb << ", " << hl.n_atoms << "] | C51 return distribution per axis and bin over "
       << hl.n_atoms << " atoms evenly spaced in [" << hl.v_min << ", " << hl.v_max << "] |\n";
-  if (hl.team_lateral)
-    o << "\nTrained with `hl.lateral: team`: the lateral bin is the team's, argmax over b of the sum of its "
-         "deciding members' q[:, 1, b] (first maximum); `bins[:, 1]` is each aircraft's own argmax and not "
-         "what the trained policy flies.\n";
   const double half = 0.5 * (nb - 1);
   o << "\nThe goal point is the center-line point " << rc.goal_ahead() << " ft ahead of the aircraft, offset along world\n"
     << "north, east and up by (b − " << half << ") · " << rc.goal_bin_scale << " R / " << half
@@ -278,18 +263,12 @@ torch::jit::Module make_hl_critic_module(const train::RunPolicy& p, agents::EsAg
   const auto& critic = agent.critic();
   const auto& cc = critic->config();
   std::ostringstream o;
-  const std::vector<std::string> branches =
-      cc.per_axis ? std::vector<std::string>{"_x", "_y", "_z"} : std::vector<std::string>{""};
   torch::jit::Module m =
       start_module("f16race.HlPolicy", *critic, agent.normalizer(), p.config.hl.normalize_obs,
-                   Shape{p.dims, cc.d_model, cc.n_heads, p.config.hl.obs_clip, branches}, "prev_action", o);
-  for (const std::string& br : branches) {
-    const std::string x = "x" + br;
-    for (std::size_t l = 0; l < cc.hidden.size(); ++l)
-      o << "    " << x << " = torch.relu(" << linear(x, "net_trunk" + br + "_" + std::to_string(2 * l)) << ")\n";
-    o << "    out" << br << " = " << linear(x, "net_head" + br) << "\n";
-  }
-  if (cc.per_axis) o << "    out = torch.cat([out_x, out_y, out_z], 1)\n";
+                   Shape{p.dims, cc.d_model, cc.n_heads, p.config.hl.obs_clip}, "prev_action", o);
+  for (std::size_t l = 0; l < cc.hidden.size(); ++l)
+    o << "    x = torch.relu(" << linear("x", "net_trunk_" + std::to_string(2 * l)) << ")\n";
+  o << "    out = " << linear("x", "net_head") << "\n";
   const int64_t nb = cc.n_bins;
   if (!cc.decoupled) {
     o << "    q = out.view([b, " << nb * nb * nb << "])\n"

@@ -249,6 +249,36 @@ void ConfigReader::read(const char* key, std::vector<std::string>* value, const 
   *value = out;
 }
 
+namespace {
+// The commit that removed the keys ConfigReader::retired names (issue 51).
+constexpr const char* kKeysRetiredIn = "06d4cb7";
+
+// `n` holds `value`: the same text, or the same number (0 and 0.0) or boolean (false and no).
+bool holds(const YAML::Node& n, const char* value) {
+  if (!n.IsScalar()) return false;
+  if (n.Scalar() == value) return true;
+  const YAML::Node want = YAML::Load(value);
+  try {
+    return n.as<double>() == want.as<double>();
+  } catch (const YAML::BadConversion&) {
+  }
+  try {
+    return n.as<bool>() == want.as<bool>();
+  } catch (const YAML::BadConversion&) {
+  }
+  return false;
+}
+}  // namespace
+
+void ConfigReader::retired(const char* key, const char* value) {
+  used_.insert(key);
+  if (!has(key)) return;
+  const YAML::Node n = node_[key];
+  if (holds(n, value)) return;
+  throw ConfigError(source_ + ": " + key_path(key) + ": " + (n.IsScalar() ? n.Scalar() : scalar_text(n)) +
+                    " was removed in " + kKeysRetiredIn + "; build commit " + kLastCommitWithRetiredKeys + " to use it");
+}
+
 ConfigReader ConfigReader::child(const char* key) {
   used_.insert(key);
   return ConfigReader(has(key) ? node_[key] : YAML::Node(), source_, key_path(key));

@@ -31,6 +31,10 @@ void apply_override(YAML::Node& root, const std::string& assignment);
 // load_yaml_file(path), then every override in order (what `--config F --set k=v ...` means).
 YAML::Node load_yaml_with_overrides(const std::string& path, const std::vector<std::string>& overrides);
 
+// Keys retired by issue 51 (experiment switches measured not to help, a test hook): the last
+// commit that reads them all (ConfigReader::retired).
+inline constexpr const char* kLastCommitWithRetiredKeys = "b8c9f8c";
+
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {
  public:
@@ -46,6 +50,13 @@ class ConfigReader {
   void read(const char* key, std::vector<double>* value, double lo, double hi);
   // A non-empty list of distinct strings, each one of `allowed` (any string if it is empty).
   void read(const char* key, std::vector<std::string>* value, const std::vector<std::string>& allowed);
+  // A key this build no longer reads. A run folder's config.yaml lists every key of the build that
+  // wrote it, so older runs still name it: at `value`, what this build behaves as (a number or
+  // boolean compares as one: 0 and 0.0), it is consumed and changes nothing; at any other value
+  // the config asks for code that is gone, and the error names the key, the value and the commits.
+  void retired(const char* key, const char* value);
+  // A key another reader of this mapping takes care of: not an unknown key here.
+  void skip(const char* key) { used_.insert(key); }
 
   // Sub-mapping (possibly absent: then an empty reader that keeps every default).
   ConfigReader child(const char* key);
@@ -74,6 +85,8 @@ class ConfigWriter {
   void read(const char* key, std::uint64_t* value) { node_[key] = *value; }
   void read(const char* key, bool* value) { node_[key] = *value; }
   void read(const char* key, std::string* value, const std::vector<std::string>&) { node_[key] = *value; }
+  void retired(const char*, const char*) {}  // never written again
+  void skip(const char*) {}
   void read(const char* key, std::vector<int>* value, int, int) {
     YAML::Node seq(YAML::NodeType::Sequence);
     seq.SetStyle(YAML::EmitterStyle::Flow);

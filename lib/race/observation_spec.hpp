@@ -100,25 +100,6 @@ inline constexpr ObsField kTaskTailFields[] = {
 inline constexpr int kTaskTailWidth = fields_width(kTaskTailFields);
 static_assert(kTaskTailWidth == 8 && contiguous(kTaskTailFields), "task tail layout");
 
-// Optional team lanes (race.observe_team_lanes): each ado row and the task tail gain the goal
-// lanes, so the high level can see which lane each teammate was sent to and which it was sent to
-// itself (in the tube cross-section at the goal, the units of kTaskOffsets). Opponents' goals
-// stay private: their entries are 0.
-inline constexpr int kAdoTeamLane = kAdoDim;
-inline constexpr ObsField kAdoTeamLaneFields[] = {
-    {kAdoTeamLane, 2, "team lanes only: a teammate's goal lane, offset right, up / R at its goal; 0 for an opponent"},
-};
-inline constexpr int kTaskOwnLane = kTaskTailWidth;
-inline constexpr ObsField kTaskOwnLaneFields[] = {
-    {kTaskOwnLane, 2, "team lanes only: the aircraft's own goal lane, offset right, up / R at its goal"},
-};
-inline constexpr int kLaneWidth = 2;
-static_assert(fields_width(kAdoTeamLaneFields) == kLaneWidth && fields_width(kTaskOwnLaneFields) == kLaneWidth,
-              "lane layout");
-
-constexpr int ado_width(bool team_lanes) { return kAdoDim + (team_lanes ? kLaneWidth : 0); }
-constexpr int task_width(int preview_points, bool team_lanes = false) {
-  return kPreviewWidth * preview_points + kTaskTailWidth + (team_lanes ? kLaneWidth : 0);
-}
+constexpr int task_width(int preview_points) { return kPreviewWidth * preview_points + kTaskTailWidth; }
 
 }  // namespace f16race::race

@@ -76,13 +76,11 @@ void bind_race_config(R& r, RaceConfig* c) {
   std::string frame = c->goal_frame == GoalFrame::kTrack ? "track" : "world";
   r.read("goal_frame", &frame, {"world", "track"});
   c->goal_frame = frame == "track" ? GoalFrame::kTrack : GoalFrame::kWorld;
-  std::string origin = c->goal_origin == GoalOrigin::kLane ? "lane" : "center";
-  r.read("goal_origin", &origin, {"center", "lane"});
-  c->goal_origin = origin == "lane" ? GoalOrigin::kLane : GoalOrigin::kCenter;
+  r.retired("goal_origin", "center");  // lane: docs/notebook/12
   r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
-  r.read("observe_team_lanes", &c->observe_team_lanes);
+  r.retired("observe_team_lanes", "false");  // docs/notebook/08, 09
   r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
   r.read("w_goal_proximity", &c->w_goal_proximity, -1e6, 1e6);
   r.read("goal_scale_ft", &c->goal_scale_ft, 1.0, 1e6);
@@ -151,8 +149,6 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
       fail("start_speed_ftps (" + v(c.start_speed_ftps) + ") is Mach " + v(std::round(start_mach * 1000.0) / 1000.0) +
            " at " + v(highest_ft) + " ft, too close to mach_max (" + v(c.mach_max) + "): start slower (or raise mach_max)");
   }
-  if (c.goal_origin == GoalOrigin::kLane && c.goal_frame != GoalFrame::kTrack)
-    fail("goal_origin: lane needs goal_frame: track (a lane is an offset across the track)");
   if (c.goal_refresh_ft >= c.goal_ahead())
     fail("goal_refresh_ft (" + v(c.goal_refresh_ft) + ") must be < goal_ahead_ft (" + v(c.goal_ahead()) +
          (c.goal_ahead_ft > 0.0 ? "" : ": 0, so the preview horizon preview_points x preview_spacing_ft") +

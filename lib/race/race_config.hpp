@@ -18,10 +18,6 @@ enum class TubeExit { kTerminate, kGrace };
 // Axes of the HL goal offsets: world north/east/up (the paper's d_pn, d_pe, d_pa) or the track
 // frame at the goal (along, right, up), where each axis is one kind of lane change.
 enum class GoalFrame { kWorld, kTrack };
-// What the cross-track bins are offsets from: the center-line (the paper's "position offsets to a
-// target point on the center-line"), or the lane the aircraft is in when the high level decides,
-// so that the middle bin means "hold your lane" (track frame only).
-enum class GoalOrigin { kCenter, kLane };
 
 // The middle bin of an HL axis (the center-line lane): the neutral HL action, in one place.
 constexpr int center_hl_bin(int hl_bins) { return hl_bins / 2; }
@@ -85,7 +81,6 @@ struct RaceConfig {
   double goal_bin_scale = 0.8;
   // Track: measured to win more, and more reliably, than world axes (docs/learning.md, "Goal axes").
   GoalFrame goal_frame = GoalFrame::kTrack;
-  GoalOrigin goal_origin = GoalOrigin::kCenter;
   // A goal the aircraft comes within this far of (along the track) is placed again at the
   // horizon with the same bins, so a long HL interval (20 s covers ~16 000 ft) keeps a goal
   // ahead instead of one it has flown past. 0: never.
@@ -94,9 +89,6 @@ struct RaceConfig {
   // Observations.
   int preview_points = 6;
   double preview_spacing_ft = 2000.0;
-  // Team lanes: every aircraft also observes its own goal lane and its teammates' (observation
-  // spec, kAdoTeamLane / kTaskOwnLane), so the HL can tell which lanes the team already covers.
-  bool observe_team_lanes = false;
 
   // LL reward weights (per LL step unless noted).
   double w_goal_progress = 1.0;      // closing speed toward the goal, per goal_scale_ft

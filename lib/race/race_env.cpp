@@ -62,8 +62,8 @@ const char* cause_name(int cause) {
   }
 }
 
-int task_dim(const RaceConfig& c) { return task_width(c.preview_points, c.observe_team_lanes); }
-int ado_dim(const RaceConfig& c) { return ado_width(c.observe_team_lanes); }
+int task_dim(const RaceConfig& c) { return task_width(c.preview_points); }
+int ado_dim(const RaceConfig&) { return kAdoDim; }
 
 namespace {
 // Element counts of the observation buffers, and the bytes of all of them plus their final
@@ -305,24 +305,8 @@ void RaceEnv::compute_ranks(int env) {
                       &team_rank_[base]);
 }
 
-void RaceEnv::place_goal(int i, const std::int64_t* bins, bool refresh) {
+void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   const int env = i / n_agent_;
-  // goal_origin lane: the cross-track bins are offsets from a lane, as fractions of the radius:
-  // the aircraft's own at a decision; at a refresh the lane the decision chose, so it does not
-  // move on by the same offset again.
-  double origin_right = 0.0, origin_up = 0.0;
-  bool cross_from_bins = true;
-  if (config_.goal_origin == GoalOrigin::kLane) {
-    if (refresh) {
-      const double r_old = tracks_[env].radius_at(goal_progress_ft_[i]);
-      origin_right = goal_lateral_ft_[i] / r_old;
-      origin_up = goal_vertical_ft_[i] / r_old;
-      cross_from_bins = false;
-    } else {
-      origin_right = lateral_ft_[i] / radius_ft_[i];
-      origin_up = vertical_ft_[i] / radius_ft_[i];
-    }
-  }
   goal_progress_ft_[i] = progress_ft_[i] + config_.goal_ahead();
   for (int k = 0; k < kHlDims; ++k)  // clamped as the offsets below are
     goal_bins_[static_cast<std::size_t>(i) * kHlDims + k] = std::clamp<std::int64_t>(bins[k], 0, config_.hl_bins - 1);
@@ -338,9 +322,6 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins, bool refresh) {
   // bin, so the cross-track part is clipped to the outer bin's radius: every goal the HL can
   // choose lies inside the tube.
   Vec3 off{offset(bins[0]), offset(bins[1]), offset(bins[2])};
-  if (!cross_from_bins) off.e = off.u = 0.0;
-  off.e += origin_right * fr.radius_ft;
-  off.u += origin_up * fr.radius_ft;
   if (config_.goal_frame == GoalFrame::kTrack) off = off.n * fr.tangent + off.e * fr.right + off.u * fr.up;
   const Vec3 along = dot(off, fr.tangent) * fr.tangent;
   const Vec3 cross = off - along;
@@ -368,8 +349,6 @@ void RaceEnv::set_hl_actions(const std::int64_t* bins) {
     for (int a = 0; a < n_agent_; ++a)  // the task entry "time to the next HL decision"
       task_[static_cast<std::size_t>(e * n_agent_ + a) * task_dim_ + kPreviewWidth * config_.preview_points +
             kTaskHlTimeLeft] = 1.0f;
-    // The new lanes, seen from the first LL step of the interval on.
-    if (config_.observe_team_lanes) write_lane_observations(e);
   }
 }
 
@@ -519,7 +498,7 @@ void RaceEnv::step_env(int e) {
     for (int a = 0; a < n_agent_; ++a) {
       const int i = base + a;
       if (alive_[i] && progress_ft_[i] + c.goal_refresh_ft >= goal_progress_ft_[i]) {
-        place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims], /*refresh=*/true);
+        place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims]);
         separate_goals(e, i);  // the teammates keep their goals: only the new one moves
       }
     }
@@ -826,38 +805,6 @@ void RaceEnv::write_observations(int env) {
     u[kTaskHlTimeLeft] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
     u[kTaskEgoRank] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
     u[kTaskTeamRank] = static_cast<float>(team_rank_[i]);
-  }
-  if (c.observe_team_lanes) write_lane_observations(env);
-}
-
-void RaceEnv::write_lane_observations(int env) {
-  constexpr int kMaxAgents = 16;
-  const int na = n_agent_, base = env * na;
-  const Track& tr = tracks_[env];
-  // Each aircraft's goal lane in its tube cross-section at the goal, / R there: what its bins
-  // chose (the tube may be wider or narrower at the aircraft), in kTaskOffsets' units.
-  float right[kMaxAgents] = {}, up[kMaxAgents] = {};
-  for (int a = 0; a < na; ++a) {
-    const int i = base + a;
-    const double r_ft = tr.frame_at(goal_progress_ft_[i]).radius_ft;
-    right[a] = clampf(goal_lateral_ft_[i] / r_ft, -10.0, 10.0);
-    up[a] = clampf(goal_vertical_ft_[i] / r_ft, -10.0, 10.0);
-  }
-  const int team_size = config_.team_size;
-  for (int a = 0; a < na; ++a) {
-    const int i = base + a;
-    float* u = &task_[static_cast<std::size_t>(i) * task_dim_ + kPreviewWidth * config_.preview_points];
-    u[kTaskOwnLane] = right[a];
-    u[kTaskOwnLane + 1] = up[a];
-    int row = 0;
-    for (int b = 0; b < na; ++b) {
-      if (b == a) continue;
-      float* d = &ado_[(static_cast<std::size_t>(i) * (na - 1) + row++) * ado_dim_];
-      // Teammates only, alive only (a dead row is all zeros, as in the entries before).
-      const bool mate = (a < team_size) == (b < team_size) && alive_[base + b];
-      d[kAdoTeamLane] = mate ? right[b] : 0.0f;
-      d[kAdoTeamLane + 1] = mate ? up[b] : 0.0f;
-    }
   }
 }
 

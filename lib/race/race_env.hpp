@@ -215,7 +215,6 @@ class RaceEnv {
   void compute_ranks(int env);
   void write_observations(int env);
   void write_goal_observation(int i);
-  void write_lane_observations(int env);
   double goal_lane_error_ft(int i) const;
   // Pushes apart, across the track, the goals of env's live teammates closer than
   // race.goal_min_separation_ft; mover >= 0: only that aircraft's goal moves (a refresh).
@@ -224,8 +223,8 @@ class RaceEnv {
   void shift_goal(int i, double right_ft, double up_ft);
   // Penalty weight of the step for the teammates within race.separation_ft of aircraft i.
   double separation_penalty(int i) const;
-  // refresh: the same decision placed again at the horizon (keeps a goal_origin lane's lane).
-  void place_goal(int i, const std::int64_t* bins3, bool refresh = false);
+  // At a decision, and again at the horizon when the goal is (nearly) reached (goal_refresh_ft).
+  void place_goal(int i, const std::int64_t* bins3);
 
   RaceConfig config_;
   int n_agent_;

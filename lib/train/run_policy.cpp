@@ -48,9 +48,8 @@ void add_hl_member(RunPolicy& p, RunPolicy m) {
   if (file_bytes(fs::path(m.checkpoint_dir) / "ll.pt") != file_bytes(fs::path(p.checkpoint_dir) / "ll.pt"))
     throw io::InputError(m.checkpoint_dir + "/ll.pt: another low level than " + p.checkpoint_dir +
                          "/ll.pt; an ensemble joins high levels trained against one low level");
-  if (m.config.hl.variant != p.config.hl.variant || m.config.hl.n_bins != p.config.hl.n_bins ||
-      m.config.hl.team_lateral != p.config.hl.team_lateral)
-    throw io::InputError(m.run_dir + ": another high-level variant, bin count or hl.lateral than " + p.run_dir +
+  if (m.config.hl.variant != p.config.hl.variant || m.config.hl.n_bins != p.config.hl.n_bins)
+    throw io::InputError(m.run_dir + ": another high-level variant or bin count than " + p.run_dir +
                          "; an ensemble joins critics of one kind");
   p.hl_members.push_back(std::move(m.hl));
 }
@@ -74,7 +73,6 @@ RunPolicy load_run_policy(const std::string& run_dir) {
     p.ll->load((dir / "ll.pt").string());
     step = "hl.pt";
     p.hl->load((dir / "hl.pt").string());
-    p.hl->act_with_average();  // a run trained with train.hl_average_share is evaluated on its average
   } catch (const std::exception& e) {
     throw io::InputError((dir / step).string() + ": cannot load the policy (" + checkpoint_error_reason(e) +
                              "); the file is corrupt, truncated or from another build: restore it or train again");
@@ -139,8 +137,7 @@ void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other) {
            " races with task size " + std::to_string(p.dims.d_task) + " and ado size " + std::to_string(p.dims.d_ado);
   };
   throw io::InputError(other.run_dir + ": trained on " + shape(other) + ", but " + reference.run_dir + " on " +
-                           shape(reference) + "; race runs trained for the same race.team_size, race.preview_points and "
-                           "race.observe_team_lanes");
+                           shape(reference) + "; race runs trained for the same race.team_size and race.preview_points");
 }
 
 void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const models::LlObs& obs,
@@ -156,14 +153,13 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
 void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,
                     at::Generator& gen, std::int64_t* bins) {
   if (rows.numel() == 0) return;
-  const torch::Tensor team = p.hl->config().team_lateral ? rows.div(p.config.race.team_size, "floor") : torch::Tensor();
   // Each critic reads the rows in place (q_values(index_rows(obs, rows)) bit for bit).
   torch::Tensor q = p.hl->q_values(obs, rows);
   if (!p.hl_members.empty()) {
     for (const auto& m : p.hl_members) q = q + m->q_values(obs, rows);
     q = q / static_cast<double>(p.hl_members.size() + 1);
   }
-  scatter_rows(rows, p.hl->choose(q, epsilon, gen, team).bins, bins);
+  scatter_rows(rows, p.hl->choose(q, epsilon, gen).bins, bins);
 }
 
 RunPolicy untrained_policy(const TrainConfig& config, std::uint64_t seed) {

@@ -29,8 +29,7 @@ struct RunPolicy {
   std::vector<std::unique_ptr<agents::EsAgent>> hl_members;
 };
 
-// Loads the LATEST checkpoint of `run_dir`; a run trained with train.hl_average_share acts on its
-// high level's weight average (EsAgent::act_with_average), a finished run with train.hl_tail_members
+// Loads the LATEST checkpoint of `run_dir`; a finished run with train.hl_tail_members
 // K > 1 on the ensemble of its K tails (RUN and RUN/members/1..K-1, as load_ensemble_policy). Throws io::InputError naming the file and the
 // fix when the folder is not a run, has no checkpoint, was written by another config.yaml
 // (hash mismatch) or a checkpoint file is unreadable.
@@ -60,9 +59,7 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
                        const torch::Tensor& rows, at::Generator& gen, float* actions);
 
 // Writes policy p's HL bins [n_env * n_agent, 3] for the aircraft in `rows` (ascending indices as
-// above), eps-greedy with `epsilon`. A run trained with hl.lateral: team takes one lane per team
-// (aircraft i's team is i / team_size), so the rows go in with their teams. The one high-level act
-// of the tournament and replay.
+// above), eps-greedy with `epsilon`. The one high-level act of the tournament and replay.
 void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,
                     at::Generator& gen, std::int64_t* bins);
 

@@ -33,15 +33,11 @@ struct LoopConfig {
   // Share of total_env_steps at the end of a run in which the LL is frozen and only the HL learns
   // (every update an ES update): the bilevel problem's outer level against the final inner one.
   double hl_tail_share = 0.0;
-  // Share of total_env_steps at the end of a run over whose ES updates the online HL critic's
-  // weights are averaged (uniformly); the average is the run's evaluated policy, training never
-  // reads it. At most hl_tail_share (or any with ll_pilot autopilot): only where the low level is
-  // frozen are the targets stationary (docs/learning.md, "A weight average over the tail").
-  double hl_average_share = 0.0;
-  // > 0: from the first update of the HL-only tail on, the run draws from member m's random
-  // streams (new races' tracks and starts, matchups, exploration, ES minibatch order): tails of
-  // one low level, each an independent draw, for an ensemble of high levels (a tournament entry
-  // RUN+RUN+RUN; docs/learning.md, "An ensemble of tails"). 0: the run's own streams throughout.
+  // Not a config key: > 0 in the run folders RUN/members/m that a run with hl_tail_members > 1
+  // forks (their config.yaml lists it, read by read_run_config only). From the first update of the
+  // HL-only tail on, such a run draws from member m's random streams (new races' tracks and
+  // starts, matchups, exploration, ES minibatch order): tails of one low level, each an independent
+  // draw (docs/learning.md, "An ensemble of tails"). 0: the run's own streams throughout.
   int tail_member = 0;
   // K > 1: the run's policy is an ensemble of K HL-only tails of its final low level, greedy on the
   // mean of their critics' action values. The run itself is tail 0; at its tail's first update it
@@ -57,13 +53,11 @@ struct LoopConfig {
 
 struct PoolConfig {
   double p_self_play = 0.5;        // paper: current policy or a past checkpoint with equal odds
-  // Share of races (drawn first) against a center-line control: the learner's own low level
-  // with every opponent's high level fixed at the middle bin, the `@center` entry of a
-  // tournament. 0: the paper's pool only (docs/learning.md, "A fixed plan in the pool").
-  double p_center = 0.0;
-  // The same share in the HL-only tail (train.hl_tail_share), where the low level is frozen: the
-  // high level then learns to beat the formation its final low level flies (docs/learning.md,
-  // "The center line in the tail"). pool.p_center holds for the bilevel part before it.
+  // Share of the HL-only tail's races (train.hl_tail_share; drawn first) against a center-line
+  // control: the learner's own low level with every opponent's high level fixed at the middle
+  // bin, the `@center` entry of a tournament. With the low level frozen, the high level then
+  // learns to beat the formation its final low level flies (docs/learning.md, "The center line
+  // in the tail"). The bilevel part before the tail has the paper's pool only.
   double p_center_tail = 0.0;
   int snapshot_every_updates = 40; // PPO+ES updates between pool snapshots
   int max_snapshots = 20;          // oldest snapshots are removed beyond this
@@ -96,9 +90,16 @@ struct TrainConfig {
 // AeroBench's waypoint autopilot flying each aircraft's goal lane at the configured airspeed.
 race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& config);
 
-// Reads `root` (already loaded, --set overrides applied). Unknown top-level sections or keys,
-// wrong types and out-of-range values throw io::ConfigError naming `source` and the key.
-TrainConfig read_train_config(const YAML::Node& root, const std::string& source);
+// Who wrote a config: a user (a file and --set), or train (a run folder's config.yaml, which may
+// also list the internal train.tail_member).
+enum class ConfigOrigin { kUser, kRunFolder };
+
+// Reads `root` (already loaded, --set overrides applied). Unknown top-level sections
+// or keys, wrong types and out-of-range values throw io::ConfigError naming `source` and the key;
+// so does a retired key (io::ConfigReader::retired) at another value than this build behaves as,
+// and a race.seed other than seed.
+TrainConfig read_train_config(const YAML::Node& root, const std::string& source,
+                              ConfigOrigin origin = ConfigOrigin::kUser);
 
 // Fills the HL scales left at 0 ("auto") in `config` from the race (docs/learning.md, "HL
 // reward scale and C51 support"): hl.reward_scale = dt_ll / dt_hl, so an interval's reward is

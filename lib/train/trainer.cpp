@@ -192,7 +192,7 @@ struct Trainer::State {
   SnapshotPool pool{"", 0, false};  // set up by build()
   std::vector<int> side;       // [n_env] learner team
   // [n_env] who the opponent is: kVsSelf the current policy, kVsPool the pool snapshot,
-  // kVsCenter the current low level with a center-line high level (pool.p_center).
+  // kVsCenter the current low level with a center-line high level (pool.p_center_tail).
   std::vector<std::uint8_t> vs_pool;
   enum : std::uint8_t { kVsSelf = 0, kVsPool = 1, kVsCenter = 2 };
 
@@ -276,16 +276,14 @@ struct Trainer::State {
   // streams begin (a run resumed inside an LL phase past the tail's share finishes that phase's
   // update first).
   bool in_frozen_tail() const { return in_hl_tail() && phase == 1; }
-  // The run draws another tail (train.tail_member) or forks some (train.hl_tail_members).
+  // The run is a tail member (LoopConfig::tail_member) or forks some (train.hl_tail_members).
   bool has_tail_members() const { return cfg.loop.tail_member > 0 || cfg.loop.hl_tail_members > 1; }
-  // The ES updates from here on enter the HL weight average (train.hl_average_share).
-  bool in_hl_average() const { return in_last_share(cfg.loop.hl_average_share); }
   // The run is in the last `share` of its env steps (never, for a share of 0).
   bool in_last_share(double share) const {
     return share > 0.0 && static_cast<double>(env_steps) >= (1.0 - share) * static_cast<double>(cfg.loop.total_env_steps);
   }
   // At the first update of the HL-only tail. train.hl_tail_members K > 1: a checkpoint, then
-  // fork_tail_members. train.tail_member m > 0: the env's track streams, the matchup stream, the
+  // fork_tail_members. A tail member m > 0: the env's track streams, the matchup stream, the
   // exploration generator and the ES minibatch order become member m's.
   void start_tail();
   // RUN/members/1..K-1 from the LATEST checkpoint: run folders of this config with tail_member m
@@ -390,11 +388,11 @@ void Trainer::State::fork_tail_members() {
     const fs::path tmp = members / ("." + std::to_string(m) + ".tmp");
     fs::remove_all(tmp);
     fs::create_directories(tmp / "checkpoint");
-    // The member's config is this run's with two keys changed, resolved as `train --set` would.
-    YAML::Node root = io::parse_yaml_text(resolved_yaml, run_dir + "/config.yaml");
-    io::apply_override(root, "train.tail_member=" + std::to_string(m));
-    io::apply_override(root, "train.hl_tail_members=1");
-    const std::string yaml = train_config_yaml(read_train_config(root, run_dir + "/config.yaml"));
+    // The member's config is this run's as a single tail drawn from member m's streams.
+    TrainConfig member = cfg;
+    member.loop.tail_member = m;
+    member.loop.hl_tail_members = 1;
+    const std::string yaml = train_config_yaml(member);
     io::write_file_atomic((tmp / "config.yaml").string(), yaml);
     fs::copy(fs::path(run_dir) / "checkpoint" / ck, tmp / "checkpoint" / ck, fs::copy_options::recursive);
     const std::string key = "config_hash: ";
@@ -556,7 +554,7 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
     if (!st->writes()) {
       run.yaml = yaml;
       const std::string source = run_dir + "/config.yaml (from rank 0)";
-      run.config = read_train_config(io::parse_yaml_text(run.yaml, source), source);
+      run.config = read_train_config(io::parse_yaml_text(run.yaml, source), source, ConfigOrigin::kRunFolder);
       run.hash = config_hash(run.yaml);
     }
   }
@@ -700,8 +698,8 @@ Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_ava
   const double u_side = stream.uniform(), u_pool = stream.uniform();
   m.learner_side = pool.randomize_sides && u_side < 0.5 ? 1 : 0;
   // u_pool below p_center: the center-line control; above it, self-play or pool in the odds
-  // p_self_play gives (p_center 0 leaves the paper's draws unchanged).
-  const double p_center = in_tail ? pool.p_center_tail : pool.p_center;
+  // p_self_play gives (outside the tail, p_center 0: the paper's draws).
+  const double p_center = in_tail ? pool.p_center_tail : 0.0;
   m.vs_center = u_pool < p_center;
   m.vs_pool = !m.vs_center && pool_available && u_pool >= p_center + (1.0 - p_center) * pool.p_self_play;
   return m;
@@ -759,13 +757,7 @@ void Trainer::State::hl_decisions() {
     if (rows.numel() == 0) continue;
     agents::EsAgent& critic = p == 0 ? *es : *opp_es;
     const double eps = p == 0 ? cfg.hl.epsilon : cfg.loop.hl_epsilon_eval;
-    // Aircraft i = (env * 2 + team) * ts + j: i / ts names its team, rows are in aircraft order.
-    const auto& per_team = cfg.hl.explore_per_team;
-    const bool any_team = per_team[0] || per_team[1] || per_team[2];
-    // The pool's snapshots explore per aircraft as before; a team lane is their policy too.
-    const bool groups = critic.config().team_lateral || (p == 0 && any_team);
-    const torch::Tensor team = groups ? rows.div(ts, "floor") : torch::Tensor();
-    scatter_rows(rows, critic.act(obs, rows, eps, gen, team).bins, b);
+    scatter_rows(rows, critic.act(obs, rows, eps, gen).bins, b);
     work.hl_forward_rows += rows.numel();
     work.hl_forward_alive += models::count_alive(obs.ado_alive, rows);
     work.hl_forward_calls += 1;
@@ -977,7 +969,6 @@ void Trainer::State::es_update() {
   batch.next_epsilon = cfg.hl.epsilon;
   last_es = es->update(batch);
   timing.es_chunk_wait += last_es.chunk_wait_s;
-  if (in_hl_average()) es->add_to_average();
   hl_grad_steps += last_es.grad_steps;
   work.hl_forward_rows += last_es.forward_rows;
   work.hl_forward_alive += last_es.forward_alive;
@@ -1425,7 +1416,6 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   summary.updates = s.ppo_updates + s.es_updates;
   summary.env_steps = s.env_steps;
   summary.hl_grad_steps = s.hl_grad_steps;
-  summary.hl_average_count = s.es->average_count();
   summary.curves_problem = s.curves_problem;
   summary.rank_env_steps = s.rank_env_steps - rank_steps_at_start;
   summary.communication_s = s.group != nullptr ? s.group->collective_seconds() - comm_at_start : 0.0;

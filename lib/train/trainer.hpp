@@ -63,7 +63,7 @@ struct Matchup {
   bool vs_pool = false;   // opponent is the current pool snapshot (else the current policy)
   bool vs_center = false; // opponent is the learner's low level under a center-line high level
 };
-// in_tail: the race starts in the HL-only tail, where pool.p_center_tail replaces pool.p_center.
+// in_tail: the race starts in the HL-only tail, where pool.p_center_tail of them are against the center line.
 Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available, bool in_tail = false);
 // Which pool snapshot the next phase plays: uniform over the n stored ones.
 std::size_t draw_pool_entry(RandomStream& stream, std::size_t n);
@@ -106,7 +106,6 @@ struct TrainSummary {
   std::int64_t updates = 0;
   std::int64_t env_steps = 0;
   std::int64_t hl_grad_steps = 0;  // ES gradient steps of the whole run
-  std::int64_t hl_average_count = 0;  // ES updates in the HL weight average (train.hl_average_share)
   std::string curves_problem;      // why RUN/curves.png was not drawn at the last checkpoint, if not
   bool interrupted = false;
   double communication_s = 0.0;  // inside the group's collectives (also counted in `time`'s parts)

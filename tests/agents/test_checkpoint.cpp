@@ -264,57 +264,5 @@ TEST(Checkpoint, EsRoundTripEveryVariant) {
   std::remove(path.c_str());
 }
 
-// The weight average (train.hl_average_share) is the mean of the online critic's parameters at
-// each add_to_average(), never read by act() or update(), saved and loaded with the agent, and
-// the policy of a copy after act_with_average(). A file without one loads as an agent without one.
-TEST(Checkpoint, EsWeightAverageIsTheMeanAndSurvivesARoundTrip) {
-  const std::string path = ::testing::TempDir() + "/f16race_es_average.pt";
-  EsConfig cfg;
-  cfg.variant = EsVariant::kEsD2;
-  cfg.dims = dims();
-  cfg.learning_rate = 1e-2;  // steps large enough that the three iterates differ visibly
-  torch::manual_seed(1);
-  EsAgent a(cfg);
-  torch::manual_seed(1);
-  EsAgent plain(cfg);  // the same updates without the average
-  Rng r(3);
-  std::vector<std::vector<torch::Tensor>> seen;
-  for (int k = 0; k < 3; ++k) {
-    const auto batch = make_es_batch(a, r, 16, 4);
-    a.update(batch);
-    plain.update(batch);
-    a.add_to_average();
-    std::vector<torch::Tensor> now;
-    for (const auto& p : a.critic()->parameters()) now.push_back(p.detach().clone());
-    seen.push_back(now);
-  }
-  EXPECT_EQ(a.average_count(), 3);
-  expect_same_parameters(*a.critic(), *plain.critic());  // training never reads the average
-  a.save(path);
-  EsAgent b(cfg);
-  b.load(path);
-  EXPECT_EQ(b.average_count(), 3);
-  expect_same_parameters(*a.critic(), *b.critic());  // loaded, still the online weights
-  b.act_with_average();
-  const auto params = b.critic()->parameters();
-  double largest_step = 0.0;
-  for (std::size_t k = 0; k < params.size(); ++k) {
-    const auto mean = (seen[0][k] + seen[1][k] + seen[2][k]) / 3.0;
-    EXPECT_LT((params[k] - mean).abs().max().item<double>(), 1e-6);
-    largest_step = std::max(largest_step, (seen[2][k] - seen[0][k]).abs().max().item<double>());
-  }
-  EXPECT_GT(largest_step, 1e-3);  // the mean is not just the last iterate
-  const auto obs = hl_obs(r, {32});
-  auto g1 = models::make_generator(1), g2 = models::make_generator(1);
-  EXPECT_FALSE(a.act(obs, 0.0, g1).q.equal(b.act(obs, 0.0, g2).q));
-  // A file without an average: the loaded agent has none, and act_with_average() changes nothing.
-  plain.save(path);
-  b.load(path);
-  EXPECT_EQ(b.average_count(), 0);
-  b.act_with_average();
-  expect_same_parameters(*plain.critic(), *b.critic());
-  std::remove(path.c_str());
-}
-
 }  // namespace
 }  // namespace f16race::agents

@@ -1,7 +1,6 @@
-// hl.inference eigen: EsAgent's action values on the Eigen kernels follow the online critic
-// through everything that moves its weights (gradient steps, a load, the weight average, a write
-// through critic()), agreeing with the LibTorch path to float rounding for every variant; a
-// per_axis critic stays on LibTorch.
+// EsConfig::eigen_inference: EsAgent's action values on the Eigen kernels follow the online critic
+// through everything that moves its weights (gradient steps, a load, a write through critic()),
+// agreeing with the LibTorch path to float rounding for every variant.
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
@@ -42,22 +41,15 @@ TEST(EsInference, EigenValuesFollowEveryWeightChange) {
     const std::string name = es_variant_name(v);
     const torch::Tensor before = eigen_path.q_values(obs);
     expect_close(before, torch_path.q_values(obs), name + " fresh");
-    // Gradient steps (and the average taken after them).
+    // Gradient steps.
     torch_path.update(batch);
     eigen_path.update(batch);
-    torch_path.add_to_average();
-    eigen_path.add_to_average();
     const torch::Tensor stepped = eigen_path.q_values(obs);
     EXPECT_GT((stepped - before).abs().max().item<double>(), 1e-3) << name << ": the steps moved nothing";
     expect_close(stepped, torch_path.q_values(obs), name + " after update");
-    // A second update, then acting with the average of the two.
     torch_path.update(batch);
     eigen_path.update(batch);
-    torch_path.add_to_average();
-    eigen_path.add_to_average();
-    torch_path.act_with_average();
-    eigen_path.act_with_average();
-    expect_close(eigen_path.q_values(obs), torch_path.q_values(obs), name + " with the average");
+    expect_close(eigen_path.q_values(obs), torch_path.q_values(obs), name + " after a second update");
     // A load of another state: the fresh agent's.
     const std::string file = dir + "/" + name + ".pt";
     torch::manual_seed(7);
@@ -77,21 +69,10 @@ TEST(EsInference, EigenValuesFollowEveryWeightChange) {
   std::filesystem::remove_all(dir);
 }
 
-TEST(EsInference, PerAxisCriticStaysOnLibTorch) {
-  const models::ObsDims dims{4, 2, 2, 2};
-  EsConfig cfg = replica_es_config(EsVariant::kEsD2, dims);
-  cfg.per_axis_critic = true;
-  torch::manual_seed(6);
-  EsAgent agent(cfg);
-  const models::HlObs obs = models::flatten2(es_batch(dims, 0, 8).obs);
-  torch::NoGradGuard no_grad;
-  EXPECT_TRUE(torch::equal(agent.q_values(obs), agent.critic()(agent.normalizer()->normalize(obs, false)).q));
-}
-
 // The trainer's decisions read the rows each critic flies in place (EsAgent::act(obs, rows, ...)):
 // the same action values and bins, bit for bit, as acting on a gathered copy of those rows, on both
 // paths, with statistics that are not the identity (an update absorbed a batch first), rows in any
-// order, one repeated, a team lane's groups; a row outside the batch is refused.
+// order, one repeated; a row outside the batch is refused.
 TEST(EsInference, ActingOnPickedRowsIsActingOnTheirCopy) {
   const models::ObsDims dims{4, 2, 2, 2};
   for (bool eigen : {false, true}) {
@@ -107,10 +88,9 @@ TEST(EsInference, ActingOnPickedRowsIsActingOnTheirCopy) {
       const std::string at = std::string(eigen ? "eigen " : "torch ") + es_variant_name(v);
       const auto want = agent.q_values(models::index_rows(obs, rows));
       EXPECT_TRUE(torch::equal(agent.q_values(obs, rows), want)) << at;
-      const auto group = torch::tensor(std::vector<int64_t>{0, 1, 1, 2, 3, 4, 4, 4}, torch::kInt64);
       auto g0 = models::make_generator(5), g1 = models::make_generator(5);
-      const EsAction a = agent.act(models::index_rows(obs, rows), 0.5, g0, group);
-      const EsAction b = agent.act(obs, rows, 0.5, g1, group);
+      const EsAction a = agent.act(models::index_rows(obs, rows), 0.5, g0);
+      const EsAction b = agent.act(obs, rows, 0.5, g1);
       EXPECT_TRUE(torch::equal(a.bins, b.bins)) << at;
       EXPECT_TRUE(torch::equal(a.q, b.q)) << at;
       EXPECT_THROW(agent.q_values(obs, torch::tensor(std::vector<int64_t>{0, 24}, torch::kInt64)), c10::Error) << at;

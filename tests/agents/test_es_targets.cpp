@@ -162,129 +162,6 @@ TEST(EsLoss, DecoupledMeanAndTeamValue) {
   EXPECT_FLOAT_EQ(l0.prediction[1][2].item<float>(), joint.q[1 * n_a + 2][idx].item<float>());
 }
 
-// hl.team_target: per_axis (es_d2). One target per team and axis, r + gamma mean_i V^{i,j}, whose
-// mean over the axes is the paper's single target; the loss fits each axis's team mean of the
-// taken utilities to its own target, so axes that err in opposite directions no longer cancel.
-TEST(EsTarget, PerAxisTeamTargetAndLoss) {
-  auto gen = models::make_generator(12);
-  const int64_t t = 3, n_a = 2, bins = 5;
-  models::HlOutput next;
-  next.q = torch::randn({t * n_a, 3, bins}, gen, torch::kFloat32);
-  const auto reward = torch::randn({t, n_a}, gen, torch::kFloat32);
-  const auto done = torch::tensor({false, true, false});
-  auto next_active = all_true(t, n_a);
-  next_active[2][1] = false;
-  const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused,
-                           EsTargetRule{/*per_axis_target=*/true});
-  ASSERT_EQ(y.value.sizes(), (std::vector<int64_t>{t, 3}));
-  for (int64_t s = 0; s < t; ++s)
-    for (int64_t j = 0; j < 3; ++j) {
-      double v = 0.0;
-      int64_t n = 0;
-      for (int64_t i = 0; i < n_a; ++i) {
-        if (!next_active[s][i].item<bool>()) continue;
-        const auto qj = next.q[s * n_a + i][j];
-        v += (1.0 - kEps) * qj.max().item<double>() + kEps * qj.mean().item<double>();
-        ++n;
-      }
-      const double live = done[s].item<bool>() ? 0.0 : 1.0;
-      EXPECT_NEAR(y.value[s][j].item<double>(), reward[s].mean().item<double>() + kGamma * live * v / n, 1e-5)
-          << "team " << s << " axis " << j;
-    }
-  // The paper's target is the mean of the three.
-  const auto y_sum = es_target(EsVariant::kEsD2, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused);
-  EXPECT_LT((y.value.mean(1) - y_sum.value).abs().max().item<double>(), 1e-5);
-
-  // One team of one aircraft: utilities 1 (x), -1 (y), 0 (z) on the taken bins, targets 0: the
-  // mean over the axes fits exactly, the axes do not.
-  models::HlOutput out;
-  out.q = torch::zeros({1, 3, bins});
-  out.q[0][0][2] = 1.0;
-  out.q[0][1][2] = -1.0;
-  const auto actions = torch::full({1, 1, 3}, int64_t{2});
-  const auto l_sum = es_loss(EsVariant::kEsD2, out, actions, all_true(1, 1), EsTarget{torch::zeros({1}), {}}, 1.0, kUnused);
-  const auto l_axes = es_loss(EsVariant::kEsD2, out, actions, all_true(1, 1), EsTarget{torch::zeros({1, 3}), {}}, 1.0,
-                              kUnused, 0.0, /*per_axis_target=*/true);
-  EXPECT_NEAR(l_sum.loss.item<double>(), 0.0, 1e-7);
-  EXPECT_NEAR(l_axes.loss.item<double>(), (0.5 + 0.5 + 0.0) / 3.0, 1e-6);  // Huber(1) = Huber(-1) = 0.5
-  ASSERT_EQ(l_axes.prediction.sizes(), (std::vector<int64_t>{1, 3}));
-  EXPECT_EQ(l_axes.valid.sizes(), l_axes.prediction.sizes());
-  EXPECT_THROW(es_target(EsVariant::kEsD1, next, reward, done, all_true(t, n_a), next_active, kEps, kGamma, kUnused,
-                         EsTargetRule{true}),
-               c10::Error);
-}
-
-// hl.team_explore_scale (es_d2): an axis drawn per team at scale x eps is valued with that eps.
-TEST(EsTarget, TeamAxisEpsilonScale) {
-  models::HlOutput next;
-  next.q = decoupled_next_q();  // see its comment: per axis max and mean of each aircraft
-  const auto reward = torch::tensor({{1.f, 2.f}});
-  const auto done = torch::tensor({false});
-  EsTargetRule rule;
-  rule.axis_epsilon_scale = {1.0, 0.25, 1.0};
-  const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, rule);
-  // x: (1.9 + 0.95) / 2; y: [1, 1] -> 1 and [0, 0] -> 0 at any eps; z: (3.8 + 2.85) / 2.
-  EXPECT_NEAR(y.value[0].item<double>(), 1.5 + kGamma * (1.425 + 0.5 + 3.325) / 3.0, 1e-5);
-  auto q = decoupled_next_q();
-  q[1][1] = torch::tensor({0.f, 4.f});  // aircraft 1's lateral: max 4, mean 2, so eps matters
-  next.q = q;
-  const double e = kEps * 0.25;
-  const double lateral = (1.0 + ((1.0 - e) * 4.0 + e * 2.0)) / 2.0;
-  const auto ys = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, rule);
-  EXPECT_NEAR(ys.value[0].item<double>(), 1.5 + kGamma * (1.425 + lateral + 3.325) / 3.0, 1e-5);
-  // Scale 1 is the paper's target, bit for bit.
-  const auto y1 = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused,
-                            EsTargetRule{});
-  const auto y_plain = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused);
-  EXPECT_TRUE(torch::equal(y1.value, y_plain.value));
-  EXPECT_GT(std::abs(ys.value[0].item<double>() - y_plain.value[0].item<double>()), 1e-3);
-  EXPECT_THROW(es_target(EsVariant::kEsD3, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, rule),
-               c10::Error);
-}
-
-// hl.lateral: team (es_d2). The lateral axis's next value is the team lane's: eps-greedy over the
-// mean of the members' lateral utilities (members alive next), not the mean of each member's own
-// eps-greedy value; the other axes keep theirs.
-TEST(EsTarget, TeamLateralLaneValue) {
-  // decoupled_next_q's lateral utilities: aircraft 0 [1, 1], aircraft 1 [0, 0] -> team mean
-  // [0.5, 0.5], lane value 0.5 (as the mean of their own, 1.0 and 0). Put the members at odds:
-  // aircraft 0 [3, 0], aircraft 1 [0, 2] -> own values 2.85 and 1.9 (mean 2.375), team mean
-  // [1.5, 1] -> 0.9 * 1.5 + 0.1 * 1.25 = 1.475.
-  auto q = decoupled_next_q();
-  q[0][1] = torch::tensor({3.f, 0.f});
-  q[1][1] = torch::tensor({0.f, 2.f});
-  models::HlOutput next;
-  next.q = q;
-  const auto reward = torch::tensor({{1.f, 2.f}});
-  const auto done = torch::tensor({false});
-  const EsTargetRule lane{false, true}, lane_axes{true, true};
-  const auto y = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, lane);
-  // x: (1.9 + 0.95) / 2, y: 1.475, z: (3.8 + 2.85) / 2
-  const double x = 1.425, lateral = 1.475, z = 3.325;
-  EXPECT_NEAR(y.value[0].item<double>(), 1.5 + kGamma * (x + lateral + z) / 3.0, 1e-5);
-  const auto own = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused);
-  EXPECT_NEAR(own.value[0].item<double>(), 1.5 + kGamma * (x + 2.375 + z) / 3.0, 1e-5);  // the paper's: lower by 0.15
-  const auto ya = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused,
-                            lane_axes);
-  ASSERT_EQ(ya.value.sizes(), (std::vector<int64_t>{1, 3}));
-  EXPECT_NEAR(ya.value[0][1].item<double>(), 1.5 + kGamma * lateral, 1e-5);
-  EXPECT_NEAR(ya.value[0][0].item<double>(), 1.5 + kGamma * x, 1e-5);
-  // A member dead next leaves the lane to the other: aircraft 0 alone, 0.9 * 3 + 0.1 * 1.5.
-  const auto solo = es_target(EsVariant::kEsD2, next, reward, done, all_true(1, 2), torch::tensor({{true, false}}), kEps,
-                              kGamma, kUnused, lane_axes);
-  EXPECT_NEAR(solo.value[0][1].item<double>(), 1.5 + kGamma * 2.85, 1e-5);
-  // A team of one has no one to agree with: the lane is its own value.
-  models::HlOutput one;
-  one.q = q.narrow(0, 0, 1);
-  const auto y1 = es_target(EsVariant::kEsD2, one, torch::tensor({{1.f}}), done, all_true(1, 1), all_true(1, 1), kEps,
-                            kGamma, kUnused, lane);
-  const auto y1_own = es_target(EsVariant::kEsD2, one, torch::tensor({{1.f}}), done, all_true(1, 1), all_true(1, 1),
-                                kEps, kGamma, kUnused);
-  EXPECT_NEAR(y1.value[0].item<double>(), y1_own.value[0].item<double>(), 1e-6);
-  EXPECT_THROW(es_target(EsVariant::kEsD3, next, reward, done, all_true(1, 2), all_true(1, 2), kEps, kGamma, kUnused, lane),
-               c10::Error);
-}
-
 TEST(EsLoss, DistributionalTeamMixtureCrossEntropy) {
   auto gen = models::make_generator(6);
   const int64_t t = 3, n_a = 2, bins = 7, k = 11;
@@ -403,10 +280,10 @@ TEST(EsDiagnostics, HuberShareCountsTdErrorsBeyondDelta) {
   }
 }
 
-// hl.explore: team. Rows of one group (a team's aircraft) share the exploration coin and the
-// random bin per axis; each row's marginal policy stays eps-greedy with the same eps, which the
-// ES targets assume.
-TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
+// Exploration per aircraft and goal axis (the paper's): eps 0 is greedy; at eps each row and
+// axis leaves its greedy bin with probability eps (n_bins - 1) / n_bins, on a uniform bin; the
+// rows draw apart, so a team's aircraft rarely share an explored bin.
+TEST(EsExploration, EachAircraftAndAxisDrawsItsOwnCoin) {
   torch::manual_seed(3);
   EsConfig cfg;
   cfg.variant = EsVariant::kEsD2;
@@ -414,86 +291,27 @@ TEST(EsExploration, TeamGroupsShareTheirDrawsAndKeepTheMarginals) {
   cfg.d_model = 8;
   cfg.n_heads = 2;
   cfg.hidden = {16, 16};
-  cfg.explore_per_team = {true, true, true};
   EsAgent agent(cfg);
   const int64_t b = 6000, team = 3;
   auto input_gen = models::make_generator(9);
   const models::HlObs obs{torch::randn({b, 4}, input_gen), torch::zeros({b, 3}), torch::randn({b, 1, 2}, input_gen),
                           torch::ones({b, 1}, torch::kBool), torch::randn({b, 2}, input_gen)};
-  // Group ids as the trainer makes them (aircraft / team size), with gaps: ids 0, 0, 0, 2, 2, 2, ...
-  const auto group = torch::arange(b, torch::kInt64).div(team, "floor") * 2;
   auto gen = models::make_generator(4);
-  const EsAction greedy = agent.act(obs, 0.0, gen, group);
+  const EsAction greedy = agent.act(obs, 0.0, gen);
   EXPECT_TRUE(greedy.bins.equal(greedy.greedy_bins));
-  const auto by_team = [&](const torch::Tensor& bins) { return bins.view({b / team, team, 3}); };
-  {  // eps 1: every axis explores, one bin per team and axis
-    const auto bins = by_team(agent.act(obs, 1.0, gen, group).bins);
-    EXPECT_TRUE(bins.eq(bins.select(1, 0).unsqueeze(1)).all().item<bool>());
-    const auto count = torch::bincount(bins.select(1, 0).reshape({-1}), {}, 7).to(torch::kFloat64);
-    const double expected = static_cast<double>(b / team * 3) / 7.0;
+  EXPECT_TRUE(greedy.greedy_bins.equal(greedy.q.argmax(2)));
+  {  // eps 1: every axis explores, uniform over the 7 bins
+    const auto bins = agent.act(obs, 1.0, gen).bins;
+    const auto count = torch::bincount(bins.reshape({-1}), {}, 7).to(torch::kFloat64);
+    const double expected = static_cast<double>(b * 3) / 7.0;
     EXPECT_LT(((count - expected).pow(2) / expected).sum().item<double>(), 22.46);  // chi2, 6 dof, 0.999
+    const auto by_team = bins.view({b / team, team, 3});
+    // Three independent uniform bins agree 1 / 49 of the time.
+    EXPECT_LT(by_team.eq(by_team.select(1, 0).unsqueeze(1)).all(1).to(torch::kFloat64).mean().item<double>(), 0.1);
   }
-  {  // eps 0.3: off the greedy bin with probability 0.3 * 6/7 per row and axis; within a team an
-     // axis either explores for all (one shared bin) or for none (each row greedy)
-    const EsAction a = agent.act(obs, 0.3, gen, group);
-    const auto off = a.bins.ne(a.greedy_bins);
-    EXPECT_NEAR(off.to(torch::kFloat64).mean().item<double>(), 0.3 * 6.0 / 7.0, 0.03);
-    const auto bins = by_team(a.bins), any_off = by_team(off).any(1);  // [teams, 3]
-    const auto shared = bins.eq(bins.select(1, 0).unsqueeze(1)).all(1);
-    EXPECT_TRUE(shared.logical_or(any_off.logical_not()).all().item<bool>());
-    // Without groups the rows of a team explore apart: shared bins on exploring axes are rare.
-    const EsAction solo = agent.act(obs, 1.0, gen);
-    EXPECT_LT(by_team(solo.bins).eq(by_team(solo.bins).select(1, 0).unsqueeze(1)).all(1).to(torch::kFloat64)
-                  .mean().item<double>(),
-              0.1);
-  }
-  EXPECT_THROW(agent.act(obs, 0.1, gen, group.flip(0)), c10::Error);  // ids must not decrease
-  // team_y: only the second axis is drawn per team; the others per aircraft.
-  cfg.explore_per_team = {false, true, false};
-  torch::manual_seed(3);
-  EsAgent lateral(cfg);
-  const auto bins = by_team(lateral.act(obs, 1.0, gen, group).bins);
-  const auto shared = bins.eq(bins.select(1, 0).unsqueeze(1)).all(1).to(torch::kFloat64).mean(0);  // [3]
-  EXPECT_EQ(shared[1].item<double>(), 1.0);
-  EXPECT_LT(shared[0].item<double>(), 0.1);  // three independent uniform bins agree 1 / 49 of the time
-  EXPECT_LT(shared[2].item<double>(), 0.1);
-  const EsAction some = lateral.act(obs, 0.3, gen, group);
-  EXPECT_NEAR(some.bins.ne(some.greedy_bins).to(torch::kFloat64).mean().item<double>(), 0.3 * 6.0 / 7.0, 0.03);
-
-  // hl.lateral: team: one lane per team, the argmax of the members' summed lateral utilities,
-  // explored per team; the other axes stay each aircraft's own.
-  cfg.explore_per_team = {false, false, false};
-  cfg.team_lateral = true;
-  torch::manual_seed(3);
-  EsAgent lane(cfg);
-  const EsAction g = lane.act(obs, 0.0, gen, group);
-  const auto team_sum = g.q.select(1, 1).view({b / team, team, 7}).sum(1);  // [teams, 7]
-  EXPECT_TRUE(by_team(g.greedy_bins).select(2, 1).eq(team_sum.argmax(1).unsqueeze(1)).all().item<bool>());
-  EXPECT_TRUE(g.greedy_bins.select(1, 0).equal(g.q.select(1, 0).argmax(1)));
-  EXPECT_TRUE(g.greedy_bins.select(1, 2).equal(g.q.select(1, 2).argmax(1)));
-  // Members disagree on their own argmax often enough for the lane to matter in this check.
-  const auto own_y = by_team(g.q.argmax(2)).select(2, 1);
-  EXPECT_GT(own_y.ne(own_y.select(1, 0).unsqueeze(1)).any(1).to(torch::kFloat64).mean().item<double>(), 0.1);
-  const auto explored = by_team(lane.act(obs, 1.0, gen, group).bins);
-  EXPECT_TRUE(explored.select(2, 1).eq(explored.select(2, 1).select(1, 0).unsqueeze(1)).all().item<bool>());
-  EXPECT_THROW(lane.act(obs, 0.0, gen), c10::Error);  // the lane needs the teams
-  cfg.variant = EsVariant::kEsD3;
-  EXPECT_THROW(EsAgent{cfg}, c10::Error);
-
-  // hl.team_explore_scale: a team axis's coin at scale x eps; the row axes keep eps.
-  cfg.variant = EsVariant::kEsD2;
-  cfg.team_lateral = false;
-  cfg.explore_per_team = {false, true, false};
-  cfg.team_explore_scale = 0.25;
-  torch::manual_seed(3);
-  EsAgent quarter(cfg);
-  const EsAction qa = quarter.act(obs, 0.8, gen, group);
-  const auto off = qa.bins.ne(qa.greedy_bins).to(torch::kFloat64).mean(0);  // [3]
-  EXPECT_NEAR(off[1].item<double>(), 0.2 * 6.0 / 7.0, 0.03);  // 2000 teams: sd 0.009
-  EXPECT_NEAR(off[0].item<double>(), 0.8 * 6.0 / 7.0, 0.03);
-  EXPECT_EQ(es_target_rule(cfg).axis_epsilon_scale, (std::array<double, 3>{1.0, 0.25, 1.0}));
-  cfg.team_explore_scale = 0.0;
-  EXPECT_THROW(EsAgent{cfg}, c10::Error);
+  const EsAction a = agent.act(obs, 0.3, gen);
+  const auto off = a.bins.ne(a.greedy_bins).to(torch::kFloat64).mean(0);  // [3]
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(off[j].item<double>(), 0.3 * 6.0 / 7.0, 0.02) << "axis " << j;  // sd 0.006
 }
 
 }  // namespace

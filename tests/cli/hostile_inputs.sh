@@ -81,10 +81,19 @@ case_ "unknown agent" "hl.agent: 'es_d4'" -- $T --set hl.agent=es_d4
 case_ "epsilon 1.5" "hl.epsilon: value 1.5" -- $T --set hl.epsilon=1.5
 case_ "support crossed" "hl.v_min must be < hl.v_max (or both 0: derived from the race); got 5 and 1" -- $T --set hl.v_min=5 --set hl.v_max=1
 case_ "one atom" "hl.n_atoms: value 1" -- $T --set hl.n_atoms=1
-case_ "per-axis critic on es" "hl.critic" -- $T --set hl.agent=es --set hl.critic=per_axis
-case_ "per-axis target on es_d3" "hl.team_target" -- $T --set hl.agent=es_d3 --set hl.team_target=per_axis
-case_ "team lane on es_d1" "hl.lateral" -- $T --set hl.agent=es_d1 --set hl.lateral=team
-case_ "team explore scale without team draws" "hl.team_explore_scale" -- $T --set hl.team_explore_scale=0.25
+# Issue 51's retired switches: at another value than this build behaves as, one line naming the
+# key, the value and the commit to build.
+case_ "retired per-axis critic" "hl.critic: per_axis was removed in" -- $T --set hl.critic=per_axis
+case_ "retired per-axis target" "hl.team_target: per_axis was removed in" -- $T --set hl.team_target=per_axis
+case_ "retired team lane" "hl.lateral: team was removed in" -- $T --set hl.lateral=team
+case_ "retired team exploration" "hl.explore: team was removed in" -- $T --set hl.explore=team
+case_ "retired team explore scale" "hl.team_explore_scale: 0.25 was removed in" -- $T --set hl.team_explore_scale=0.25
+case_ "retired lane origin" "race.goal_origin: lane was removed in" -- $T --set race.goal_origin=lane
+case_ "retired team lanes" "race.observe_team_lanes: true was removed in" -- $T --set race.observe_team_lanes=true
+case_ "retired center share" "pool.p_center: 0.25 was removed in" -- $T --set pool.p_center=0.25
+case_ "retired weight average" "train.hl_average_share: 0.2 was removed in" -- $T --set train.hl_tail_share=0.3 --set train.hl_average_share=0.2
+case_ "retired inference switch" "hl.inference: torch was removed in" -- $T --set hl.inference=torch
+case_ "race seed other than seed" "race.seed = 5 differs from seed = 3" -- $T --set race.seed=5
 case_ "empty hidden" "ll.hidden" -- $T --set "ll.hidden=[]"
 case_ "zero hidden" "ll.hidden: element 0 = 0" -- $T --set "ll.hidden=[0]"
 case_ "negative lr" "ll.learning_rate: value -1" -- $T --set ll.learning_rate=-1
@@ -92,12 +101,9 @@ case_ "negative steps" "train.total_env_steps" -- $T --set train.total_env_steps
 case_ "p_self_play 2" "pool.p_self_play: value 2" -- $T --set pool.p_self_play=2
 case_ "center share in the tail without a tail" "pool.p_center_tail" -- $T --set pool.p_center_tail=0.25
 case_ "center share in the tail 1.5" "pool.p_center_tail: value 1.5" -- $T --set train.hl_tail_share=0.3 --set pool.p_center_tail=1.5
-case_ "weight average beyond the tail" "train.hl_average_share = 0.5" -- $T --set train.hl_tail_share=0.3 --set train.hl_average_share=0.5
-case_ "weight average share 1" "train.hl_average_share: value 1" -- $T --set train.hl_average_share=1
-case_ "tail member without a tail" "train.tail_member = 1" -- $T --set train.tail_member=1
+case_ "tail member in a user config" "train.tail_member = 1 is written by train" -- $T --set train.hl_tail_share=0.3 --set train.tail_member=1
 case_ "tail members without a tail" "train.hl_tail_members = 3" -- $T --set train.hl_tail_members=3
 case_ "tail members 17" "train.hl_tail_members: value 17" -- $T --set train.hl_tail_share=0.3 --set train.hl_tail_members=17
-case_ "tail members of a tail member" "train.tail_member = 1" -- $T --set train.hl_tail_share=0.3 --set train.hl_tail_members=3 --set train.tail_member=1
 case_ "--set without =" "--set 'race.n_env'" -- $T --set race.n_env
 case_ "--set empty key" "race..n_env" -- $T --set race..n_env=3
 case_ "--set bad YAML" "race.n_env=[1" -- $T --set "race.n_env=[1"
@@ -111,6 +117,38 @@ case_ "resume corrupt LATEST" -- "$bin" train --resume corrupt_latest
 case_ "resume truncated checkpoint" -- "$bin" train --resume truncated
 case_ "threads huge" --threads -- "$bin" --threads 100000 train --config "$smoke" --run "$work/n8"
 case_ "threads negative" --threads -- "$bin" --threads -1 train --config "$smoke" --run "$work/n9"
+# Run folders written before issue 51 list the retired keys: at the values this build behaves as
+# the run is used as it is (its config.yaml's bytes, hashed by its checkpoints, untouched); a run
+# trained with a retired switch on is refused by every command that reads it.
+as_older_build() {  # DIR EXPLORE: config.yaml as that build wrote it, LATEST's checkpoint under its hash
+  python3 - "$1" "$2" <<'PY'
+import re, sys
+d, explore = sys.argv[1], sys.argv[2]
+t = open(d + "/config.yaml").read()
+t = t.replace("\nrace:\n", "\nrace:\n  goal_origin: center\n  observe_team_lanes: false\n", 1)
+t = t.replace("\nhl:\n", "\nhl:\n  explore: " + explore + "\n  critic: shared\n  inference: eigen\n", 1)
+t = t.replace("\npool:\n", "\npool:\n  p_center: 0\n", 1)
+open(d + "/config.yaml", "w").write(t)
+h = 1469598103934665603  # train::config_hash, FNV-1a
+for b in t.encode():
+    h = ((h ^ b) * 1099511628211) % 2**64
+meta = d + "/checkpoint/" + open(d + "/checkpoint/LATEST").read().strip() + "/meta.yaml"
+text = re.sub(r"config_hash: \d+", "config_hash: %d" % h, open(meta).read())
+open(meta, "w").write(text)
+PY
+}
+cp -r "$run" old_defaults && rm -f old_defaults/.lock && as_older_build old_defaults aircraft
+cp -r "$run" old_team && rm -f old_team/.lock && as_older_build old_team team
+old_yaml=$(md5sum < old_defaults/config.yaml)
+accepted_ "a run listing retired keys at their values: tournament" -- "$bin" tournament --runs old_defaults --races 2 --out t_old
+accepted_ "a run listing retired keys at their values: export" -- "$bin" export --run old_defaults --out old_export
+accepted_ "a run listing retired keys at their values: replay" -- "$bin" replay --run old_defaults --out r_old
+accepted_ "a run listing retired keys at their values: resume" -- "$bin" train --resume old_defaults --max-updates 3 --quiet
+[ "$(md5sum < old_defaults/config.yaml)" = "$old_yaml" ] || { echo "FAIL: resume rewrote old_defaults/config.yaml"; fails=$((fails + 1)); }
+case_ "a run trained with hl.explore team: tournament" "old_team/config.yaml: hl.explore: team was removed in" -- "$bin" tournament --runs old_team --races 2 --out t_team
+case_ "a run trained with hl.explore team: export" "hl.explore: team was removed in" -- "$bin" export --run old_team --out team_export
+case_ "a run trained with hl.explore team: replay" "hl.explore: team was removed in" -- "$bin" replay --run old_team --out r_team
+case_ "a run trained with hl.explore team: resume" "hl.explore: team was removed in" -- "$bin" train --resume old_team
 case_ "tournament missing run" -- "$bin" tournament --runs "$work/nothing" --out t1
 case_ "tournament run twice" -- "$bin" tournament --runs "$run" "$run" --out t2
 case_ "tournament 0 races" -- "$bin" tournament --runs "$run" --races 0 --out t3

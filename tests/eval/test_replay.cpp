@@ -165,29 +165,6 @@ TEST(Replay, OneAxisRuleKeepsThePolicyOnTheOtherAxes) {
     for (int k = 0; k < 3; ++k) EXPECT_EQ(fixed.trace.goals[a].front().bins[k], own.trace.goals[a].front().bins[k]);
 }
 
-// A run trained with hl.lateral: team flies one lane per team in replays too: at every decision
-// the members of a team share their lateral bin (through the same act as the tournament's).
-TEST(Replay, TeamLateralLaneIsSharedByEveryMember) {
-  const std::string run = tiny_run("lane", {"hl.agent=es_d2", "hl.lateral=team"});
-  ReplayOptions o;
-  o.run = run;
-  o.opponent = run;
-  for (std::uint64_t seed : {5u, 6u}) {
-    o.seed = seed;
-    const RaceReplay r = run_replay(o);
-    for (int team = 0; team < 2; ++team) {
-      const auto& first = r.trace.goals[team * 2];
-      const auto& second = r.trace.goals[team * 2 + 1];
-      ASSERT_FALSE(first.empty());
-      const std::size_t n = std::min(first.size(), second.size());
-      for (std::size_t k = 0; k < n; ++k) {
-        ASSERT_EQ(first[k].t_s, second[k].t_s) << team << " " << k;
-        EXPECT_EQ(first[k].bins[1], second[k].bins[1]) << "team " << team << " decision " << k;
-      }
-    }
-  }
-}
-
 TEST(Replay, RefusesMissingRuns) {
   ReplayOptions o;
   o.run = "/nonexistent/run";

@@ -159,7 +159,7 @@ TEST(Study, CellStateFollowsTheRunAndRefusesAnotherConfig) {
     std::ifstream in(yaml);
     std::string text, line;
     while (std::getline(in, line))
-      if (line.find("observe_team_lanes") == std::string::npos) text += line + "\n";
+      if (line.find("time_limit_terminal") == std::string::npos) text += line + "\n";
     in.close();
     ASSERT_NE(text.size(), fs::file_size(yaml)) << "the key to drop is not in config.yaml";
     write(yaml, text);

@@ -24,11 +24,7 @@ ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8, 8], d_model: 8, n
 hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}
 train: {total_env_steps: 100, ll_phase_updates: 1, hl_phase_updates: 1}
 )");
-  // "<agent>_per_axis": that agent on one critic per goal axis (hl.critic: per_axis).
-  const std::string suffix = "_per_axis";
-  const bool per_axis = agent.size() > suffix.size() && agent.compare(agent.size() - suffix.size(), suffix.size(), suffix) == 0;
-  io::apply_override(root, "hl.agent=" + agent.substr(0, per_axis ? agent.size() - suffix.size() : agent.size()));
-  if (per_axis) io::apply_override(root, "hl.critic=per_axis");
+  io::apply_override(root, "hl.agent=" + agent);
   train::TrainConfig cfg = train::read_train_config(root, "test");
   cfg.hl.normalize_obs = normalize;  // not a YAML key: the library default is always on
   cfg.ll.normalize_obs = normalize;
@@ -100,8 +96,7 @@ TEST_P(ExportVariants, LoadedModulesMatchTheInProcessNetworks) {
 INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
                          ::testing::Values(std::make_tuple("es", true), std::make_tuple("es_d1", true),
                                            std::make_tuple("es_d2", true), std::make_tuple("es_d3", true),
-                                           std::make_tuple("es_d3", false), std::make_tuple("es_d2_per_axis", true),
-                                           std::make_tuple("es_d3_per_axis", true)),
+                                           std::make_tuple("es_d3", false)),
                          [](const ::testing::TestParamInfo<std::tuple<std::string, bool>>& param_info) {
                            return std::get<0>(param_info.param) + (std::get<1>(param_info.param) ? "" : "_unnormalised");
                          });

@@ -60,7 +60,7 @@ TEST(AttentionMlpForward, EqualsTheLibTorchForwardToFloatRounding) {
 
 // The HL critic (ReLU trunk and head, no value MLP) through the same kernels, q from the heads'
 // output by HlCritic::from_head: the joint (es), decoupled (es_d1/es_d2) and C51 (es_d3) heads,
-// at 1 and 2 threads. A per_axis critic has three branches and no single copy.
+// at 1 and 2 threads.
 TEST(AttentionMlpForward, HlCriticEqualsTheLibTorchForwardToFloatRounding) {
   at::Generator g = make_generator(13);
   const int threads = omp_get_max_threads();
@@ -71,7 +71,6 @@ TEST(AttentionMlpForward, HlCriticEqualsTheLibTorchForwardToFloatRounding) {
     cfg.n_atoms = atoms;
     HlCritic net(cfg);
     randomize(*net, g);
-    ASSERT_TRUE(net->has_eigen_weights());
     AttentionMlpForward fast;
     fast.set_weights(net->eigen_weights());
     for (int t : {1, 2}) {
@@ -104,12 +103,6 @@ TEST(AttentionMlpForward, HlCriticEqualsTheLibTorchForwardToFloatRounding) {
     }
   }
   omp_set_num_threads(threads);
-  HlCriticConfig per_axis;
-  per_axis.dims = ObsDims{22, 3, 24, 7};
-  per_axis.per_axis = true;
-  HlCritic three(per_axis);
-  EXPECT_FALSE(three->has_eigen_weights());
-  EXPECT_THROW(three->eigen_weights(), c10::Error);
 }
 
 // Rows go in fixed blocks over the OpenMP threads: the same bits at 1 and 2 threads.

@@ -67,51 +67,72 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
   EXPECT_NE(error_of("race: {team_size: 9}").find("race.team_size"), std::string::npos);
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
-  EXPECT_NE(error_of("race: {goal_origin: lane, goal_frame: world}").find("goal_origin: lane needs goal_frame: track"),
-            std::string::npos);
-  EXPECT_NE(error_of("hl: {explore: teams}")
-                .find("hl.explore: 'teams' is not one of: aircraft, team, team_x, team_y, team_z"),
-            std::string::npos);
-  using Axes = std::array<bool, 3>;
-  EXPECT_EQ(read_train_config(YAML::Load("hl: {explore: team}"), "cfg.yaml").hl.explore_per_team, (Axes{true, true, true}));
-  EXPECT_EQ(read_train_config(YAML::Load("hl: {explore: team_y}"), "cfg.yaml").hl.explore_per_team,
-            (Axes{false, true, false}));
-  EXPECT_EQ(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.explore_per_team, (Axes{false, false, false}));  // paper's
-  EXPECT_NE(error_of("hl: {critic: separate}").find("hl.critic: 'separate' is not one of: shared, per_axis"),
-            std::string::npos);
-  EXPECT_NE(error_of("hl: {agent: es, critic: per_axis}").find("cfg.yaml: hl.critic: per_axis needs decoupled utilities"),
-            std::string::npos);
-  EXPECT_TRUE(read_train_config(YAML::Load("hl: {critic: per_axis}"), "cfg.yaml").hl.per_axis_critic);
-  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.per_axis_critic);  // the paper's shared trunk
-  EXPECT_NE(error_of("hl: {agent: es_d3, team_target: per_axis}")
-                .find("cfg.yaml: hl.team_target: per_axis is defined for hl.agent es_d2 only"),
-            std::string::npos);
-  EXPECT_NE(error_of("hl: {team_target: axes}").find("hl.team_target: 'axes' is not one of: sum, per_axis"),
-            std::string::npos);
-  EXPECT_TRUE(read_train_config(YAML::Load("hl: {agent: es_d2, team_target: per_axis}"), "cfg.yaml").hl.per_axis_target);
-  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.per_axis_target);  // the paper's Eq. 1
-  EXPECT_NE(error_of("hl: {agent: es_d3, lateral: team}").find("cfg.yaml: hl.lateral: team is defined for hl.agent es_d2 only"),
-            std::string::npos);
-  EXPECT_NE(error_of("hl: {lateral: lane}").find("hl.lateral: 'lane' is not one of: aircraft, team"), std::string::npos);
-  EXPECT_TRUE(read_train_config(YAML::Load("hl: {agent: es_d2, lateral: team}"), "cfg.yaml").hl.team_lateral);
-  EXPECT_FALSE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.team_lateral);  // the paper's, per aircraft
-  EXPECT_NE(error_of("hl: {team_explore_scale: 0.25}").find("cfg.yaml: hl.team_explore_scale scales the draws made per team"),
-            std::string::npos);
-  EXPECT_NE(error_of("hl: {agent: es_d3, explore: team_y, team_explore_scale: 0.25}")
-                .find("hl.team_explore_scale is defined for hl.agent es_d2 only"),
-            std::string::npos);
-  EXPECT_NE(error_of("hl: {team_explore_scale: 1.5}").find("hl.team_explore_scale"), std::string::npos);
-  EXPECT_EQ(read_train_config(YAML::Load("hl: {agent: es_d2, explore: team_y, team_explore_scale: 0.25}"), "cfg.yaml")
-                .hl.team_explore_scale,
-            0.25);
-  EXPECT_NE(error_of("hl: {inference: fast}").find("hl.inference: 'fast' is not one of: torch, eigen"),
-            std::string::npos);
-  EXPECT_FALSE(read_train_config(YAML::Load("hl: {inference: torch}"), "cfg.yaml").hl.eigen_inference);
-  EXPECT_TRUE(read_train_config(YAML::Load("{}"), "cfg.yaml").hl.eigen_inference);
-  EXPECT_NE(error_of("race: {goal_origin: own}").find("race.goal_origin: 'own' is not one of: center, lane"),
-            std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8) must be <= time_limit_s (5)"),
             std::string::npos);
+}
+
+// The keys issue 51 retired (io::ConfigReader::retired), as a run folder's config.yaml from an older
+// build lists them: at the value this build behaves as they change nothing; at another value the
+// config is refused in one line naming the key, the value and the commit to build.
+TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
+  const char* old_defaults = R"(
+race: {goal_origin: center, observe_team_lanes: false}
+ll: {inference: eigen}
+hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
+train: {hl_average_share: 0, tail_member: 0}
+pool: {p_center: 0.0}
+)";
+  const std::string plain = train_config_yaml(read_train_config(YAML::Load("{}"), "cfg.yaml"));
+  EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
+  for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
+                          "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:"})
+    EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
+  const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
+  for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
+           {"race: {goal_origin: lane}", "race.goal_origin: lane"},
+           {"race: {observe_team_lanes: true}", "race.observe_team_lanes: true"},
+           {"ll: {inference: torch}", "ll.inference: torch"},
+           {"hl: {explore: team_y}", "hl.explore: team_y"},
+           {"hl: {team_explore_scale: 0.25}", "hl.team_explore_scale: 0.25"},
+           {"hl: {critic: per_axis}", "hl.critic: per_axis"},
+           {"hl: {team_target: per_axis}", "hl.team_target: per_axis"},
+           {"hl: {lateral: team}", "hl.lateral: team"},
+           {"hl: {inference: torch}", "hl.inference: torch"},
+           {"train: " + tail, "train.hl_average_share: 0.2"},
+           {"pool: {p_center: 0.25}", "pool.p_center: 0.25"}}) {
+    const std::string e = error_of(yaml);
+    EXPECT_EQ(e.rfind("cfg.yaml: " + line + " was removed in ", 0), 0u) << yaml << " -> " << e;
+    EXPECT_NE(e.find("; build commit " + std::string(io::kLastCommitWithRetiredKeys) + " to use it"), std::string::npos) << e;
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+  }
+  // A key never known is still an unknown key, not a retired one.
+  EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
+}
+
+// One seed drives a training run: race.seed may only repeat it (the config.yaml of every run
+// lists both, equal); a different one would be ignored, so it is refused naming both keys.
+TEST(TrainConfig, RaceSeedOtherThanSeedIsRefused) {
+  EXPECT_EQ(read_train_config(YAML::Load("{seed: 4, race: {seed: 4}}"), "cfg.yaml").race.seed, 4u);
+  EXPECT_EQ(read_train_config(YAML::Load("{seed: 4}"), "cfg.yaml").race.seed, 4u);
+  EXPECT_EQ(error_of("{seed: 4, race: {seed: 5}}"),
+            "cfg.yaml: race.seed = 5 differs from seed = 4: a training run draws its races from seed; remove race.seed");
+  EXPECT_NE(error_of("race: {seed: 2}").find("race.seed = 2 differs from seed = 1"), std::string::npos);
+}
+
+// train.tail_member is the trainer's own: written into the config.yaml of a tail member's folder
+// and read back from there, refused in a user's config (where 0, as older runs list it, is fine).
+TEST(TrainConfig, TailMemberIsReadFromRunFoldersOnly) {
+  const YAML::Node member = YAML::Load("train: {hl_tail_share: 0.3, tail_member: 2}");
+  EXPECT_EQ(read_train_config(member, "m/config.yaml", ConfigOrigin::kRunFolder).loop.tail_member, 2);
+  EXPECT_EQ(error_of("train: {hl_tail_share: 0.3, tail_member: 2}"),
+            "cfg.yaml: train.tail_member = 2 is written by train into the members of a train.hl_tail_members run, not "
+            "read from a config: set train.hl_tail_members instead");
+  TrainConfig c = smoke("train.hl_tail_share=0.5");
+  c.loop.tail_member = 3;
+  const std::string y = train_config_yaml(c);
+  EXPECT_NE(y.find("tail_member: 3"), std::string::npos);
+  EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(y), "m", ConfigOrigin::kRunFolder)), y);
+  EXPECT_THROW(read_train_config(YAML::Load("train: {tail_member: 2}"), "m", ConfigOrigin::kRunFolder), io::ConfigError);
 }
 
 TEST(TrainConfig, ResolvedYamlReadsBackToTheSameConfig) {
@@ -312,8 +333,6 @@ TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
   auto resumed = Trainer::resume(split);
   resumed->run();
   EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
-  EXPECT_NE(error_of("train: {tail_member: 2}").find("train.tail_member = 2 draws another HL-only tail"),
-            std::string::npos);
 }
 
 // A finished run extended by a tail (its config's budget raised, train.hl_tail_share set, the
@@ -418,63 +437,6 @@ TEST(Trainer, TailMembersAreTheRunsForksAndItsPolicyTheirEnsemble) {
             std::string::npos);
 }
 
-// train.hl_average_share: the ES updates of the run's last share enter a uniform weight average
-// of the high-level critic. Training never reads it (the final weights and every metrics row are
-// the run's without it), the run's evaluated policy is the average (load_run_policy), and a run
-// stopped inside the window resumes to the same hl.pt, byte for byte.
-TEST(Trainer, HlWeightAverageIsTheRunsPolicyAndChangesNoTraining) {
-  const std::string tail = "train.hl_tail_share=0.5";
-  const std::string dir_a = fresh_dir("avg_none"), dir_b = fresh_dir("avg_whole"), split = fresh_dir("avg_split");
-  Trainer a(smoke(tail), dir_a);
-  const TrainSummary plain = a.run();
-  TrainConfig averaged = smoke(tail);
-  averaged.loop.hl_average_share = 0.25;  // env steps 450-600 of 600
-  Trainer b(averaged, dir_b);
-  const TrainSummary full = b.run();
-  EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
-  EXPECT_EQ(b.hl_parameters(), a.hl_parameters());
-  ASSERT_EQ(plain.rows.size(), full.rows.size());
-  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
-  for (std::size_t i = 0; i < full.rows.size(); ++i) {
-    EXPECT_TRUE(same(full.rows[i].es_loss, plain.rows[i].es_loss)) << "update " << i;
-    EXPECT_TRUE(same(full.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
-  }
-  std::int64_t in_window = 0;  // ES updates that ended at or after env step 450
-  std::size_t k = 0;           // the first of them
-  for (std::size_t i = 0; i < full.rows.size(); ++i)
-    if (full.rows[i].phase == "hl" && full.rows[i].env_steps >= 450 && in_window++ == 0) k = i;
-  ASSERT_GE(in_window, 2);
-  EXPECT_EQ(full.hl_average_count, in_window);
-  EXPECT_EQ(plain.hl_average_count, 0);
-  const RunPolicy pa = load_run_policy(dir_a), pb = load_run_policy(dir_b);
-  EXPECT_EQ(pa.hl->average_count(), 0);
-  EXPECT_EQ(pb.hl->average_count(), in_window);
-  std::vector<float> evaluated;  // the policy tournaments and replays fly
-  for (const auto& p : pb.hl->critic()->parameters()) {
-    const auto c = p.detach().contiguous();
-    evaluated.insert(evaluated.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
-  }
-  EXPECT_NE(evaluated, b.hl_parameters());
-  EXPECT_EQ(evaluated.size(), b.hl_parameters().size());
-  {
-    Trainer c(averaged, split);
-    c.run(nullptr, static_cast<std::int64_t>(k) + 1);  // one update into the window
-  }
-  auto resumed = Trainer::resume(split);
-  const TrainSummary rest = resumed->run();
-  EXPECT_EQ(rest.hl_average_count, in_window);
-  auto hl_bytes = [](const std::string& run) {
-    std::ifstream in(fs::path(run) / "checkpoint" / latest_checkpoint_name(run) / "hl.pt", std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  EXPECT_EQ(hl_bytes(split), hl_bytes(dir_b));
-  EXPECT_NE(hl_bytes(dir_a), hl_bytes(dir_b));
-  EXPECT_NE(error_of("train: {hl_tail_share: 0.2, hl_average_share: 0.3}")
-                .find("train.hl_average_share = 0.3 averages the high level's weights where the low level still learns"),
-            std::string::npos);
-  EXPECT_EQ(error_of("train: {ll_pilot: autopilot, hl_average_share: 0.3}"), "");
-}
-
 // The step count crosses the switch inside the low level's last update; races that end there and
 // start again still belong to the bilevel part, so that update, and with it the final low level,
 // is the same as without the tail's center share. Races of 6.4 s (80 LL steps) in LL updates of
@@ -523,39 +485,105 @@ TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   EXPECT_EQ(lines, 1 + full.updates);
 }
 
-// Races against the center-line control (pool.p_center): the setting changes the run, and the
-// envs' opponent kind survives a checkpoint (a resumed run ends with the unbroken run's weights).
+// A run folder written before issue 51: its config.yaml lists the retired keys, and its
+// checkpoints record that file's hash. At the values this build behaves as, the run resumes to
+// the unbroken run's weights without its config.yaml being rewritten, and loads as a policy; with
+// one of them at another value, both refuse in one line naming the key, the value and the commit.
+TEST(Trainer, RunFromBeforeTheRetiredKeysResumesLoadsOrIsRefused) {
+  const std::string whole = fresh_dir("retired_whole"), split = fresh_dir("retired_split");
+  Trainer a(smoke(), whole);
+  const TrainSummary full = a.run();
+  {
+    Trainer b(smoke(), split);
+    b.run(nullptr, 4);
+  }
+  // config.yaml as the build before issue 51 wrote it (with `explore` as given), the checkpoint
+  // under its hash; returns the file's text.
+  auto as_older_build = [](const std::string& dir, const std::string& explore) {
+    YAML::Node root = YAML::LoadFile(dir + "/config.yaml");
+    root["race"]["goal_origin"] = "center";
+    root["race"]["observe_team_lanes"] = false;
+    root["ll"]["inference"] = "eigen";
+    root["hl"]["explore"] = explore;
+    root["hl"]["critic"] = "shared";
+    root["hl"]["team_target"] = "sum";
+    root["hl"]["lateral"] = "aircraft";
+    root["hl"]["team_explore_scale"] = 1;
+    root["hl"]["inference"] = "eigen";
+    root["train"]["hl_average_share"] = 0;
+    root["train"]["tail_member"] = 0;
+    root["pool"]["p_center"] = 0;
+    YAML::Emitter out;
+    out << root;
+    const std::string yaml = std::string(out.c_str()) + "\n";
+    io::write_file_atomic(dir + "/config.yaml", yaml);
+    const std::string meta_path = dir + "/checkpoint/" + latest_checkpoint_name(dir) + "/meta.yaml";
+    std::ifstream in(meta_path);
+    std::string meta((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = meta.find("config_hash: ") + 13;
+    meta = meta.substr(0, at) + std::to_string(config_hash(yaml)) + meta.substr(meta.find('\n', at));
+    io::write_file_atomic(meta_path, meta);
+    return yaml;
+  };
+  const std::string refused = fresh_dir("retired_refused");
+  fs::copy(split, refused, fs::copy_options::recursive);
+  fs::remove(refused + "/.lock");
+  const std::string old_yaml = as_older_build(split, "aircraft");
+  ASSERT_NE(old_yaml.find("goal_origin: center"), std::string::npos);
+  auto resumed = Trainer::resume(split);
+  EXPECT_EQ(resumed->updates(), 4);
+  const TrainSummary rest = resumed->run();
+  EXPECT_EQ(rest.updates, full.updates);
+  EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+  resumed.reset();
+  std::ifstream f(split + "/config.yaml");
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>()), old_yaml);
+  const RunPolicy p = load_run_policy(split);
+  EXPECT_EQ(p.env_steps, full.env_steps);
+  EXPECT_EQ(p.config.hl.epsilon, smoke().hl.epsilon);
+  as_older_build(refused, "team");
+  const std::string want = refused + "/config.yaml: hl.explore: team was removed in ";
+  for (int use = 0; use < 2; ++use) {
+    try {
+      if (use == 0) Trainer::resume(refused);
+      else load_run_policy(refused);
+      ADD_FAILURE() << "a run trained with hl.explore: team was " << (use == 0 ? "resumed" : "loaded");
+    } catch (const io::ConfigError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind(want, 0), 0u) << what;
+      EXPECT_NE(what.find("; build commit " + std::string(io::kLastCommitWithRetiredKeys) + " to use it"),
+                std::string::npos) << what;
+    }
+  }
+}
+
+// Races against the center-line control (pool.p_center_tail, in the HL-only tail): the setting
+// changes the run, and the envs' opponent kind survives a checkpoint inside the tail (a resumed run
+// ends with the unbroken run's weights).
 TEST(Trainer, CenterControlOpponentsChangeTheRunAndResumeExactly) {
   const std::string plain = fresh_dir("ctr_plain"), whole = fresh_dir("ctr_whole"), split = fresh_dir("ctr_split");
-  Trainer p(smoke(), plain);
+  const TrainConfig tail = smoke("train.hl_tail_share=0.5");
+  TrainConfig centered = tail;
+  centered.pool.p_center_tail = 0.6;
+  Trainer p(tail, plain);
   p.run();
-  Trainer a(smoke("pool.p_center=0.6"), whole);
+  Trainer a(centered, whole);
   const TrainSummary full = a.run();
   EXPECT_NE(a.hl_parameters(), p.hl_parameters());
-  EXPECT_NE(a.ll_parameters(), p.ll_parameters());
+  EXPECT_EQ(a.ll_parameters(), p.ll_parameters());  // the tail's races only: the low level is frozen there
+  std::int64_t in_tail = 0;  // the updates before the last one, inside the tail (env steps >= 300)
+  while (full.rows.at(static_cast<std::size_t>(in_tail)).env_steps < 300) ++in_tail;
+  ASSERT_LT(in_tail + 2, full.updates);
   {
-    Trainer b(smoke("pool.p_center=0.6"), split);
-    b.run(nullptr, 5);
+    Trainer b(centered, split);
+    b.run(nullptr, in_tail + 2);
   }
   auto resumed = Trainer::resume(split);
   resumed->run();
   EXPECT_EQ(resumed->updates(), full.updates);
   EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
   EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
-}
-
-// hl.explore: team draws the learner's HL exploration per team: another run than per aircraft,
-// the same one twice.
-TEST(Trainer, TeamExplorationChangesTheRunDeterministically) {
-  Trainer a(smoke(), fresh_dir("explore_aircraft"));
-  a.run();
-  Trainer b(smoke("hl.explore=team"), fresh_dir("explore_team"));
-  b.run();
-  Trainer c(smoke("hl.explore=team"), fresh_dir("explore_team2"));
-  c.run();
-  EXPECT_NE(b.hl_parameters(), a.hl_parameters());
-  EXPECT_EQ(b.hl_parameters(), c.hl_parameters());
-  EXPECT_EQ(b.ll_parameters(), c.ll_parameters());
 }
 
 // metrics.csv's airspeed column holds the learner's mean airspeed (an F-16 racing: hundreds of
@@ -989,12 +1017,12 @@ TEST(SelfPlay, MatchupAndPoolDrawFrequencies) {
 TEST(SelfPlay, CenterControlShareComesFirstAndSplitsTheRest) {
   PoolConfig p;
   p.p_self_play = 0.5;
-  p.p_center = 0.3;
+  p.p_center_tail = 0.3;
   RandomStream s(9, 2);
   const int n = 40000;
   int center = 0, pool = 0, both = 0;
   for (int k = 0; k < n; ++k) {
-    const Matchup m = draw_matchup(s, p, true);
+    const Matchup m = draw_matchup(s, p, true, /*in_tail=*/true);
     center += m.vs_center;
     pool += m.vs_pool;
     both += m.vs_center && m.vs_pool;
@@ -1005,23 +1033,27 @@ TEST(SelfPlay, CenterControlShareComesFirstAndSplitsTheRest) {
   // Without the pool, the center share stays and the rest is self-play.
   center = 0;
   for (int k = 0; k < n; ++k) {
-    const Matchup m = draw_matchup(s, p, false);
+    const Matchup m = draw_matchup(s, p, false, true);
     EXPECT_FALSE(m.vs_pool);
     center += m.vs_center;
   }
   EXPECT_NEAR(center / double(n), 0.3, 0.01);
-  // In the HL-only tail pool.p_center_tail takes its place; the stream advances as before.
+  // Before the tail: the paper's draws, none against the center line; the stream advances as in it.
   p.p_center_tail = 0.8;
   RandomStream t1(4, 1), t2(4, 1);
   center = 0;
+  int before_center = 0, before_pool = 0;
   for (int k = 0; k < n; ++k) {
     const Matchup in_tail = draw_matchup(t1, p, true, true);
     const Matchup before = draw_matchup(t2, p, true, false);
     EXPECT_EQ(in_tail.learner_side, before.learner_side);
-    EXPECT_TRUE(!before.vs_center || in_tail.vs_center);  // the same draw, a larger share
     center += in_tail.vs_center;
+    before_center += before.vs_center;
+    before_pool += before.vs_pool;
   }
   EXPECT_NEAR(center / double(n), 0.8, 0.01);
+  EXPECT_EQ(before_center, 0);
+  EXPECT_NEAR(before_pool / double(n), 0.5, 0.01);
 }
 
 }  // namespace
