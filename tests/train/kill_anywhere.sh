@@ -71,11 +71,27 @@ resume_cmd() {  # resume_cmd GROUP RUN
   else echo "$bin --threads 1 train --resume $2 --quiet"; fi
 }
 
+# Seconds from a plain variant's run folder to its end, run uninterrupted beside the other lane,
+# times 0.8: the longest kill delay. A fixed delay would let runs on a fast or quiet machine end
+# before their kill, and the test would count fewer kills than its trials.
+calibrate() {  # calibrate LANE
+  local run="$work/calibrate$1" k t0
+  mapfile -t args < <(variant_args 3 2 2 0)
+  start 0 "${args[@]}" --run "$run"
+  for k in $(seq 1 500); do [ -f "$run/config.yaml" ] || ! kill -0 "$pid" 2>/dev/null && break; sleep 0.01; done
+  t0=$(date +%s.%N)
+  wait "$pid" || { echo "FAIL: calibration run"; exit 1; }
+  rm -rf "$run"
+  awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { d = 0.8 * (b - a); printf "%.2f", d < 0.3 ? 0.3 : d }'
+}
+
 # One lane of trials (every LANES-th from FIRST); its counts go to the file it names.
 lane() {  # lane FIRST LANES COUNTS_FILE
   local kills=0 lost=0 compared=0 before_first=0 group_kills=0 not_started=0 retries=0 t
   RANDOM=$((seed + $1))
   declare -A reference
+  max_delay=$(calibrate "$1") || exit 1
+  echo "lane $1: kills within ${max_delay} s of the run folder"
   for t in $(seq "$1" "$2" "$trials"); do
   ck=$(pick 1 2 3 5 7) snap=$(pick 1 2 3) maxs=$(pick 1 2 3) group=$([ $((RANDOM % 5)) -eq 0 ] && echo 1 || echo 0)
   tails=$([ "$group" = 0 ] && pick 0 0 1 || echo 0)  # tail members train in one process
@@ -83,8 +99,11 @@ lane() {  # lane FIRST LANES COUNTS_FILE
   mapfile -t args < <(variant_args "$ck" "$snap" "$maxs" "$tails")
   run="$work/t$t"
   start "$group" "${args[@]}" --run "$run"
-  delay=$(awk -v r=$RANDOM 'BEGIN { printf "%.2f", 3.0 * r / 32767 }')
-  if kill_after "$delay" "$group"; then rm -rf "$run"; continue; fi  # ended before the kill
+  delay=$(awk -v r=$RANDOM -v m="$max_delay" 'BEGIN { printf "%.2f", m * r / 32767 }')
+  if kill_after "$delay" "$group"; then  # ended before the kill: the machine got faster
+    max_delay=$(awk -v m="$max_delay" 'BEGIN { m *= 0.9; printf "%.2f", m < 0.3 ? 0.3 : m }')
+    rm -rf "$run"; continue
+  fi
   kills=$((kills + 1)); [ "$group" = 1 ] && group_kills=$((group_kills + 1))
   [ -f "$run/checkpoint/LATEST" ] || before_first=$((before_first + 1))
   # A quarter of the runs are killed again while resuming.
