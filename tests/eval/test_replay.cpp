@@ -44,7 +44,11 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
     const RaceReplay r = run_replay(o);
     const race::RaceTrace& t = r.trace;
     EXPECT_TRUE(t.done) << opp;
-    EXPECT_GT(t.duration_s, 0.0);
+    // The race lasts until the step after the last aircraft's last recorded row.
+    double last_row_end_s = 0.0;
+    for (const auto& rows : t.rows)
+      if (!rows.empty()) last_row_end_s = std::max(last_row_end_s, rows.back().t_s + r.race.dt_ll_s);
+    EXPECT_NEAR(t.duration_s, last_row_end_s, 1e-9) << opp;
     EXPECT_EQ(r.blue, "f16race_replay_run");  // the run folder's name
     EXPECT_EQ(r.red, opp == "self" ? r.blue : opp);
     ASSERT_EQ(t.rows.size(), 4u);

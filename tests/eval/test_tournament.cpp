@@ -102,7 +102,11 @@ TEST(Tournament, CountsEveryRaceOnceWithSidesSwapped) {
   int blue_first[3] = {};
   for (const RaceRecord& x : r.races) {
     EXPECT_NE(x.blue, x.red);
-    EXPECT_GT(x.duration_s, 0.0);
+    // A race lasts whole LL steps, at least one, at most the time limit's.
+    const double steps = x.duration_s / r.race.dt_ll_s;
+    EXPECT_NEAR(steps, std::round(steps), 1e-6);
+    EXPECT_GE(std::round(steps), 1.0);
+    EXPECT_LE(x.duration_s, r.race.time_limit_s + r.race.dt_ll_s + 1e-9);
     blue_first[x.pair] += x.blue < x.red;
   }
   for (int p : blue_first) EXPECT_EQ(p, 3);
