@@ -73,7 +73,7 @@ def last_tenth(path, col):
 
 def fmt_ci(w, n):
     lo, hi = wilson(w, n)
-    return f"{w / n:.3f} [{lo:.3f}, {hi:.3f}]"
+    return f"{w / n:.3f} [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]"
 
 
 def seed_row(folder, s):
@@ -96,6 +96,7 @@ def seed_row(folder, s):
 def summary(per):
     k = sum(p["ap_lo"] > 0.6 for p in per)
     lo, hi = wilson(k, len(per))
+    lo, hi = max(lo, 0.0), min(hi, 1.0)  # rounding puts the bound at -0.00 when k = 0
     print(f"\nClaim A, seeds beating the tuned autopilot (Wilson lower bound > 0.6): {k} of {len(per)} [{lo:.2f}, {hi:.2f}]")
     m, b = mean_ci([p["lost"]["team_collision"] for p in per])
     print(f"Claim B, teammate collisions per race vs the autopilot: mean {m:.3f} bootstrap 95% [{b[0]:.3f}, {b[1]:.3f}]")
