@@ -5,9 +5,7 @@
 #include <stdexcept>
 
 #include "agents/checkpoint.hpp"
-#include "agents/concurrent_chunks.hpp"
 #include "agents/es_fused_loss.hpp"
-#include "agents/optimizer_step.hpp"
 
 namespace f16race::agents {
 
@@ -308,7 +306,10 @@ void es_policy_diagnostics(const torch::Tensor& q, int64_t n_bins, EsStats* stat
   for (int j = 0; j < 3; ++j) stats->middle_share[j] = middle.data_ptr<double>()[j];
 }
 
-EsStats EsAgent::update(const EsBatch& batch) {
+namespace {
+
+// The masks of `batch` (all true where undefined), its shapes checked: active, next_active [T, n_a].
+std::pair<torch::Tensor, torch::Tensor> checked_masks(const EsBatch& batch) {
   check_tensor(batch.actions, "actions", {-1, -1, 3}, torch::kInt64);
   const int64_t t = batch.actions.size(0), n_a = batch.actions.size(1);
   check_tensor(batch.reward, "reward", {t, n_a}, torch::kFloat32);
@@ -322,7 +323,36 @@ EsStats EsAgent::update(const EsBatch& batch) {
               "EsBatch.obs.ego must be [T, n_a, d_ego] with T, n_a of actions");
   TORCH_CHECK(batch.next_obs.ego.dim() == 3 && batch.next_obs.ego.size(0) == t && batch.next_obs.ego.size(1) == n_a,
               "EsBatch.next_obs.ego must be [T, n_a, d_ego]");
+  return {active, next_active};
+}
 
+// Other aircraft alive per team (its n_a rows of ado_alive): the passes' alive share, for bench
+// train's floor.
+std::vector<int64_t> team_alive_counts(const torch::Tensor& ado_alive, int64_t t, int64_t n_a) {
+  std::vector<int64_t> team_alive(static_cast<std::size_t>(t), 0);
+  const std::vector<int64_t> per_row = models::alive_per_row(ado_alive);
+  for (int64_t r = 0; r < t * n_a; ++r) team_alive[static_cast<std::size_t>(r / n_a)] += per_row[static_cast<std::size_t>(r)];
+  return team_alive;
+}
+
+}  // namespace
+
+// What every gradient step of one update reads.
+struct EsAgent::UpdateData {
+  const EsBatch& batch;
+  const models::HlObs& obs;  // normalised, [T * n_a] rows
+  const torch::Tensor& active;
+  const EsTarget& target;
+  int64_t n_a;
+  const bool* active_host;  // active, contiguous on the host
+  torch::Tensor aircraft;   // arange(n_a)
+  std::vector<int64_t> team_alive;
+};
+
+EsStats EsAgent::update(const EsBatch& batch) {
+  const auto masks = checked_masks(batch);
+  const torch::Tensor& active = masks.first;
+  const int64_t t = batch.actions.size(0), n_a = batch.actions.size(1);
   const auto flat_obs = models::flatten2(batch.obs);
   if (cfg_.normalize_obs) {
     // Statistics from the aircraft that took the decision only (dead ones hold stale states).
@@ -336,130 +366,24 @@ EsStats EsAgent::update(const EsBatch& batch) {
   if (t > 0) {
     torch::NoGradGuard no_grad;
     const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
-    target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, next_active, batch.next_epsilon,
+    target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, masks.second, batch.next_epsilon,
                        cfg_.gamma, support_);
+    measure_before_steps(obs, batch, active, target, &stats);
   }
-  if (t > 0) {
-    torch::NoGradGuard no_grad;
-    const auto rows = active.reshape({-1}).nonzero().squeeze(1);
-    const auto out = critic_(obs);
-    es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, &stats);
-    const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
-                           cfg_.component_ce_weight);
-    stats.loss_before = l.loss.item<double>();
-    if (cfg_.variant == EsVariant::kEsD3) {
-      const auto k = target.dist.size(1);
-      const auto ends = target.dist.select(1, 0) + target.dist.select(1, k - 1);
-      stats.end_atom_share = masked_mean(ends, active.any(1)).item<double>();
-    } else {
-      const auto beyond = ((l.prediction - target.value).abs() > cfg_.huber_delta).to(torch::kFloat32);
-      stats.huber_share = masked_mean(beyond, l.valid).item<double>();
-    }
-  }
+  const auto active_contiguous = active.contiguous();
+  const UpdateData d{batch, obs, active, target, n_a, active_contiguous.data_ptr<bool>(),
+                     torch::arange(n_a, torch::kInt64), team_alive_counts(flat_obs.ado_alive, t, n_a)};
   double loss_sum = 0.0, q_sum = 0.0, td_sum = 0.0;
   int64_t n_steps = 0;
-  const auto aircraft = torch::arange(n_a, torch::kInt64);
-  const auto active_contiguous = active.contiguous();
-  const bool* active_host = active_contiguous.data_ptr<bool>();
-  const bool team_units = es_is_team(cfg_.variant);
-  // Other aircraft alive per team (its n_a rows): the passes' alive share, for bench train's floor.
-  std::vector<int64_t> team_alive(static_cast<std::size_t>(t), 0);
-  {
-    const std::vector<int64_t> per_row = models::alive_per_row(flat_obs.ado_alive);
-    for (int64_t r = 0; r < t * n_a; ++r) team_alive[static_cast<std::size_t>(r / n_a)] += per_row[static_cast<std::size_t>(r)];
-  }
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(t, generator_, torch::kInt64);
     for (const auto& teams : perm.tensor_split(cfg_.n_minibatches)) {
       if (teams.numel() == 0 && !replicas_.active()) continue;
-      // The step's chunks: units (what the loss averages over) first, so each chunk's gradient
-      // can weigh by its share while the chunks run concurrently.
-      const int64_t m = teams.numel();
-      const int64_t n_chunks = m == 0 ? 0 : std::min(cfg_.minibatch_chunks, m);
-      struct Chunk {
-        torch::Tensor teams;
-        double units = 0.0, loss = 0.0, q = 0.0, td = 0.0;
-        std::vector<torch::Tensor> grads;
-      };
-      std::vector<Chunk> chunks(static_cast<std::size_t>(n_chunks));
-      double units = 0.0;
-      for (int64_t c = 0; c < n_chunks; ++c) {
-        Chunk& k = chunks[static_cast<std::size_t>(c)];
-        const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
-        k.teams = teams.slice(0, lo, hi);
-        // Counted on the host (a team counts once when any member is active, else each active member).
-        const int64_t* team = teams.data_ptr<int64_t>();
-        for (int64_t r = lo; r < hi; ++r) {
-          int64_t members = 0;
-          for (int64_t i = 0; i < n_a; ++i) members += active_host[team[r] * n_a + i] ? 1 : 0;
-          k.units += static_cast<double>(team_units ? (members > 0 ? 1 : 0) : members);
-        }
-        units += k.units;
-      }
-      const std::vector<torch::Tensor> params = critic_->parameters();
-      stats.chunk_wait_s += run_chunks(n_chunks, [&](int64_t c) {
-        Chunk& k = chunks[static_cast<std::size_t>(c)];
-        // A replica leaves out what has no unit (its loss would be 0/0); one process runs it as a
-        // plain backward() would.
-        if (k.units == 0.0 && (replicas_.active() || n_chunks > 1)) return;
-        const auto rows_c = (k.teams.unsqueeze(1) * n_a + aircraft).reshape({-1});
-        const EsTarget target_c{target.value.index_select(0, k.teams),
-                                target.dist.defined() ? target.dist.index_select(0, k.teams) : torch::Tensor()};
-        const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
-        const bool fused_d2 = cfg_.variant == EsVariant::kEsD2;
-        const auto out = critic_->forward(models::index_rows(obs, rows_c), /*with_q=*/!fused_d3);
-        const double weight = n_chunks == 1 ? 1.0 : k.units / units;
-        if (fused_d2 || fused_d3) {
-          // The paper's ES+D2 and ES+D3 losses as one node each (agents/es_fused_loss.hpp; es_loss
-          // is their oracle).
-          const auto chunk_actions = batch.actions.index_select(0, k.teams);
-          const auto chunk_active = active.index_select(0, k.teams);
-          const auto f = fused_d2 ? fused_es_d2_loss(out.q, chunk_actions, chunk_active, target_c.value,
-                                                     cfg_.huber_delta, weight)
-                                  : fused_es_d3_loss(out.log_probs, chunk_actions, chunk_active, target_c.dist,
-                                                     target_c.value, support_, weight);
-          k.grads = torch::autograd::grad({f.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
-                                          /*create_graph=*/false, /*allow_unused=*/true);
-          k.loss = f.loss, k.q = f.q, k.td = f.td;
-          return;
-        }
-        const auto l = es_loss(cfg_.variant, out, batch.actions.index_select(0, k.teams),
-                               active.index_select(0, k.teams), target_c, cfg_.huber_delta, support_,
-                               cfg_.component_ce_weight);
-        k.grads = torch::autograd::grad({n_chunks == 1 ? l.loss : l.loss * weight}, params, /*grad_outputs=*/{},
-                                        /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
-        torch::NoGradGuard no_grad;
-        k.loss = l.loss.item<double>();
-        k.q = masked_mean(l.prediction, l.valid).item<double>();
-        k.td = masked_mean((l.prediction - target_c.value).abs(), l.valid).item<double>();
-      });
-      stats.train_rows += m * n_a;
-      const int64_t* picked = teams.data_ptr<int64_t>();
-      for (int64_t r = 0; r < m; ++r) stats.train_alive += team_alive[static_cast<std::size_t>(picked[r])];
-      for (const Chunk& k : chunks) stats.train_passes += k.grads.empty() ? 0 : 1;
-      double loss = 0.0, q = 0.0, td = 0.0;
-      std::vector<const std::vector<torch::Tensor>*> chunk_grads;
-      for (const Chunk& k : chunks) chunk_grads.push_back(&k.grads);
-      sum_chunk_gradients(params, chunk_grads, /*zero_unused=*/true);
-      for (const Chunk& k : chunks) {
-        const double w = n_chunks == 1 ? 1.0 : (units > 0.0 ? k.units / units : 0.0);
-        loss += w * k.loss, q += w * k.q, td += w * k.td;
-      }
-      if (replicas_.active()) {
-        // The union's loss is a mean over its valid units: each replica's gradient weighs by its
-        // count of them (exact for the paper's loss; the optional component term is weighted so too).
-        std::vector<double> extra{units, loss * units, q * units, td * units};
-        sum_weighted_gradients(params, units, extra, replicas_);
-        if (extra[0] == 0.0) continue;  // no valid unit on any replica: no step anywhere
-        for (auto& p : params) p.mutable_grad().div_(static_cast<float>(extra[0]));
-        loss = extra[1] / extra[0];
-        q = extra[2] / extra[0];
-        td = extra[3] / extra[0];
-      }
-      stats.grad_norm = clip_and_adam_step(*optimizer_, cfg_.max_grad_norm);
-      loss_sum += loss;
-      q_sum += q;
-      td_sum += td;
+      const GradientStepResult step = minibatch_step(d, teams, &stats);
+      if (!step.stepped) continue;
+      loss_sum += step.terms[0];
+      q_sum += step.terms[1];
+      td_sum += step.terms[2];
       ++n_steps;
     }
   }
@@ -479,6 +403,107 @@ EsStats EsAgent::update(const EsBatch& batch) {
   const auto valid = es_is_team(cfg_.variant) ? active.any(1) : active;
   stats.target_mean = t > 0 ? masked_mean(target.value, valid).item<double>() : std::nan("");
   return stats;
+}
+
+// The diagnostics of the batch before any step: the policy's, the loss, the huber or end-atom share.
+void EsAgent::measure_before_steps(const models::HlObs& obs, const EsBatch& batch, const torch::Tensor& active,
+                                   const EsTarget& target, EsStats* stats) {
+  torch::NoGradGuard no_grad;
+  const auto rows = active.reshape({-1}).nonzero().squeeze(1);
+  const auto out = critic_(obs);
+  es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, stats);
+  const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
+                         cfg_.component_ce_weight);
+  stats->loss_before = l.loss.item<double>();
+  if (cfg_.variant == EsVariant::kEsD3) {
+    const auto k = target.dist.size(1);
+    const auto ends = target.dist.select(1, 0) + target.dist.select(1, k - 1);
+    stats->end_atom_share = masked_mean(ends, active.any(1)).item<double>();
+  } else {
+    const auto beyond = ((l.prediction - target.value).abs() > cfg_.huber_delta).to(torch::kFloat32);
+    stats->huber_share = masked_mean(beyond, l.valid).item<double>();
+  }
+}
+
+// One gradient step on the minibatch `teams` (int64 [m] team indices), its terms (loss, q, td)
+// averaged over the loss units (a team counts once when any member is active, else each active
+// member).
+GradientStepResult EsAgent::minibatch_step(const UpdateData& d, const torch::Tensor& teams, EsStats* stats) {
+  // The step's chunks: units (what the loss averages over) first, so each chunk's gradient can
+  // weigh by its share while the chunks run concurrently.
+  const int64_t m = teams.numel(), n_a = d.n_a;
+  const int64_t n_chunks = m == 0 ? 0 : std::min(cfg_.minibatch_chunks, m);
+  const bool team_units = es_is_team(cfg_.variant);
+  std::vector<ChunkGradient> chunks(static_cast<std::size_t>(n_chunks));
+  std::vector<double> chunk_units(static_cast<std::size_t>(n_chunks), 0.0);
+  double units = 0.0;
+  const int64_t* team = teams.data_ptr<int64_t>();
+  for (int64_t c = 0; c < n_chunks; ++c) {
+    // Counted on the host.
+    for (int64_t r = m * c / n_chunks; r < m * (c + 1) / n_chunks; ++r) {
+      int64_t members = 0;
+      for (int64_t i = 0; i < n_a; ++i) members += d.active_host[team[r] * n_a + i] ? 1 : 0;
+      chunk_units[c] += static_cast<double>(team_units ? (members > 0 ? 1 : 0) : members);
+    }
+    units += chunk_units[c];
+  }
+  for (int64_t c = 0; c < n_chunks; ++c)
+    chunks[c].weight = n_chunks == 1 ? 1.0 : (units > 0.0 ? chunk_units[c] / units : 0.0);
+  const std::vector<torch::Tensor> params = critic_->parameters();
+  const auto run = [&](int64_t c, ChunkGradient& k) {
+    // A replica leaves out what has no unit (its loss would be 0/0); one process runs it as a
+    // plain backward() would.
+    if (chunk_units[c] == 0.0 && (replicas_.active() || n_chunks > 1)) return;
+    chunk_gradient(d, teams.slice(0, m * c / n_chunks, m * (c + 1) / n_chunks), n_chunks > 1, params, k);
+  };
+  GradientStepOptions o;
+  o.zero_unused = true;
+  o.max_grad_norm = cfg_.max_grad_norm;
+  o.replicas = &replicas_;
+  o.mix = ReplicaMix::kUnitMean;
+  o.replica_weight = units;
+  o.n_terms = 3;
+  const GradientStepResult step = gradient_step(*optimizer_, params, chunks, run, o);
+  stats->chunk_wait_s += step.chunk_wait_s;
+  stats->train_rows += m * n_a;
+  for (int64_t r = 0; r < m; ++r) stats->train_alive += d.team_alive[static_cast<std::size_t>(team[r])];
+  stats->train_passes += step.passes;
+  if (step.stepped) stats->grad_norm = step.grad_norm;
+  return step;
+}
+
+// One chunk's gradient (weighted by k.weight when `weighted`) and terms (loss, q, td).
+void EsAgent::chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bool weighted,
+                             const std::vector<torch::Tensor>& params, ChunkGradient& k) {
+  const auto rows_c = (teams.unsqueeze(1) * d.n_a + d.aircraft).reshape({-1});
+  const EsTarget target_c{d.target.value.index_select(0, teams),
+                          d.target.dist.defined() ? d.target.dist.index_select(0, teams) : torch::Tensor()};
+  const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
+  const bool fused_d2 = cfg_.variant == EsVariant::kEsD2;
+  const auto out = critic_->forward(models::index_rows(d.obs, rows_c), /*with_q=*/!fused_d3);
+  const double weight = weighted ? k.weight : 1.0;
+  if (fused_d2 || fused_d3) {
+    // The paper's ES+D2 and ES+D3 losses as one node each (agents/es_fused_loss.hpp; es_loss
+    // is their oracle).
+    const auto chunk_actions = d.batch.actions.index_select(0, teams);
+    const auto chunk_active = d.active.index_select(0, teams);
+    const auto f = fused_d2 ? fused_es_d2_loss(out.q, chunk_actions, chunk_active, target_c.value,
+                                               cfg_.huber_delta, weight)
+                            : fused_es_d3_loss(out.log_probs, chunk_actions, chunk_active, target_c.dist,
+                                               target_c.value, support_, weight);
+    k.grads = torch::autograd::grad({f.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
+                                    /*create_graph=*/false, /*allow_unused=*/true);
+    k.terms = {f.loss, f.q, f.td};
+    return;
+  }
+  const auto l = es_loss(cfg_.variant, out, d.batch.actions.index_select(0, teams),
+                         d.active.index_select(0, teams), target_c, cfg_.huber_delta, support_,
+                         cfg_.component_ce_weight);
+  k.grads = torch::autograd::grad({weighted ? l.loss * weight : l.loss}, params, /*grad_outputs=*/{},
+                                  /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
+  torch::NoGradGuard no_grad;
+  k.terms = {l.loss.item<double>(), masked_mean(l.prediction, l.valid).item<double>(),
+             masked_mean((l.prediction - target_c.value).abs(), l.valid).item<double>()};
 }
 
 void EsAgent::save(const std::string& path) const {

@@ -38,6 +38,7 @@
 
 #include "agents/c51.hpp"
 #include "agents/eigen_mirror.hpp"
+#include "agents/gradient_step.hpp"
 #include "agents/replicas.hpp"
 #include "models/hl_critic.hpp"
 #include "models/kernels/attention_mlp_forward.hpp"
@@ -225,6 +226,13 @@ class EsAgent {
 
  private:
   models::HlObs prepare(const models::HlObs& flat_obs, bool update_stats);
+  // update()'s parts (the gradient step itself: agents/gradient_step.hpp).
+  struct UpdateData;
+  void measure_before_steps(const models::HlObs& obs, const EsBatch& batch, const torch::Tensor& active,
+                            const EsTarget& target, EsStats* stats);
+  GradientStepResult minibatch_step(const UpdateData& d, const torch::Tensor& teams, EsStats* stats);
+  void chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bool weighted,
+                      const std::vector<torch::Tensor>& params, ChunkGradient& k);
   void load_archive(torch::serialize::InputArchive& root);
   EsConfig cfg_;
   Replicas replicas_;

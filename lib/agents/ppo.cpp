@@ -9,22 +9,9 @@
 #include <vector>
 
 #include "agents/checkpoint.hpp"
-#include "agents/concurrent_chunks.hpp"
-#include "agents/optimizer_step.hpp"
 #include "agents/ppo_fused_loss.hpp"
 
 namespace f16race::agents {
-namespace {
-
-// One chunk's share of a minibatch step: its gradients (already weighted by its share of rows)
-// and its loss terms (policy, value, entropy, approx_kl, clip_fraction).
-struct ChunkResult {
-  double weight = 0.0;
-  std::vector<torch::Tensor> grads;
-  std::array<double, 5> terms{};
-};
-
-}  // namespace
 
 PpoLossTerms ppo_loss(const torch::Tensor& new_log_prob, const torch::Tensor& old_log_prob,
                       const torch::Tensor& advantages, const torch::Tensor& new_value, const torch::Tensor& old_value,
@@ -191,6 +178,40 @@ double PpoAgent::learning_rate_for_update(int64_t update_index) const {
   return cfg_.learning_rate * std::max(frac, 0.0);
 }
 
+// What every gradient step of one update reads: the valid samples (rows of the buffer) and
+// their rollout values.
+struct PpoAgent::UpdateData {
+  models::LlObs buffer_obs;  // every row of the buffer; chunks gather theirs from it
+  torch::Tensor rows;        // int64 [batch]: the valid rows
+  torch::Tensor actions, old_log_probs, old_values, advantages, returns;  // [batch, ...]
+  std::vector<int64_t> valid_alive;  // other aircraft alive per valid sample (bench train)
+  PpoConfig chunk_cfg;  // the config without advantage normalisation (done per minibatch)
+};
+
+namespace {
+
+// Replicas: each union minibatch's row count and advantage moments (count, sum, sum of squares
+// per minibatch), for the whole epoch in one reduction, so every replica normalises as one
+// process would over the union (unbiased std, as CleanRL).
+std::vector<double> union_moments(const torch::Tensor& advantages, const std::vector<torch::Tensor>& minibatches,
+                                  const Replicas& replicas) {
+  std::vector<double> moments(3 * minibatches.size(), 0.0);
+  const float* a = advantages.data_ptr<float>();
+  for (std::size_t k = 0; k < minibatches.size(); ++k) {
+    const int64_t* idx = minibatches[k].data_ptr<int64_t>();
+    moments[3 * k] = static_cast<double>(minibatches[k].numel());
+    for (int64_t i = 0; i < minibatches[k].numel(); ++i) {
+      const double x = a[idx[i]];
+      moments[3 * k + 1] += x;
+      moments[3 * k + 2] += x * x;
+    }
+  }
+  replicas.sum_doubles(moments.data(), static_cast<int64_t>(moments.size()));
+  return moments;
+}
+
+}  // namespace
+
 PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   TORCH_CHECK(buffer.finished(), "PpoAgent::update: call RolloutBuffer::finish first");
   // Replicas: the rollout's observation statistics, held back during it, absorb every rank's now.
@@ -200,120 +221,16 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   for (auto& group : optimizer_->param_groups()) {
     static_cast<torch::optim::AdamOptions&>(group.options()).lr(stats.learning_rate);
   }
-  // Only valid samples (aircraft that acted) enter the update. A replica may hold none this time
-  // and still takes part in every step (its share is then 0).
-  const auto rows = buffer.valid.flatten().nonzero().squeeze(1);
-  TORCH_CHECK(rows.numel() > 0 || replicas_.active(), "PpoAgent::update: the buffer holds no valid sample");
-  // Observations stay in the buffer: each chunk gathers its rows from it (rows[chunk's]), where a
-  // compacted copy of the valid rows cost a serial copy of the whole buffer per update.
-  const auto buffer_obs = models::flatten2(buffer.obs);
-  const auto actions = buffer.actions.flatten(0, 1).index_select(0, rows);
-  const auto old_log_probs = buffer.log_probs.flatten().index_select(0, rows);
-  const auto old_values = buffer.values.flatten().index_select(0, rows);
-  const auto advantages = buffer.advantages.flatten().index_select(0, rows);
-  const auto returns = buffer.returns.flatten().index_select(0, rows);
-  const int64_t batch = rows.numel();
-
-  const std::vector<torch::Tensor> params = net_->parameters();
-  // Advantages are normalised over the whole minibatch (CleanRL), before it is cut into chunks.
-  PpoConfig chunk_cfg = cfg_;
-  chunk_cfg.normalize_advantages = false;
-  // Other aircraft alive per valid sample (position in `rows`): the passes' alive share, which
-  // bench train's floor prices them at.
-  std::vector<int64_t> valid_alive(static_cast<std::size_t>(batch));
-  {
-    const std::vector<int64_t> per_row = models::alive_per_row(buffer_obs.ado_alive);
-    const int64_t* r = rows.data_ptr<int64_t>();
-    for (int64_t i = 0; i < batch; ++i) valid_alive[static_cast<std::size_t>(i)] = per_row[static_cast<std::size_t>(r[i])];
-  }
+  const UpdateData d = update_data(buffer);
+  const int64_t batch = d.rows.numel();
   int64_t n_steps = 0;
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
     const auto perm = torch::randperm(batch, generator_, torch::kInt64);
     const std::vector<torch::Tensor> minibatches = perm.tensor_split(cfg_.n_minibatches);
-    // Replicas: each union minibatch's row count and advantage moments, for the whole epoch in one
-    // reduction, so every replica normalises as one process would over the union (unbiased std,
-    // as CleanRL).
-    std::vector<double> moments;
-    if (replicas_.active()) {
-      moments.assign(3 * minibatches.size(), 0.0);
-      const float* a = advantages.data_ptr<float>();
-      for (std::size_t k = 0; k < minibatches.size(); ++k) {
-        const int64_t* idx = minibatches[k].data_ptr<int64_t>();
-        moments[3 * k] = static_cast<double>(minibatches[k].numel());
-        for (int64_t i = 0; i < minibatches[k].numel(); ++i) {
-          const double x = a[idx[i]];
-          moments[3 * k + 1] += x;
-          moments[3 * k + 2] += x * x;
-        }
-      }
-      replicas_.sum_doubles(moments.data(), static_cast<int64_t>(moments.size()));
-    }
-    for (std::size_t k = 0; k < minibatches.size(); ++k) {
-      const torch::Tensor& mb = minibatches[k];
-      const int64_t m = mb.numel();
-      auto adv = advantages.index_select(0, mb);
-      double share = 1.0;  // this process's share of the step's rows (replicas: of the union's)
-      if (replicas_.active()) {
-        const double total = moments[3 * k];
-        if (total == 0.0) continue;  // the same on every replica
-        share = static_cast<double>(m) / total;
-        if (cfg_.normalize_advantages && total > 1.0 && m > 0) {
-          const double mean = moments[3 * k + 1] / total;
-          const double var = std::max(0.0, (moments[3 * k + 2] - total * mean * mean) / (total - 1.0));
-          adv = (adv - static_cast<float>(mean)) / static_cast<float>(std::sqrt(var) + 1e-8);
-        }
-      } else {
-        if (m == 0) continue;
-        if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
-      }
-      const int64_t n_chunks =
-          m == 0 ? 0 : cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
-      // Each chunk's gradient on its own (autograd::grad, nothing accumulated in place), on the
-      // OpenMP threads when there are several chunks; then summed in chunk order, which is what
-      // serial backward() calls accumulate. So the step is the same bits at any thread count.
-      std::vector<ChunkResult> chunks(static_cast<std::size_t>(n_chunks));
-      auto run_chunk = [&](int64_t c) {
-        // Contiguous slices of the shuffled minibatch; each chunk's mean weighs by its share.
-        const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
-        const auto rows_c = mb.slice(0, lo, hi);
-        const auto out = net_(models::index_rows(buffer_obs, rows.index_select(0, rows_c)));
-        ChunkResult& r = chunks[static_cast<std::size_t>(c)];
-        r.weight = static_cast<double>(hi - lo) / static_cast<double>(m);
-        // The loss terms as one node (agents/ppo_fused_loss.hpp; ppo_loss is its oracle in the tests).
-        const auto loss = fused_ppo_loss(out.mean, out.log_std, out.value, actions.index_select(0, rows_c),
-                                         old_log_probs.index_select(0, rows_c), adv.slice(0, lo, hi),
-                                         old_values.index_select(0, rows_c), returns.index_select(0, rows_c),
-                                         chunk_cfg, n_chunks == 1 ? 1.0 : r.weight);
-        r.grads = torch::autograd::grad({loss.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
-                                        /*create_graph=*/false, /*allow_unused=*/true);
-        r.terms = {loss.policy_loss, loss.value_loss, loss.entropy, loss.approx_kl, loss.clip_fraction};
-      };
-      stats.chunk_wait_s += run_chunks(n_chunks, run_chunk);
-      std::array<double, 5> terms{};
-      for (const auto& r : chunks)
-        for (std::size_t q = 0; q < terms.size(); ++q) terms[q] += r.weight * r.terms[q];
-      std::vector<const std::vector<torch::Tensor>*> chunk_grads;
-      for (const auto& r : chunks) chunk_grads.push_back(&r.grads);
-      sum_chunk_gradients(params, chunk_grads, /*zero_unused=*/false);
-      if (replicas_.active()) {
-        // The union's gradient: each replica's weighted by its share of the union's rows.
-        std::vector<double> extra(terms.size());
-        for (std::size_t q = 0; q < terms.size(); ++q) extra[q] = terms[q] * share;
-        sum_weighted_gradients(params, share, extra, replicas_);
-        std::copy(extra.begin(), extra.end(), terms.begin());
-      }
-      stats.policy_loss += terms[0];
-      stats.value_loss += terms[1];
-      stats.entropy += terms[2];
-      stats.approx_kl += terms[3];
-      stats.clip_fraction += terms[4];
-      stats.train_passes += n_chunks;
-      clip_and_adam_step(*optimizer_, cfg_.max_grad_norm);
-      stats.train_rows += m;
-      const int64_t* picked = mb.data_ptr<int64_t>();
-      for (int64_t i = 0; i < m; ++i) stats.train_alive += valid_alive[static_cast<std::size_t>(picked[i])];
-      ++n_steps;
-    }
+    const std::vector<double> moments =
+        replicas_.active() ? union_moments(d.advantages, minibatches, replicas_) : std::vector<double>();
+    for (std::size_t k = 0; k < minibatches.size(); ++k)
+      if (minibatch_step(d, minibatches[k], replicas_.active() ? &moments[3 * k] : nullptr, &stats)) ++n_steps;
   }
   stats.grad_steps = n_steps;
   const double n = static_cast<double>(std::max<int64_t>(n_steps, 1));
@@ -322,12 +239,94 @@ PpoStats PpoAgent::update(const RolloutBuffer& buffer) {
   stats.entropy /= n;
   stats.approx_kl /= n;
   stats.clip_fraction /= n;
-  const double var_returns = returns.var(/*unbiased=*/false).item<double>();
+  const double var_returns = d.returns.var(/*unbiased=*/false).item<double>();
   stats.explained_variance =
-      var_returns > 0.0 ? 1.0 - (returns - old_values).var(/*unbiased=*/false).item<double>() / var_returns : 0.0;
+      var_returns > 0.0 ? 1.0 - (d.returns - d.old_values).var(/*unbiased=*/false).item<double>() / var_returns : 0.0;
   ++update_count_;
   stats.update_index = update_count_;
   return stats;
+}
+
+PpoAgent::UpdateData PpoAgent::update_data(const RolloutBuffer& buffer) const {
+  // Only valid samples (aircraft that acted) enter the update. A replica may hold none this time
+  // and still takes part in every step (its share is then 0).
+  const auto rows = buffer.valid.flatten().nonzero().squeeze(1);
+  TORCH_CHECK(rows.numel() > 0 || replicas_.active(), "PpoAgent::update: the buffer holds no valid sample");
+  // Observations stay in the buffer: each chunk gathers its rows from it (rows[chunk's]), where a
+  // compacted copy of the valid rows cost a serial copy of the whole buffer per update.
+  UpdateData d{models::flatten2(buffer.obs),
+               rows,
+               buffer.actions.flatten(0, 1).index_select(0, rows),
+               buffer.log_probs.flatten().index_select(0, rows),
+               buffer.values.flatten().index_select(0, rows),
+               buffer.advantages.flatten().index_select(0, rows),
+               buffer.returns.flatten().index_select(0, rows),
+               std::vector<int64_t>(static_cast<std::size_t>(rows.numel())),
+               cfg_};
+  // Advantages are normalised over the whole minibatch (CleanRL), before it is cut into chunks.
+  d.chunk_cfg.normalize_advantages = false;
+  const std::vector<int64_t> per_row = models::alive_per_row(d.buffer_obs.ado_alive);
+  const int64_t* r = rows.data_ptr<int64_t>();
+  for (std::size_t i = 0; i < d.valid_alive.size(); ++i) d.valid_alive[i] = per_row[static_cast<std::size_t>(r[i])];
+  return d;
+}
+
+// One gradient step on minibatch `mb` (positions in d.rows); moments: the union's (count, sum,
+// sum of squares) of its advantages with replicas, else null. False: no step (no rows).
+bool PpoAgent::minibatch_step(const UpdateData& d, const torch::Tensor& mb, const double* moments, PpoStats* stats) {
+  const int64_t m = mb.numel();
+  auto adv = d.advantages.index_select(0, mb);
+  double share = 1.0;  // this process's share of the step's rows (replicas: of the union's)
+  if (moments) {
+    const double total = moments[0];
+    if (total == 0.0) return false;  // the same on every replica
+    share = static_cast<double>(m) / total;
+    if (cfg_.normalize_advantages && total > 1.0 && m > 0) {
+      const double mean = moments[1] / total;
+      const double var = std::max(0.0, (moments[2] - total * mean * mean) / (total - 1.0));
+      adv = (adv - static_cast<float>(mean)) / static_cast<float>(std::sqrt(var) + 1e-8);
+    }
+  } else {
+    if (m == 0) return false;
+    if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
+  }
+  const int64_t n_chunks =
+      m == 0 ? 0 : cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
+  std::vector<ChunkGradient> chunks(static_cast<std::size_t>(n_chunks));
+  for (int64_t c = 0; c < n_chunks; ++c)  // contiguous slices of the shuffled minibatch
+    chunks[c].weight = static_cast<double>(m * (c + 1) / n_chunks - m * c / n_chunks) / static_cast<double>(m);
+  const std::vector<torch::Tensor> params = net_->parameters();
+  const auto run = [&](int64_t c, ChunkGradient& r) {
+    const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
+    const auto rows_c = mb.slice(0, lo, hi);
+    const auto out = net_(models::index_rows(d.buffer_obs, d.rows.index_select(0, rows_c)));
+    // The loss terms as one node (agents/ppo_fused_loss.hpp; ppo_loss is its oracle in the tests),
+    // each chunk's mean weighed by its share.
+    const auto loss = fused_ppo_loss(out.mean, out.log_std, out.value, d.actions.index_select(0, rows_c),
+                                     d.old_log_probs.index_select(0, rows_c), adv.slice(0, lo, hi),
+                                     d.old_values.index_select(0, rows_c), d.returns.index_select(0, rows_c),
+                                     d.chunk_cfg, n_chunks == 1 ? 1.0 : r.weight);
+    r.grads = torch::autograd::grad({loss.total}, params, /*grad_outputs=*/{}, /*retain_graph=*/false,
+                                    /*create_graph=*/false, /*allow_unused=*/true);
+    r.terms = {loss.policy_loss, loss.value_loss, loss.entropy, loss.approx_kl, loss.clip_fraction};
+  };
+  GradientStepOptions o;
+  o.max_grad_norm = cfg_.max_grad_norm;
+  o.replicas = &replicas_;
+  o.mix = ReplicaMix::kShareWeighted;
+  o.replica_weight = share;
+  const GradientStepResult step = gradient_step(*optimizer_, params, chunks, run, o);
+  stats->chunk_wait_s += step.chunk_wait_s;
+  stats->policy_loss += step.terms[0];
+  stats->value_loss += step.terms[1];
+  stats->entropy += step.terms[2];
+  stats->approx_kl += step.terms[3];
+  stats->clip_fraction += step.terms[4];
+  stats->train_passes += n_chunks;
+  stats->train_rows += m;
+  const int64_t* picked = mb.data_ptr<int64_t>();
+  for (int64_t i = 0; i < m; ++i) stats->train_alive += d.valid_alive[static_cast<std::size_t>(picked[i])];
+  return true;
 }
 
 void PpoAgent::set_replicas(const Replicas& replicas) {

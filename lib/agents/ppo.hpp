@@ -18,6 +18,7 @@
 #include <string>
 
 #include "agents/eigen_mirror.hpp"
+#include "agents/gradient_step.hpp"
 #include "agents/replicas.hpp"
 #include "agents/rollout_buffer.hpp"
 #include "models/ll_actor_critic.hpp"
@@ -142,6 +143,10 @@ class PpoAgent {
   // current statistics into `out` (allocated, [B, ...]) in the forward's blocks.
   void infer_raw_into(const models::LlObs& raw, const torch::Tensor& rows, const models::LlObs& out,
                       torch::Tensor& mean, torch::Tensor& value, const models::GaussianDraw* draw);
+  // update()'s parts (the gradient step itself: agents/gradient_step.hpp).
+  struct UpdateData;
+  UpdateData update_data(const RolloutBuffer& buffer) const;
+  bool minibatch_step(const UpdateData& d, const torch::Tensor& mb, const double* moments, PpoStats* stats);
   void load_archive(torch::serialize::InputArchive& root);
   PpoConfig cfg_;
   Replicas replicas_;

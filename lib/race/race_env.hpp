@@ -20,6 +20,7 @@
 #include "race/observation_spec.hpp"
 #include "race/race_config.hpp"
 #include "random/random_stream.hpp"
+#include "race/terminations.hpp"
 #include "race/track.hpp"
 
 namespace f16race::race {
@@ -30,20 +31,7 @@ inline constexpr int kHlDims = 3;    // HL action: bins for (d_north, d_east, d_
 int task_dim(const RaceConfig& config);
 int ado_dim(const RaceConfig& config);
 
-// Why an aircraft left the race. Each is counted separately in StepStats.
-enum TerminationCause : std::int8_t {
-  kCauseNone = 0,
-  kCauseCollision = 1,      // with an opponent
-  kCauseAltitude = 2,
-  kCauseLoad = 3,
-  kCauseTurnRate = 4,
-  kCauseTube = 5,
-  kCauseSimulator = 6,      // the flight model's envelope or a non-finite state
-  kCauseTeamCollision = 7,  // with a teammate (counted before an opponent in the same step)
-  kCauseEnvelope = 8,       // faster than race.mach_max, where the aero data end
-  kNumCauses = 9
-};
-const char* cause_name(int cause);
+// Why an aircraft leaves a race (TerminationCause, cause_name): race/terminations.hpp.
 
 // Aggregates over the envs of one step (and of the races that ended in it).
 struct StepStats {
@@ -206,6 +194,9 @@ class RaceEnv {
     f("race winner", s.race_winner_, X::env, -1); f("race end", s.race_end_, X::env, 0);
   }
 
+  // The step and its systems, each in the file named after it: race_env.cpp (actions, track
+  // geometry, ranks), terminations.cpp (collisions.cpp), goals.cpp, rewards.cpp, race_end.cpp, resets.cpp,
+  // observations.cpp.
   void apply_actions(int i0, int i1, const float* actions);
   std::array<float, kActionDim> action_of(const dynamics::TrimResult& trim) const;  // in action units
   void prefetch_track(int env) const;
@@ -213,9 +204,19 @@ class RaceEnv {
   void reset_env(int env);
   void update_track_geometry(int env);
   void compute_ranks(int env);
+  // new_cause: [n_agent] the step's causes (kCauseNone: still racing) take their aircraft out.
+  void take_out(int env, const std::int8_t* new_cause);
+  // progress_before_ft: [n_agent] each aircraft's progress before the step.
+  void pay_rewards(int env, const double* progress_before_ft);
+  // Ends env's race if it is over (outcome, stats, final flags, the next race); false: it goes on.
+  bool end_race_if_over(int env);
   void write_observations(int env);
+  // The track preview and task entries; cos_psi, sin_psi: [n_agent] the env's headings.
+  void write_task_observations(int env, const float* cos_psi, const float* sin_psi);
   void write_goal_observation(int i);
   double goal_lane_error_ft(int i) const;
+  // Places again at the horizon, with the same bins, the goals their live aircraft have (nearly) reached.
+  void refresh_reached_goals(int env);
   // Pushes apart, across the track, the goals of env's live teammates closer than
   // race.goal_min_separation_ft; mover >= 0: only that aircraft's goal moves (a refresh).
   void separate_goals(int env, int mover);

@@ -130,16 +130,27 @@ Track Track::from_waypoints(std::vector<Waypoint> waypoints, double spacing_ft) 
 
 void Track::build(double spacing_ft) {
   spacing_ft_ = spacing_ft;
-  const std::size_t n = waypoints_.size();
-  std::vector<Vec3> w(n + 2);
-  for (std::size_t k = 0; k < n; ++k) w[k + 1] = waypoints_[k].p;
-  w[0] = 2.0 * w[1] - w[2];  // phantom end points continue the first and last legs
-  w[n + 1] = 2.0 * w[n] - w[n - 1];
-
-  // Dense parameter sampling, cumulative chord length, and the arc length of each waypoint.
-  constexpr int kPerSegment = 400;
   std::vector<Vec3> dense;
   std::vector<double> dense_s, waypoint_s;
+  sample_densely(waypoints_, &dense, &dense_s, &waypoint_s);
+  resample(dense, dense_s, waypoint_s);
+  build_frames();
+  build_preview_table();
+}
+
+// The Catmull-Rom curve through the waypoints, densely in its parameter: points, cumulative
+// chord length, and the arc length of each waypoint.
+void Track::sample_densely(const std::vector<Waypoint>& waypoints, std::vector<Vec3>* dense_p,
+                           std::vector<double>* dense_s_p, std::vector<double>* waypoint_s_p) {
+  std::vector<Vec3>& dense = *dense_p;
+  std::vector<double>& dense_s = *dense_s_p;
+  std::vector<double>& waypoint_s = *waypoint_s_p;
+  const std::size_t n = waypoints.size();
+  std::vector<Vec3> w(n + 2);
+  for (std::size_t k = 0; k < n; ++k) w[k + 1] = waypoints[k].p;
+  w[0] = 2.0 * w[1] - w[2];  // phantom end points continue the first and last legs
+  w[n + 1] = 2.0 * w[n] - w[n - 1];
+  constexpr int kPerSegment = 400;
   dense.reserve((n - 1) * kPerSegment + 1);
   dense_s.reserve((n - 1) * kPerSegment + 1);
   waypoint_s.reserve(n);
@@ -155,6 +166,11 @@ void Track::build(double spacing_ft) {
     }
     waypoint_s.push_back(dense_s.back());
   }
+}
+
+void Track::resample(const std::vector<Vec3>& dense, const std::vector<double>& dense_s,
+                     const std::vector<double>& waypoint_s) {
+  const double spacing_ft = spacing_ft_;
   // Resample uniformly in arc length; the track ends at the last whole sample, so every query
   // indexes samples directly (the dropped tail is shorter than one spacing).
   const int m = static_cast<int>(std::floor(dense_s.back() / spacing_ft)) + 1;
@@ -171,12 +187,16 @@ void Track::build(double spacing_ft) {
     const double g = std::clamp((s - waypoint_s[wk]) / (waypoint_s[wk + 1] - waypoint_s[wk]), 0.0, 1.0);
     samples_[i].radius_ft = waypoints_[wk].radius_ft + g * (waypoints_[wk + 1].radius_ft - waypoints_[wk].radius_ft);
   }
+}
+
+// Unit tangents, and the segment frames project() reads.
+void Track::build_frames() {
+  const int m = n_samples();
   tangents_.resize(m);
   for (int i = 0; i < m; ++i) {
     const int a = std::max(i - 1, 0), b = std::min(i + 1, m - 1);
     tangents_[i] = normalized(samples_[b].p - samples_[a].p);
   }
-  // Segment frames for project().
   frames_.resize(m - 1);
   for (int i = 0; i + 1 < m; ++i) {
     const Vec3 seg = samples_[i + 1].p - samples_[i].p;
@@ -197,6 +217,11 @@ void Track::build(double spacing_ft) {
     g.radius_ft = static_cast<float>(samples_[i].radius_ft);
     g.dradius_ft = static_cast<float>(samples_[i + 1].radius_ft - samples_[i].radius_ft);
   }
+}
+
+void Track::build_preview_table() {
+  const int m = n_samples();
+  const double spacing_ft = spacing_ft_;
   // Preview table: samples every `stride`, continued along the end tangents with the end radii.
   const int stride = preview_stride(spacing_ft);
   preview_step_ft_ = stride * spacing_ft;

@@ -131,7 +131,13 @@ class Track {
   TrackQuery project(const Vec3& pos, int hint) const;
 
  private:
-  void build(double spacing_ft);
+  void build(double spacing_ft);  // the samples, frames and preview table from waypoints_
+  static void sample_densely(const std::vector<Waypoint>& waypoints, std::vector<Vec3>* dense,
+                             std::vector<double>* dense_s_ft, std::vector<double>* waypoint_s_ft);
+  void resample(const std::vector<Vec3>& dense, const std::vector<double>& dense_s_ft,
+                const std::vector<double>& waypoint_s_ft);
+  void build_frames();
+  void build_preview_table();
   std::vector<Waypoint> waypoints_;
   // Center-line point and radius packed together: one cache line serves both, which matters
   // when a thousand envs each read their own track every step.

@@ -1,0 +1,120 @@
+// The HL goals: placed from the HL bins at a decision (and again at the horizon when reached),
+// kept apart across the track between teammates.
+#include <algorithm>
+#include <cmath>
+
+#include "dynamics/physical_constants.hpp"
+#include "race/aircraft_state.hpp"
+#include "race/race_env.hpp"
+
+namespace f16race::race {
+
+using dynamics::kPi;
+
+void RaceEnv::place_goal(int i, const std::int64_t* bins) {
+  const int env = i / n_agent_;
+  goal_progress_ft_[i] = progress_ft_[i] + config_.goal_ahead();
+  for (int k = 0; k < kHlDims; ++k)  // clamped as the offsets below are
+    goal_bins_[static_cast<std::size_t>(i) * kHlDims + k] = std::clamp<std::int64_t>(bins[k], 0, config_.hl_bins - 1);
+  const TrackFrame fr = tracks_[env].frame_at(goal_progress_ft_[i]);
+  const double half = 0.5 * (config_.hl_bins - 1);
+  const double step = half > 0 ? config_.goal_bin_scale * fr.radius_ft / half : 0.0;
+  auto offset = [&](std::int64_t b) {
+    const double bb = std::clamp(static_cast<double>(b), 0.0, static_cast<double>(config_.hl_bins - 1));
+    return (bb - half) * step;
+  };
+  // Offsets along north, east and up (the paper's d_pn, d_pe, d_pa), or along the track frame at
+  // the goal (tangent, right, up). A corner bin would sit sqrt(3) x further out than an axis
+  // bin, so the cross-track part is clipped to the outer bin's radius: every goal the HL can
+  // choose lies inside the tube.
+  Vec3 off{offset(bins[0]), offset(bins[1]), offset(bins[2])};
+  if (config_.goal_frame == GoalFrame::kTrack) off = off.n * fr.tangent + off.e * fr.right + off.u * fr.up;
+  const Vec3 along = dot(off, fr.tangent) * fr.tangent;
+  const Vec3 cross = off - along;
+  const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
+  if (c > limit) off = along + (limit / c) * cross;
+  goal_point_[i] = fr.center + off;
+  goal_lateral_ft_[i] = dot(off, fr.right);
+  goal_vertical_ft_[i] = dot(off, fr.up);
+  const Vec3 d = goal_point_[i] - aircraft_position(sim_, i);
+  goal_dist_ft_[i] = std::sqrt(dot(d, d));
+}
+
+void RaceEnv::set_hl_actions(const std::int64_t* bins) {
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < n_env(); ++e) {
+    if (!hl_due_[e]) continue;
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = e * n_agent_ + a;
+      if (alive_[i]) place_goal(i, bins + static_cast<std::size_t>(i) * kHlDims);
+    }
+    separate_goals(e, -1);
+    for (int a = 0; a < n_agent_; ++a) write_goal_observation(e * n_agent_ + a);
+    hl_due_[e] = 0;
+    hl_time_left_s_[e] = config_.dt_hl_s;
+    for (int a = 0; a < n_agent_; ++a)  // the task entry "time to the next HL decision"
+      task_[static_cast<std::size_t>(e * n_agent_ + a) * task_dim_ + kPreviewWidth * config_.preview_points +
+            kTaskHlTimeLeft] = 1.0f;
+  }
+}
+
+// A goal the aircraft has (nearly) reached is placed again at the horizon with the same bins:
+// the decision holds for the whole HL interval, whatever its length. The placement resets the
+// distance the progress reward is measured from, so the jump itself pays nothing.
+void RaceEnv::refresh_reached_goals(int env) {
+  const RaceConfig& c = config_;
+  if (c.goal_refresh_ft <= 0.0) return;
+  for (int a = 0; a < n_agent_; ++a) {
+    const int i = env * n_agent_ + a;
+    if (alive_[i] && progress_ft_[i] + c.goal_refresh_ft >= goal_progress_ft_[i]) {
+      place_goal(i, &goal_bins_[static_cast<std::size_t>(i) * kHlDims]);
+      separate_goals(env, i);  // the teammates keep their goals: only the new one moves
+    }
+  }
+}
+
+void RaceEnv::shift_goal(int i, double right_ft, double up_ft) {
+  const TrackFrame fr = tracks_[i / n_agent_].frame_at(goal_progress_ft_[i]);
+  Vec3 off = goal_point_[i] - fr.center + right_ft * fr.right + up_ft * fr.up;
+  const Vec3 along = dot(off, fr.tangent) * fr.tangent, cross = off - along;
+  const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
+  if (c > limit) off = along + (limit / c) * cross;  // at the outer bins' radius the best it can do
+  goal_point_[i] = fr.center + off;
+  goal_lateral_ft_[i] = dot(off, fr.right);
+  goal_vertical_ft_[i] = dot(off, fr.up);
+  const Vec3 d = goal_point_[i] - aircraft_position(sim_, i);
+  goal_dist_ft_[i] = std::sqrt(dot(d, d));  // the progress reward counts from the moved goal
+}
+
+void RaceEnv::separate_goals(int env, int mover) {
+  const double sep = config_.goal_min_separation_ft;
+  if (sep <= 0.0) return;
+  const int ts = config_.team_size;
+  // Pairwise relaxation: each close pair parts across the track by the shortfall, half each (all
+  // of it for `mover`); a few sweeps settle a team of four.
+  for (int sweep = 0; sweep < 16; ++sweep) {
+    bool moved = false;
+    for (int a = 0; a < n_agent_; ++a)
+      for (int b = a + 1; b < n_agent_; ++b) {
+        const int i = env * n_agent_ + a, j = env * n_agent_ + b;
+        if (team_of(a, ts) != team_of(b, ts) || !alive_[i] || !alive_[j]) continue;
+        if (mover >= 0 && i != mover && j != mover) continue;
+        const Vec3 d = goal_point_[i] - goal_point_[j];
+        const double dist = std::sqrt(dot(d, d));
+        if (dist >= sep) continue;
+        double dr = goal_lateral_ft_[i] - goal_lateral_ft_[j], du = goal_vertical_ft_[i] - goal_vertical_ft_[j];
+        if (dr * dr + du * du < 1e-6) {  // one point: part along the team slots' directions
+          const double ta = 2.0 * kPi * (a % ts) / ts, tb = 2.0 * kPi * (b % ts) / ts;
+          dr = std::cos(ta) - std::cos(tb), du = std::sin(ta) - std::sin(tb);
+        }
+        const double n = std::sqrt(dr * dr + du * du), push = (sep - dist) / n;
+        const double wi = mover < 0 ? 0.5 : (i == mover ? 1.0 : 0.0);
+        if (wi > 0.0) shift_goal(i, wi * push * dr, wi * push * du);
+        if (wi < 1.0) shift_goal(j, -(1.0 - wi) * push * dr, -(1.0 - wi) * push * du);
+        moved = true;
+      }
+    if (!moved) break;
+  }
+}
+
+}  // namespace f16race::race
