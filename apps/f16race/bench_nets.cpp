@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/network_cost.hpp"
 #include "commands.hpp"
 #include "io/json_text.hpp"
 #include "io/provenance.hpp"
@@ -20,7 +21,6 @@
 #include "models/hl_critic.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
-#include "network_cost.hpp"
 
 namespace f16race::app {
 namespace {
@@ -45,6 +45,7 @@ struct NetCase {
 
 void run_bench_nets(const NetsBenchOptions& o) {
   using namespace f16race::models;
+  using namespace f16race::bench;
   torch::set_num_threads(omp_get_max_threads());
   const ObsDims dims{o.d_ego, o.d_ado, o.d_task, o.n_other};
   const int64_t b = o.samples;

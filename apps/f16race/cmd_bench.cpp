@@ -4,32 +4,21 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <string>
 #include <vector>
 
+#include "bench/sim_throughput.hpp"
 #include "commands.hpp"
 #include "io/input_error.hpp"
 #include "io/json_text.hpp"
 #include "io/provenance.hpp"
-#include "dynamics/f16_batch.hpp"
-#include "dynamics/trim.hpp"
-#include "race/race_env.hpp"
-#include "race/scripted_pilot.hpp"
 #include "race/soak.hpp"
 
 namespace f16race::app {
 namespace {
 
 using namespace f16race::dynamics;
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 struct SimBenchOptions {
   int aircraft = 8192;
@@ -41,60 +30,18 @@ struct SimBenchOptions {
   std::string law = "held";  // held | gcas | waypoint: what sets the references at each RK stage
 };
 
-StageLaw parse_stage_law(const std::string& text) {
-  for (StageLaw l : {StageLaw::kHeld, StageLaw::kGcas, StageLaw::kWaypoint})
-    if (text == stage_law_name(l)) return l;
-  throw io::InputError("--law '" + text + "': use held, gcas or waypoint");
-}
-
-// Median RK4 aircraft-substeps per second for one model and thread count. The aircraft start
-// trimmed at speeds spread over 450-750 ft/s and hold their trim, so none leaves the envelope.
-double bench_sim_case(AeroModel model, int n_aircraft, int n_threads, const SimBenchOptions& o) {
-  omp_set_num_threads(n_threads);
-  F16BatchConfig cfg;
-  cfg.n_env = n_aircraft;
-  cfg.n_agent = 1;
-  cfg.model = model;
-  cfg.stage_law = parse_stage_law(o.law);
-  F16Batch batch(cfg);
-  constexpr int kTrims = 16;
-  std::vector<TrimResult> trims;
-  for (int k = 0; k < kTrims; ++k) {
-    TrimRequest req;
-    req.model = model;
-    req.vt_ftps = 450.0 + 300.0 * k / (kTrims - 1);
-    req.alt_ft = 5000.0 + 1000.0 * k;
-    trims.push_back(trim_level_flight(req));
-  }
-  std::vector<double> rates;
-  for (int rep = 0; rep < o.repeats + 1; ++rep) {
-    for (int i = 0; i < n_aircraft; ++i) {
-      const TrimResult& tr = trims[i % kTrims];
-      batch.reset_aircraft(i, tr.x0, tr.u_ref);
-      // GCAS stays in standby above its deck; the waypoint law flies at a point 20 000 ft
-      // north-east at the trim altitude (a turn and a speed change: every branch of the law runs).
-      if (cfg.stage_law == StageLaw::kWaypoint) {
-        batch.law(kLawTargetN)[i] = tr.x0[kPn] + 20000.0;
-        batch.law(kLawTargetE)[i] = tr.x0[kPe] + 20000.0;
-        batch.law(kLawTargetAlt)[i] = tr.x0[kAlt];
-      }
-    }
-    const auto t0 = std::chrono::steady_clock::now();
-    const int failed = batch.step(o.dt_s, o.substeps);
-    const auto t1 = std::chrono::steady_clock::now();
-    if (failed != 0) throw std::runtime_error("bench sim: " + std::to_string(failed) + " aircraft left the envelope");
-    const double seconds = std::chrono::duration<double>(t1 - t0).count();
-    if (rep > 0) rates.push_back(static_cast<double>(n_aircraft) * o.substeps / seconds);  // rep 0 warms up
-  }
-  return median(rates);
-}
-
-void run_bench_sim(const SimBenchOptions& o) {
-  std::vector<int> threads = o.threads;
+// The thread counts asked for, or 1 and all cores.
+std::vector<int> measured_thread_counts(const std::vector<int>& asked) {
+  std::vector<int> threads = asked;
   if (threads.empty()) {
     threads.push_back(1);
     if (omp_get_num_procs() > 1) threads.push_back(omp_get_num_procs());
   }
+  return threads;
+}
+
+void run_bench_sim(const SimBenchOptions& o) {
+  const std::vector<int> threads = measured_thread_counts(o.threads);
   if (!o.json) {
     std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s, references: %s\n",
                 o.dt_s, o.law == "held" ? "held over each step" : (o.law + " law at every RK stage").c_str());
@@ -104,7 +51,8 @@ void run_bench_sim(const SimBenchOptions& o) {
   }
   for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
     for (int t : threads) {
-      const double rate = bench_sim_case(model, o.aircraft, t, o);
+      const double rate = bench::sim_substeps_per_s(
+          {model, bench::parse_stage_law(o.law), o.aircraft, t, o.substeps, o.repeats, o.dt_s});
       if (o.json) {
         std::printf("{\"bench\": \"sim\", \"model\": %s, \"law\": %s, \"threads\": %d, \"aircraft\": %d, "
                     "\"substeps_per_s\": %.6g}\n",
@@ -128,14 +76,9 @@ struct EnvBenchOptions {
 };
 
 // Env LL steps per second with observations, against the bare simulator doing the same RK4
-// substeps for the same aircraft count. The scripted pilot flies (its cost is not timed), so
-// races run their normal course with terminations and resets.
+// substeps for the same aircraft count (bench::env_steps_per_s).
 void run_bench_env(const EnvBenchOptions& o) {
-  std::vector<int> threads = o.threads;
-  if (threads.empty()) {
-    threads.push_back(1);
-    if (omp_get_num_procs() > 1) threads.push_back(omp_get_num_procs());
-  }
+  const std::vector<int> threads = measured_thread_counts(o.threads);
   race::RaceConfig cfg;
   cfg.n_env = o.envs;
   cfg.team_size = o.team_size;
@@ -146,40 +89,9 @@ void run_bench_env(const EnvBenchOptions& o) {
     std::printf("%8s %16s %20s %22s %10s\n", "threads", "env_steps/s", "aircraft_steps/s", "sim_only_aircraft/s", "overhead");
   }
   for (int t : threads) {
-    omp_set_num_threads(t);
-    race::RaceEnv env(cfg);
-    const int n = env.n_aircraft();
-    std::vector<float> actions(static_cast<std::size_t>(n) * race::kActionDim);
-    std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * race::kHlDims, cfg.hl_center_bin());
-    std::vector<double> env_rates, sim_rates;
-    F16BatchConfig bc;
-    bc.n_env = cfg.n_env;
-    bc.n_agent = env.n_agent();
-    bc.model = cfg.model;
-    F16Batch bare(bc);
-    TrimRequest treq;
-    treq.model = cfg.model;
-    treq.vt_ftps = cfg.start_speed_ftps;
-    treq.alt_ft = 10000.0;
-    const TrimResult trim = trim_level_flight(treq);
-    for (int rep = 0; rep < o.repeats + 1; ++rep) {
-      double env_s = 0.0;
-      for (int k = 0; k < o.steps; ++k) {
-        env.set_hl_actions(bins.data());
-        race::scripted_actions(env, race::ScriptedPilotConfig{}, actions.data());
-        const auto t0 = std::chrono::steady_clock::now();
-        env.step(actions.data());
-        env_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      }
-      for (int i = 0; i < n; ++i) bare.reset_aircraft(i, trim.x0, trim.u_ref);
-      const auto t1 = std::chrono::steady_clock::now();
-      for (int k = 0; k < o.steps; ++k) bare.step(cfg.dt_ll_s / cfg.substeps, cfg.substeps);
-      const double sim_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-      if (rep == 0) continue;  // warm-up
-      env_rates.push_back(o.steps / env_s);
-      sim_rates.push_back(o.steps / sim_s);
-    }
-    const double env_steps = median(env_rates), sim_steps = median(sim_rates);
+    const bench::EnvRates r = bench::env_steps_per_s(cfg, t, o.steps, o.repeats);
+    const int n = r.aircraft;
+    const double env_steps = r.env_steps_per_s, sim_steps = r.sim_steps_per_s;
     const double overhead = sim_steps / env_steps - 1.0;
     if (o.json) {
       std::printf("{\"bench\": \"env\", \"envs\": %d, \"aircraft\": %d, \"threads\": %d, \"env_steps_per_s\": %.6g, "

@@ -4,18 +4,13 @@
 #include <torch/torch.h>
 
 #include <cstdint>
-#include <functional>
-#include <vector>
 
+#include "bench/timing.hpp"
 #include "models/hl_critic.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
 
-namespace f16race::app {
-
-double median_of(std::vector<double> v);
-// Median seconds of `f` over `repeats` timed runs after one warm-up run.
-double time_median_s(const std::function<void()>& f, int repeats);
+namespace f16race::bench {
 
 // Random observations of b samples: normal features, each other aircraft alive with probability
 // `alive_share` (bench nets: 0.7; bench train: the share its run's rows had).
@@ -47,4 +42,4 @@ SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch
 // peak this LibTorch build reaches on this machine, the reference for the networks' GFLOP/s.
 double matmul_gflops(int repeats);
 
-}  // namespace f16race::app
+}  // namespace f16race::bench

@@ -1,26 +1,10 @@
-#include "network_cost.hpp"
+#include "bench/network_cost.hpp"
 
 #include <algorithm>
-#include <chrono>
+#include <functional>
+#include <vector>
 
-namespace f16race::app {
-
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-double time_median_s(const std::function<void()>& f, int repeats) {
-  f();
-  std::vector<double> s;
-  for (int r = 0; r < repeats; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    f();
-    s.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  return median_of(s);
-}
+namespace f16race::bench {
 
 models::HlObs random_hl_obs(const models::ObsDims& dims, std::int64_t b, at::Generator& gen, double alive_share) {
   const auto normal = [&](std::vector<int64_t> s) { return torch::randn(s, gen, torch::kFloat32); };
@@ -148,4 +132,4 @@ double matmul_gflops(int repeats) {
   return 2.0 * n * n * n / s * 1e-9;
 }
 
-}  // namespace f16race::app
+}  // namespace f16race::bench
