@@ -1,7 +1,8 @@
 // `f16race bench train`: end-to-end training throughput (aircraft LL steps per second including
 // inference and both learners' updates) with a breakdown of where the time goes and the network
 // floor (what the networks alone allow), for the default and the paper configuration shapes.
-// The measurements are lib/bench's (train_bench); this file parses and prints.
+// The measurements and their report are lib/bench's (train_bench, train_bench_report); this file
+// parses the options and prints.
 #include <omp.h>
 #include <torch/torch.h>
 
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "bench/train_bench.hpp"
+#include "bench/train_bench_report.hpp"
 #include "commands.hpp"
 #include "dist/process_group.hpp"
 #include "dist_options.hpp"
@@ -74,88 +76,6 @@ void run_bench_train_rank(const TrainBenchOptions& o, const std::vector<train::T
   }
 }
 
-// "a, b, c": each value in `fmt`.
-std::string joined(const std::vector<double>& v, const char* fmt) {
-  std::string out;
-  char buf[64];
-  for (std::size_t k = 0; k < v.size(); ++k) {
-    std::snprintf(buf, sizeof buf, fmt, v[k]);
-    out += (k ? ", " : "") + std::string(buf);
-  }
-  return out;
-}
-
-// One JSON object for one config: the medians, the median run's breakdown and floor, every run's figures.
-void print_train_json(const std::string& path, const train::TrainConfig& cfg, const bench::TrainBenchResult& res) {
-  const int n_agent = 2 * cfg.race.team_size;
-  const bench::TrainBenchRun& mid = res.runs[res.median_run];
-  const train::TrainSummary& s = mid.summary;
-  const bench::NetworkFloor& floor = mid.floor;
-  const auto& t = s.time;
-  std::printf("{\"bench\": \"train\", \"config\": %s, \"envs\": %d, \"aircraft\": %d, \"threads\": %d, "
-              "\"env_steps\": %lld, \"aircraft_steps_per_s\": %.6g, \"env_s\": %.4g, \"inference_s\": %.4g, \"ppo_s\": %.4g, "
-              "\"es_s\": %.4g, \"io_s\": %.4g, \"other_s\": %.4g, \"run_end_s\": %.6g, \"total_s\": %.6g, "
-              "\"ppo_chunk_wait_s\": %.4g, \"es_chunk_wait_s\": %.4g, "
-              "\"floor_aircraft_steps_per_s\": %.6g, \"floor_ll_forward_s\": %.4g, \"floor_ll_train_s\": %.4g, "
-              "\"floor_hl_forward_s\": %.4g, \"floor_hl_train_s\": %.4g, \"ll_forward_batch\": %lld, "
-              "\"ll_train_batch\": %lld, \"hl_forward_batch\": %lld, \"hl_train_batch\": %lld, "
-              "\"ll_forward_alive_share\": %.4g, \"ll_train_alive_share\": %.4g, \"hl_forward_alive_share\": %.4g, "
-              "\"hl_train_alive_share\": %.4g, "
-              "\"floor_ratio\": %.4g, \"runs\": %zu, \"runs_aircraft_steps_per_s\": [%s], "
-              "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
-              "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
-              "\"runs_ppo_chunk_wait_s\": [%s], \"runs_run_end_s\": [%s], "
-              "\"cpu\": %s, \"blas_core\": %s}\n",
-              io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(),
-              static_cast<long long>(s.env_steps), res.rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.run_end, t.total, t.ppo_chunk_wait, t.es_chunk_wait,
-              res.floor_rate, floor.ll_forward_s,
-              floor.ll_train_s, floor.hl_forward_s, floor.hl_train_s,
-              static_cast<long long>(floor.ll_forward_batch), static_cast<long long>(floor.ll_train_batch),
-              static_cast<long long>(floor.hl_forward_batch), static_cast<long long>(floor.hl_train_batch),
-              floor.ll_forward_alive, floor.ll_train_alive, floor.hl_forward_alive, floor.hl_train_alive, res.ratio,
-              res.runs.size(), joined(res.rates, "%.6g").c_str(),
-              joined(res.floor_rates, "%.6g").c_str(), joined(res.ratios, "%.4g").c_str(), joined(res.env_s, "%.4g").c_str(),
-              joined(res.inference_s, "%.4g").c_str(), joined(res.ppo_s, "%.4g").c_str(), joined(res.es_s, "%.4g").c_str(),
-              joined(res.io_s, "%.4g").c_str(), joined(res.ppo_chunk_wait_s, "%.4g").c_str(), joined(res.run_end_s, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
-              io::json_string(io::blas_core()).c_str());
-}
-
-// A few lines for one config: the median rate, the median run's breakdown and its network floor.
-void print_train_text(const std::string& path, const train::TrainConfig& cfg, const bench::TrainBenchResult& res) {
-  const int n_agent = 2 * cfg.race.team_size;
-  const bench::TrainBenchRun& mid = res.runs[res.median_run];
-  const train::TrainSummary& s = mid.summary;
-  const bench::NetworkFloor& floor = mid.floor;
-  const auto& t = s.time;
-  auto pct = [&](double x) { return 100.0 * x / t.per_update_loop(); };
-  std::printf("%s: %d envs x %d aircraft, %lld env steps per run -> %.0f aircraft-steps/s end to end (median of "
-              "%zu: %s)\n",
-              path.c_str(), cfg.race.n_env, n_agent, static_cast<long long>(s.env_steps), res.rate, res.runs.size(),
-              joined(res.rates, "%.0f").c_str());
-  std::printf("  env (sim + race + obs) %.0f%%, inference %.0f%%, PPO updates %.0f%%, ES updates %.0f%%, "
-              "I/O %.0f%%, other %.0f%%\n",
-              pct(t.env), pct(t.inference), pct(t.ppo), pct(t.es), pct(t.io), pct(t.other));
-  std::printf("  not counted: the wait for each run's last learning-curves figure, %s s (once per run of any "
-              "length)\n",
-              joined(res.run_end_s, "%.2f").c_str());
-  // A slower core shows here: each step waits for its last chunk (agents::run_chunks).
-  std::printf("  of the updates, beyond an even split of their concurrent chunks over the threads: PPO %.2f s "
-              "(%.0f%% of PPO), ES %.2f s\n",
-              t.ppo_chunk_wait, t.ppo > 0 ? 100.0 * t.ppo_chunk_wait / t.ppo : 0.0, t.es_chunk_wait);
-  std::printf("  network floor %.0f aircraft-steps/s (end to end / floor: median %.2f, per run %s; each run priced "
-              "at costs timed just before and after it)\n",
-              res.floor_rate, res.ratio, joined(res.ratios, "%.2f").c_str());
-  std::printf("  median run (%.1f s): %.0f aircraft-steps/s against its floor %.0f: %.1f s of network time at "
-              "mean batches LL %lld / PPO %lld / HL %lld / ES %lld -- LL forward %.1f s, PPO %.1f s, HL forward "
-              "%.1f s, ES %.1f s; other aircraft alive in those rows %.2f / %.2f / %.2f / %.2f, as in the random "
-              "rows timed\n",
-              t.per_update_loop(), mid.rate, mid.floor_rate, floor.total_s, static_cast<long long>(floor.ll_forward_batch),
-              static_cast<long long>(floor.ll_train_batch), static_cast<long long>(floor.hl_forward_batch),
-              static_cast<long long>(floor.hl_train_batch), floor.ll_forward_s, floor.ll_train_s,
-              floor.hl_forward_s, floor.hl_train_s, floor.ll_forward_alive, floor.ll_train_alive,
-              floor.hl_forward_alive, floor.hl_train_alive);
-}
-
 void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int threads_option) {
   // Every config read and checked before anything is launched or timed: a bad key in the last
   // one fails at once, not after minutes of benchmarks of the others.
@@ -182,8 +102,9 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
   }
   for (std::size_t c = 0; c < o.configs.size(); ++c) {
     const bench::TrainBenchResult res = bench::bench_training(configs[c], o.updates, o.repeat);
-    if (o.json) print_train_json(o.configs[c], configs[c], res);
-    else print_train_text(o.configs[c], configs[c], res);
+    const std::string report = o.json ? bench::train_bench_json(o.configs[c], configs[c], res)
+                                      : bench::train_bench_text(o.configs[c], configs[c], res);
+    std::fputs(report.c_str(), stdout);
     std::fflush(stdout);
   }
 }

@@ -127,7 +127,7 @@ struct Game {
 // Every rank's race records, on every rank: fixed-width rows of doubles (each field a small
 // integer or the duration, exact in a double), padded to the longest rank's count.
 std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceRecord>& mine, std::uint64_t track_seed) {
-  constexpr std::size_t kBase = 13, kFields = kBase + 2 * race::kNumCauses;
+  constexpr std::size_t kBase = 11, kFields = kBase + 2 * race::kNumCauses;
   std::vector<std::int64_t> counts(group.size(), 0);
   counts[group.rank()] = static_cast<std::int64_t>(mine.size());
   group.allreduce_sum(counts);
@@ -137,8 +137,7 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
     const RaceRecord& r = mine[i];
     const double f[kFields] = {double(r.pair),     double(r.blue),      double(r.red),       double(r.env),
                                double(r.race),     double(r.track),     double(r.winner),    double(r.end_reason),
-                               r.duration_s,       double(r.blue_out),  double(r.red_out),   double(r.blue_blocks),
-                               double(r.red_blocks)};
+                               r.duration_s,       double(r.blue_blocks), double(r.red_blocks)};
     double* row = packed.data() + i * kFields;
     std::copy(f, f + kBase, row);
     for (int c = 0; c < race::kNumCauses; ++c) {
@@ -161,10 +160,8 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
       r.winner = static_cast<int>(f[6]);
       r.end_reason = static_cast<int>(f[7]);
       r.duration_s = f[8];
-      r.blue_out = static_cast<int>(f[9]);
-      r.red_out = static_cast<int>(f[10]);
-      r.blue_blocks = static_cast<int>(f[11]);
-      r.red_blocks = static_cast<int>(f[12]);
+      r.blue_blocks = static_cast<int>(f[9]);
+      r.red_blocks = static_cast<int>(f[10]);
       for (int c = 0; c < race::kNumCauses; ++c) {
         r.blue_lost[c] = static_cast<int>(f[kBase + c]);
         r.red_lost[c] = static_cast<int>(f[kBase + race::kNumCauses + c]);
@@ -355,8 +352,6 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       r.duration_s = t_before[e] + rc.dt_ll_s;
       r.blue_lost = lost_blue[e];
       r.red_lost = lost_red[e];
-      r.blue_out = std::accumulate(r.blue_lost.begin(), r.blue_lost.end(), 0);
-      r.red_out = std::accumulate(r.red_lost.begin(), r.red_lost.end(), 0);
       r.blue_blocks = blocks.race_blocks(e, 0);
       r.red_blocks = blocks.race_blocks(e, 1);
       res.races.push_back(r);

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <numeric>
 #include <string>
 #include <utility>
 #include <vector>
@@ -109,9 +110,10 @@ struct RaceRecord {
   int winner = -1;                  // entry index, -1 draw
   int end_reason = 0;               // RaceEnv::EndReason
   double duration_s = 0.0;
-  int blue_out = 0, red_out = 0;    // aircraft terminated per team
-  // The same per race::TerminationCause (index kCauseNone unused): what each team lost its aircraft to.
+  // Aircraft each team lost, per race::TerminationCause (index kCauseNone unused).
   std::array<int, race::kNumCauses> blue_lost{}, red_lost{};
+  int blue_out() const { return std::accumulate(blue_lost.begin(), blue_lost.end(), 0); }
+  int red_out() const { return std::accumulate(red_lost.begin(), red_lost.end(), 0); }
   int blue_blocks = 0, red_blocks = 0;  // blocks by each team (race/block_events.hpp)
 };
 

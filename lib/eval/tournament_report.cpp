@@ -168,8 +168,8 @@ void write_races_csv(const TournamentResult& r, const std::string& path) {
                              double(x.track),
                              double(x.env),
                              double(x.end_reason),
-                             double(x.blue_out),
-                             double(x.red_out),
+                             double(x.blue_out()),
+                             double(x.red_out()),
                              x.duration_s,
                              double(x.blue_blocks),
                              double(x.red_blocks)};
@@ -313,7 +313,9 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
     if (has_autopilot)
       md << " `autopilot` is classic control, no learning: AeroBench's waypoint autopilot (its gains) chasing a "
             "point "
-         << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at the race's start speed.";
+         << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at "
+         << (o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : r.race.autopilot_airspeed())
+         << " ft/s (its set point, race.autopilot_airspeed_ftps or --autopilot-airspeed).";
     if (has_control)
       md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "
             "(the middle bin on every axis, or uniform random bins at every HL decision); `RUN@center_x`, `_y`, `_z` "

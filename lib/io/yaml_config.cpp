@@ -49,6 +49,8 @@ void apply_override(YAML::Node& root, const std::string& assignment) {
   } catch (const YAML::ParserException& e) {
     throw ConfigError("--set '" + assignment + "': value is not valid YAML: " + e.msg);
   }
+  // The value carries where it came from, so an error about it names the --set, not the file.
+  value.SetTag(kOverrideTag + assignment);
   // Walk with fresh handles: yaml-cpp nodes are references, so plain `node = node[key]`
   // assignment would overwrite the tree instead of descending into it.
   std::vector<std::string> keys;
@@ -90,8 +92,14 @@ ConfigReader::ConfigReader(YAML::Node node, std::string source, std::string path
 
 bool ConfigReader::has(const char* key) const { return node_ && node_.IsMap() && node_[key]; }
 
+std::string ConfigReader::origin(const YAML::Node& value) const {
+  const std::string& tag = value.Tag();
+  if (tag.rfind(kOverrideTag, 0) == 0) return "--set " + tag.substr(std::string(kOverrideTag).size());
+  return source_;
+}
+
 void ConfigReader::fail(const char* key, const std::string& what) const {
-  throw ConfigError(source_ + ": " + key_path(key) + ": " + what);
+  throw ConfigError((has(key) ? origin(node_[key]) : source_) + ": " + key_path(key) + ": " + what);
 }
 
 namespace {
@@ -275,13 +283,15 @@ void ConfigReader::retired(const char* key, const char* value) {
   if (!has(key)) return;
   const YAML::Node n = node_[key];
   if (holds(n, value)) return;
-  throw ConfigError(source_ + ": " + key_path(key) + ": " + (n.IsScalar() ? n.Scalar() : scalar_text(n)) +
+  throw ConfigError(origin(n) + ": " + key_path(key) + ": " + (n.IsScalar() ? n.Scalar() : scalar_text(n)) +
                     " was removed in " + kKeysRetiredIn + "; build commit " + kLastCommitWithRetiredKeys + " to use it");
 }
 
 ConfigReader ConfigReader::child(const char* key) {
   used_.insert(key);
-  return ConfigReader(has(key) ? node_[key] : YAML::Node(), source_, key_path(key));
+  if (!has(key)) return ConfigReader(YAML::Node(), source_, key_path(key));
+  const YAML::Node n = node_[key];
+  return ConfigReader(n, origin(n), key_path(key));
 }
 
 void ConfigReader::finish() const {
@@ -291,7 +301,7 @@ void ConfigReader::finish() const {
     if (!used_.count(k)) {
       std::string known;
       for (const std::string& u : used_) known += (known.empty() ? "" : ", ") + u;
-      throw ConfigError(source_ + ": unknown key '" + key_path(k.c_str()) + "' (known here: " + known + ")");
+      throw ConfigError(origin(kv.second) + ": unknown key '" + key_path(k.c_str()) + "' (known here: " + known + ")");
     }
   }
 }

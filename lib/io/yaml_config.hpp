@@ -27,6 +27,8 @@ YAML::Node parse_yaml_text(const std::string& text, const std::string& source);
 // Applies `key.path=value` overrides (from --set) onto a YAML tree; the value is parsed as YAML,
 // so numbers, booleans, strings and [lists] work. Unknown keys are caught later by the reader.
 void apply_override(YAML::Node& root, const std::string& assignment);
+// The tag apply_override gives a value, followed by its assignment: errors name the --set.
+inline constexpr const char* kOverrideTag = "!f16race-set:";
 
 // load_yaml_file(path), then every override in order (what `--config F --set k=v ...` means).
 YAML::Node load_yaml_with_overrides(const std::string& path, const std::vector<std::string>& overrides);
@@ -69,6 +71,9 @@ class ConfigReader {
   [[noreturn]] void fail(const char* key, const std::string& what) const;
 
  private:
+  // Where `value` came from: its --set assignment (apply_override tags it), else the file.
+  std::string origin(const YAML::Node& value) const;
+
   YAML::Node node_;
   std::string source_;
   std::string path_;

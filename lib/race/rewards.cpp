@@ -49,6 +49,8 @@ double RaceEnv::separation_penalty(int i) const {
   const RaceConfig& c = config_;
   if (c.separation_ft <= 0.0 || c.w_separation == 0.0) return 0.0;
   const int env = i / n_agent_, a = i % n_agent_, team = team_of(a, c.team_size);
+  // The collision pass measured these distances too; recomputing team_size - 1 of them is
+  // cheaper than keeping an [n_env, n_agent, n_agent] matrix alive between the two systems.
   double sum = 0.0;
   for (int b = 0; b < n_agent_; ++b) {
     const int j = env * n_agent_ + b;

@@ -40,6 +40,16 @@ std::unique_ptr<io::RunFolderLock> own_run_folder(const std::string& run_dir) {
   for (const char* sub : {"", "checkpoint", "pool"}) io::remove_stale_temporaries((fs::path(run_dir) / sub).string());
   return lock;
 }
+
+// Removes `run_dir` if it holds nothing but the lock's file (a start that failed before writing).
+void remove_if_only_lock(const std::string& run_dir) {
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(run_dir, ec))
+    if (entry.path().filename() != ".lock") return;
+  if (ec) return;
+  fs::remove(fs::path(run_dir) / ".lock", ec);
+  fs::remove(run_dir, ec);
+}
 }  // namespace
 
 Trainer::Trainer(std::unique_ptr<State> state) : s_(std::move(state)) {}
@@ -63,6 +73,8 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Gr
     s_->load_opponent();
     return;
   }
+  std::error_code ec;
+  const bool folder_is_new = !fs::exists(run_dir, ec);
   s_->lock = own_run_folder(run_dir);
   // Anything in the folder may be a run whose LATEST was lost: never write over it.
   if (const std::vector<std::string> data = io::run_data_in(run_dir); !data.empty()) {
@@ -73,7 +85,15 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Gr
   }
   s_->resolved_yaml = train_config_yaml(config);
   s_->hash = config_hash(s_->resolved_yaml);
-  s_->build(true);  // a config the run cannot be built from leaves the folder as it was
+  try {
+    s_->build(true);  // a config the run cannot be built from leaves the folder as it was
+  } catch (...) {
+    if (folder_is_new) {  // ... which, for a folder the lock created, is no folder at all
+      s_->lock.reset();
+      remove_if_only_lock(run_dir);
+    }
+    throw;
+  }
   // config.yaml first, then an empty LATEST (no checkpoint is durable yet): a run stopped anywhere
   // in between resumes afresh, while a missing LATEST beside checkpoint folders is a lost pointer.
   fs::create_directories(fs::path(run_dir) / "checkpoint");

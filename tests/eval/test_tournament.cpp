@@ -10,6 +10,7 @@
 #include <iterator>
 #include <map>
 #include <set>
+#include <sstream>
 
 #include "eval/tournament.hpp"
 #include "eval/tournament_report.hpp"
@@ -68,8 +69,8 @@ TEST(Tournament, TracksOfAnotherConfig) {
     long_s = std::max(long_s, x.duration_s);
     int blue = 0, red = 0;
     for (int c = 0; c < race::kNumCauses; ++c) blue += x.blue_lost[c], red += x.red_lost[c];
-    EXPECT_EQ(blue, x.blue_out);
-    EXPECT_EQ(red, x.red_out);
+    EXPECT_EQ(blue, x.blue_out());
+    EXPECT_EQ(red, x.red_out());
   }
   EXPECT_EQ(short_races.race.track.n_waypoints, 5);
   EXPECT_EQ(long_races.race.track.n_waypoints, 9);
@@ -161,8 +162,8 @@ TEST(Tournament, EachRaceIsTheSameWhateverItsEnvSlotAndTheOtherEntries) {
     EXPECT_EQ(w[k].winner, n[k].winner) << "race " << k;
     EXPECT_EQ(w[k].end_reason, n[k].end_reason) << "race " << k;
     EXPECT_DOUBLE_EQ(w[k].duration_s, n[k].duration_s) << "race " << k;
-    EXPECT_EQ(w[k].blue_out, n[k].blue_out) << "race " << k;
-    EXPECT_EQ(w[k].red_out, n[k].red_out) << "race " << k;
+    EXPECT_EQ(w[k].blue_lost, n[k].blue_lost) << "race " << k;
+    EXPECT_EQ(w[k].red_lost, n[k].red_lost) << "race " << k;
     other_slot += w[k].env != n[k].env;
     durations.insert(w[k].duration_s);
   }
@@ -482,6 +483,10 @@ TEST(TournamentAutopilot, ListedOutOfStatisticsAndOutfliesTheUntrainedNetworks) 
   const std::string text((std::istreambuf_iterator<char>(md)), {});
   EXPECT_NE(text.find("| autopilot | autopilot |"), std::string::npos);
   EXPECT_NE(text.find("none: AeroBench's waypoint autopilot"), std::string::npos);
+  // The summary states the set point it flew, not the start speed.
+  std::ostringstream set_point;
+  set_point << "start lane at " << r.race.autopilot_airspeed() << " ft/s (its set point";
+  EXPECT_NE(text.find(set_point.str()), std::string::npos) << text;
 }
 
 TEST(Tournament, RefusesMissingAndMismatchedRuns) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "io/yaml_config.hpp"
 
@@ -118,6 +119,49 @@ TEST(YamlConfig, OverridesSetNestedKeysAndTheirErrorsAreCaught) {
   EXPECT_EQ(root["n"].as<int>(), 16);
   EXPECT_THROW(apply_override(root, "novalue"), ConfigError);
   EXPECT_THROW(apply_override(root, "n.deeper=1"), ConfigError);  // n is a value, not a section
+}
+
+// A bad value given by --set is reported as that --set, not as the file's: the file may be fine.
+TEST(YamlConfig, ErrorsInOverriddenValuesNameTheSetNotTheFile) {
+  auto error_after = [](const std::vector<std::string>& sets) -> std::string {
+    YAML::Node root = YAML::Load("n: 8\nsub: {inner: 1}\n");
+    for (const std::string& s : sets) apply_override(root, s);
+    try {
+      ConfigReader r(root, "cfg.yaml");
+      int n = 0, inner = 0;
+      r.read("n", &n, 1, 1024);
+      ConfigReader sub = r.child("sub");
+      sub.read("inner", &inner, 0, 10);
+      r.retired("old", "0");
+      sub.finish();
+      r.finish();
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error_after({"n=abc"}), "--set n=abc: n: expected an integer, got 'abc'");
+  EXPECT_EQ(error_after({"sub.inner=11"}).rfind("--set sub.inner=11: sub.inner: value 11 is out of range", 0), 0u)
+      << error_after({"sub.inner=11"});
+  EXPECT_EQ(error_after({"sub.innr=2"}).rfind("--set sub.innr=2: unknown key 'sub.innr'", 0), 0u)
+      << error_after({"sub.innr=2"});
+  EXPECT_EQ(error_after({"old=1"}).rfind("--set old=1: old: 1 was removed in", 0), 0u) << error_after({"old=1"});
+  // A whole section given by --set: a bad key inside it names that --set too.
+  EXPECT_EQ(error_after({"sub={inner: 1, x: 2}"}).rfind("--set sub={inner: 1, x: 2}: unknown key 'sub.x'", 0), 0u)
+      << error_after({"sub={inner: 1, x: 2}"});
+  // Keys the --set did not touch still name the file, and good overrides read as before.
+  YAML::Node root = YAML::Load("n: 0\n");
+  apply_override(root, "sub.inner=4");
+  try {
+    ConfigReader r(root, "cfg.yaml");
+    int n = 0;
+    r.read("n", &n, 1, 1024);
+    ADD_FAILURE() << "n: 0 was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("cfg.yaml: n: value 0 is out of range", 0), 0u) << e.what();
+  }
+  EXPECT_EQ(root["sub"]["inner"].as<int>(), 4);
+  EXPECT_EQ(error_after({"n=12", "sub.inner=3"}), "");
 }
 
 TEST(YamlConfig, MissingFileAndSyntaxErrorsAreOneLine) {

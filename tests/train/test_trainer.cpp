@@ -211,20 +211,25 @@ TEST(Trainer, LowLevelFromAnotherRunIsFlownFrozen) {
   EXPECT_EQ(resumed->ll_parameters(), pilot_ll);
   fs::rename(pilot_dir + ".moved", pilot_dir);
   // A folder without a run, and a low level of another network size, are one line each.
+  // A start that fails there leaves no folder behind, unless the folder was there before.
+  const std::string bad1 = fresh_dir("llfrom_bad1"), bad2 = fresh_dir("llfrom_bad2");
   try {
-    Trainer bad(smoke("train.ll_from=" + fresh_dir("llfrom_nothing")), fresh_dir("llfrom_bad1"));
+    Trainer bad(smoke("train.ll_from=" + fresh_dir("llfrom_nothing")), bad1);
     ADD_FAILURE() << "a folder without a run was accepted";
   } catch (const io::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("train.ll_from names no trained run"), std::string::npos) << e.what();
   }
+  EXPECT_FALSE(fs::exists(bad1)) << "the failed start left its run folder";
+  fs::create_directories(bad2);
   try {
     TrainConfig wide = smoke(extra);
     wide.ll.net.hidden = {32, 32};
-    Trainer bad(wide, fresh_dir("llfrom_bad2"));
+    Trainer bad(wide, bad2);
     ADD_FAILURE() << "a low level of another size was accepted";
   } catch (const io::InputError& e) {
     EXPECT_NE(std::string(e.what()).find("does not fit this config"), std::string::npos) << e.what();
   }
+  EXPECT_TRUE(fs::is_directory(bad2)) << "the user's own folder was removed";
   EXPECT_NE(error_of("train: {ll_from: runs/x, ll_pilot: autopilot}").find("use one of the two"), std::string::npos);
 }
 
