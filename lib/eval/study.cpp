@@ -41,9 +41,17 @@ StudyConfig read_study_config(const std::string& path) {
   r.read("controls", &c.controls);
   r.read("tournament_seed", &c.tournament_seed);
   r.finish();
-  // The base config with the study's overrides must be a valid training config: found now, not
-  // in the first child.
+  // The base config with the study's overrides must be a valid training config, and so must every
+  // cell's (its seed, variant and interval on top): found now, not in the child hours later.
   train::read_train_config(io::load_yaml_with_overrides(c.base_config, c.set), c.base_config);
+  for (const StudyCell& cell : plan_study(c, "")) {
+    try {
+      train::read_train_config(io::load_yaml_with_overrides(c.base_config, cell.overrides), c.base_config);
+    } catch (const io::ConfigError& e) {
+      throw io::ConfigError(path + ": cell " + interval_name(cell.dt_hl_s) + "/" + cell.variant + "_s" +
+                            std::to_string(cell.seed) + " is not a valid training config: " + e.what());
+    }
+  }
   return c;
 }
 

@@ -39,7 +39,7 @@ TEST(Study, ConfigIsValidatedWithTheKeyNamed) {
   const fs::path d = fresh_dir("config");
   write(d / "base.yaml", kTinyBase);
   const std::string base = "base_config: " + (d / "base.yaml").string() + "\n";
-  write(d / "ok.yaml", base + "variants: [es_d2, es_d3]\nseeds: [4, 7]\ndt_hl_s: [8, 20]\ntotal_env_steps: 5000\n");
+  write(d / "ok.yaml", base + "variants: [es_d2, es_d3]\nseeds: [4, 7]\ndt_hl_s: [1.6, 4]\ntotal_env_steps: 5000\n");
   const StudyConfig c = read_study_config((d / "ok.yaml").string());
   EXPECT_EQ(c.variants, (std::vector<std::string>{"es_d2", "es_d3"}));
   EXPECT_EQ(c.seeds, (std::vector<int>{4, 7}));
@@ -60,11 +60,32 @@ TEST(Study, ConfigIsValidatedWithTheKeyNamed) {
   EXPECT_NE(error_of("total_env_steps: 10\n").find("total_env_steps"), std::string::npos);
   EXPECT_NE(error_of("set: [train.ll_pilot]\n").find("'train.ll_pilot' is not KEY=VALUE"), std::string::npos);
   EXPECT_NE(error_of("set: [train.ll_pilot=pid]\n").find("train.ll_pilot"), std::string::npos);  // checked on the base
-  write(d / "set.yaml", base + "set: [train.ll_pilot=autopilot]\n");
+  write(d / "set.yaml", base + "set: [train.ll_pilot=autopilot]\ndt_hl_s: [1.6]\n");
+  // Every cell is checked on the base, not only the base: 20 s intervals do not fit its 10 s races.
+  EXPECT_NE(error_of("dt_hl_s: [1.6, 20]\n").find("cell dt20/es_s1 is not a valid training config"), std::string::npos)
+      << error_of("dt_hl_s: [1.6, 20]\n");
   EXPECT_EQ(read_study_config((d / "set.yaml").string()).set, (std::vector<std::string>{"train.ll_pilot=autopilot"}));
   write(d / "badbase.yaml", "race: {n_envs: 2}\n");
   write(d / "bad.yaml", "base_config: " + (d / "badbase.yaml").string() + "\n");
   EXPECT_THROW(read_study_config((d / "bad.yaml").string()), io::ConfigError);  // the base is checked too
+  // ...and every cell on it: a base that pins race.seed fits seed 1's cells only.
+  write(d / "seeded.yaml", std::string(kTinyBase) + "seed: 1\n");
+  {
+    YAML::Node n = YAML::LoadFile((d / "seeded.yaml").string());
+    n["race"]["seed"] = 1;
+    std::ofstream(d / "seeded.yaml") << n;
+  }
+  write(d / "bad.yaml", "base_config: " + (d / "seeded.yaml").string() + "\nseeds: [1, 2]\ndt_hl_s: [1.6]\n");
+  const std::string e = [&] {
+    try {
+      read_study_config((d / "bad.yaml").string());
+    } catch (const io::ConfigError& err) {
+      return std::string(err.what());
+    }
+    return std::string("no error");
+  }();
+  EXPECT_NE(e.find("bad.yaml: cell dt1.6/es_s2 is not a valid training config: "), std::string::npos) << e;
+  EXPECT_NE(e.find("race.seed = 1 differs from seed = 2"), std::string::npos) << e;
 }
 
 TEST(Study, PlanOrdersCellsByIntervalSeedVariant) {
