@@ -1,6 +1,7 @@
 #include "train/train_report.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace f16race::train {
@@ -12,17 +13,29 @@ std::string clock_text(double seconds) {
   return b;
 }
 
+namespace {
+// One value of the progress line, or "-" (right-aligned to the same width) when there is none
+// yet: no race ended in the update, so no winrate or return to show.
+std::string shown(double v, const char* format, int width) {
+  char b[64];
+  if (std::isfinite(v)) std::snprintf(b, sizeof b, format, v);
+  else std::snprintf(b, sizeof b, "%*s", width, "-");
+  return b;
+}
+}  // namespace
+
 std::string progress_line(const MetricsRow& r, std::int64_t total_env_steps, const std::string& prefix) {
-  const double frac = static_cast<double>(r.env_steps) / static_cast<double>(total_env_steps);
+  // The last update may overshoot the budget (updates are whole): shown as 100 %, 0:00 to go.
+  const double frac = std::min(1.0, static_cast<double>(r.env_steps) / static_cast<double>(total_env_steps));
   const double eta = frac > 0 ? r.wall_s * (1.0 - frac) / frac : NAN;
-  char line[400];
-  std::snprintf(line, sizeof line,
-                "%s%5.1f%% %s ETA %s | upd %lld %s | %.0fk smp/s | goal %5.0f ft | %3.0f ft/s | win %.2f | "
-                "finish %.2f | LL ret %6.2f | HL ret %6.2f | HL Q spread %.3f, middle bin x/y/z %.2f/%.2f/%.2f",
+  // Fits 100 columns with a "member m: " prefix; goal distance, HL return and the high level's
+  // diagnostics are in metrics.csv and curves.png.
+  char line[256];
+  std::snprintf(line, sizeof line, "%s%5.1f%% %s ETA %s | upd %lld %s | %s ft/s | win %s | finish %s | LL ret %s",
                 prefix.c_str(), 100.0 * frac, clock_text(r.wall_s).c_str(), clock_text(eta).c_str(),
-                static_cast<long long>(r.update), r.phase.c_str(), r.samples_per_s / 1000.0, r.goal_dist_ft,
-                r.airspeed_ftps, r.winrate, r.finish_rate, r.ll_return, r.hl_return, r.q_spread, r.middle_share[0],
-                r.middle_share[1], r.middle_share[2]);
+                static_cast<long long>(r.update), r.phase.c_str(), shown(r.airspeed_ftps, "%4.0f", 4).c_str(),
+                shown(r.winrate, "%.2f", 4).c_str(), shown(r.finish_rate, "%.2f", 4).c_str(),
+                shown(r.ll_return, "%5.1f", 5).c_str());
   return line;
 }
 

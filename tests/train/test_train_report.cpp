@@ -66,5 +66,33 @@ TEST(TrainerReport, ProgressLineStartsWithItsPrefixAndShare) {
   EXPECT_EQ(clock_text(std::nan("")), "--:--");
 }
 
+// A person reads no "nan": an update in which no race ended shows "-" for what it has not seen.
+// And the line fits 100 columns with the tail members' prefix and long-run values.
+TEST(TrainerReport, ProgressLineShowsNoNanAndFitsOneHundredColumns) {
+  MetricsRow r;
+  r.update = 1;
+  r.phase = "ll";
+  r.env_steps = 32;
+  r.wall_s = 0.5;
+  r.airspeed_ftps = 559.4;
+  r.winrate = r.finish_rate = r.ll_return = r.hl_return = r.goal_dist_ft = r.q_spread = std::nan("");
+  std::string line = progress_line(r, 640);
+  EXPECT_EQ(line.find("nan"), std::string::npos) << line;
+  EXPECT_NE(line.find("|  559 ft/s | win    - | finish    - | LL ret     -"), std::string::npos) << line;
+  r.update = 99999;
+  r.phase = "hl";
+  r.env_steps = 640;
+  r.wall_s = 99 * 60 + 59;
+  r.airspeed_ftps = 1234.0;
+  r.winrate = 0.5;
+  r.finish_rate = 1.0;
+  r.ll_return = -99.94;
+  line = progress_line(r, 640, "member 2: ");
+  EXPECT_LE(line.size(), 100u) << line;
+  EXPECT_NE(line.find("| 1234 ft/s | win 0.50 | finish 1.00 | LL ret -99.9"), std::string::npos) << line;
+  r.env_steps = 700;  // the last update overshoots the budget
+  EXPECT_EQ(progress_line(r, 640).rfind("100.0% 99:59 ETA 0:00 |", 0), 0u) << progress_line(r, 640);
+}
+
 }  // namespace
 }  // namespace f16race::train
