@@ -8,6 +8,7 @@
 #include <string>
 #include <tuple>
 
+#include "agents/checkpoint_content.hpp"
 #include "io/atomic_file.hpp"
 
 namespace f16race::agents {
@@ -118,24 +119,34 @@ inline void read_adam(torch::serialize::InputArchive& root, const std::string& k
   }
 }
 
-// What every agent saves beside its networks: the observation normaliser, the optimiser, the
-// update counter and the minibatch generator, so a resumed agent continues exactly.
+// What every agent saves beside its networks: the observation normaliser, the optimiser (kFull
+// only; a kPolicy file says so under "policy_only"), the update counter and the minibatch
+// generator, so a resumed agent continues exactly.
 inline void write_agent_state(torch::serialize::OutputArchive& root, const torch::nn::Module& normalizer,
-                              const torch::optim::Adam& opt, int64_t update_count, const at::Generator& generator) {
+                              const torch::optim::Adam& opt, int64_t update_count, const at::Generator& generator,
+                              CheckpointContent content) {
   write_sub_archive(root, "normalizer", normalizer);
-  write_adam(root, "adam", opt);
+  if (content == CheckpointContent::kFull)
+    write_adam(root, "adam", opt);
+  else
+    root.write("policy_only", torch::tensor(int64_t{1}));
   root.write("update_count", torch::tensor(update_count));
   root.write("generator_state", generator.get_state());
 }
 
-inline void read_agent_state(torch::serialize::InputArchive& root, torch::nn::Module& normalizer,
-                             torch::optim::Adam& opt, int64_t* update_count, at::Generator& generator) {
+// Reads write_agent_state's parts; returns whether the file is policy-only (the optimiser then
+// keeps its fresh state).
+inline CheckpointContent read_agent_state(torch::serialize::InputArchive& root, torch::nn::Module& normalizer,
+                                          torch::optim::Adam& opt, int64_t* update_count, at::Generator& generator) {
   read_sub_archive(root, "normalizer", normalizer);
-  read_adam(root, "adam", opt);
+  torch::Tensor flag;
+  const bool policy_only = root.try_read("policy_only", flag);
+  if (!policy_only) read_adam(root, "adam", opt);
   *update_count = read_int(root, "update_count");
   torch::Tensor state;
   root.read("generator_state", state);
   generator.set_state(state);
+  return policy_only ? CheckpointContent::kPolicy : CheckpointContent::kFull;
 }
 
 }  // namespace f16race::agents

@@ -506,12 +506,12 @@ void EsAgent::chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bo
              masked_mean((l.prediction - target_c.value).abs(), l.valid).item<double>()};
 }
 
-void EsAgent::save(const std::string& path) const {
+void EsAgent::save(const std::string& path, CheckpointContent content) const {
   torch::serialize::OutputArchive root;
   write_sub_archive(root, "critic", *critic_);
-  write_sub_archive(root, "target", *target_);
+  if (content == CheckpointContent::kFull) write_sub_archive(root, "target", *target_);
   root.write("variant", torch::tensor(static_cast<int64_t>(cfg_.variant)));
-  write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
+  write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_, content);
   save_archive_atomic(root, path);
 }
 
@@ -537,8 +537,11 @@ void EsAgent::load_archive(torch::serialize::InputArchive& root) {
   TORCH_CHECK(variant == cfg_.variant, "EsAgent::load: the file holds variant ", es_variant_name(variant),
               ", this agent is ", es_variant_name(cfg_.variant));
   read_sub_archive(root, "critic", *critic_);
-  read_sub_archive(root, "target", *target_);
-  read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
+  torch::serialize::InputArchive target;
+  const bool has_target = root.try_read("target", target);
+  if (has_target) target_->load(target);
+  loaded_content_ = read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
+  if (!has_target) sync_target();  // a policy-only file: acting never reads the target
 }
 
 }  // namespace f16race::agents

@@ -36,6 +36,7 @@
 #include <utility>
 #include <vector>
 
+#include "agents/checkpoint_content.hpp"
 #include "agents/c51.hpp"
 #include "agents/eigen_mirror.hpp"
 #include "agents/gradient_step.hpp"
@@ -210,9 +211,12 @@ class EsAgent {
   EsStats update(const EsBatch& batch);
   void set_replicas(const Replicas& replicas);
   void sync_target();
-  void save(const std::string& path) const;
+  // kPolicy: the online critic without the target network and the optimiser state (a shared
+  // policy, which cannot resume training); its load sets the target to the critic.
+  void save(const std::string& path, CheckpointContent content = CheckpointContent::kFull) const;
   void load(const std::string& path);
   void load_bytes(const std::string& bytes);  // a file's bytes, received instead of read
+  CheckpointContent loaded_content() const { return loaded_content_; }
 
   const EsConfig& config() const { return cfg_; }
   models::HlCritic& critic() { return critic_; }
@@ -242,6 +246,7 @@ class EsAgent {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
+  CheckpointContent loaded_content_ = CheckpointContent::kFull;
   // The online critic for q_values on Eigen kernels; it follows every write to the critic's
   // weights (an optimiser step, a load, a write through critic()).
   EigenMirror eigen_;

@@ -334,10 +334,10 @@ void PpoAgent::set_replicas(const Replicas& replicas) {
   normalizer_->set_moments_gather(replicas.gather);
 }
 
-void PpoAgent::save(const std::string& path) const {
+void PpoAgent::save(const std::string& path, CheckpointContent content) const {
   torch::serialize::OutputArchive root;
   write_sub_archive(root, "net", *net_);
-  write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_);
+  write_agent_state(root, *normalizer_, *optimizer_, update_count_, generator_, content);
   save_archive_atomic(root, path);
 }
 
@@ -355,7 +355,7 @@ void PpoAgent::load_bytes(const std::string& bytes) {
 
 void PpoAgent::load_archive(torch::serialize::InputArchive& root) {
   read_sub_archive(root, "net", *net_);
-  read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
+  loaded_content_ = read_agent_state(root, *normalizer_, *optimizer_, &update_count_, generator_);
 }
 
 }  // namespace f16race::agents

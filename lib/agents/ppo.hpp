@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 
+#include "agents/checkpoint_content.hpp"
 #include "agents/eigen_mirror.hpp"
 #include "agents/gradient_step.hpp"
 #include "agents/replicas.hpp"
@@ -119,10 +120,13 @@ class PpoAgent {
   // Learn as one of several data-parallel replicas (agents/replicas.hpp); the statistics of
   // act(update_stats) then absorb every replica's rows.
   void set_replicas(const Replicas& replicas);
-  void save(const std::string& path) const;
+  // kPolicy: without the optimiser state (a shared policy, which cannot resume training).
+  void save(const std::string& path, CheckpointContent content = CheckpointContent::kFull) const;
   void load(const std::string& path);
   // The same from a file's bytes (a rank that received them instead of reading the file).
   void load_bytes(const std::string& bytes);
+  // What the last load read: a kPolicy file leaves the optimiser fresh.
+  CheckpointContent loaded_content() const { return loaded_content_; }
 
   double learning_rate_for_update(int64_t update_index) const;
   const PpoConfig& config() const { return cfg_; }
@@ -155,6 +159,7 @@ class PpoAgent {
   std::unique_ptr<torch::optim::Adam> optimizer_;
   at::Generator generator_;
   int64_t update_count_ = 0;
+  CheckpointContent loaded_content_ = CheckpointContent::kFull;
   EigenMirror eigen_;  // the network on Eigen kernels for the rollout (cfg_.eigen_inference)
   std::vector<float> norm_terms_;  // infer_raw_into's float normalisation terms, reused
 };

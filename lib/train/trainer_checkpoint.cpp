@@ -203,11 +203,14 @@ void Trainer::State::read_checkpoint_files(CheckpointFiles* f) const {
   f->dir = fs::path(run_dir) / "checkpoint" / name;
   f->file = f->dir / "meta.yaml";
   int written_by = 1;
+  bool policy_only = false;
   try {
     check_checkpoint_meta(f->dir.string(), hash);
-    const YAML::Node ws = YAML::LoadFile(f->file.string())["world_size"];
-    written_by = ws ? ws.as<int>() : 1;
-    if (written_by == world) {
+    const YAML::Node meta = YAML::LoadFile(f->file.string());
+    written_by = meta["world_size"] ? meta["world_size"].as<int>() : 1;
+    policy_only = meta["policy_only"] && meta["policy_only"].as<bool>();
+    if (policy_only) written_by = world;  // refused below, with its own reason
+    if (written_by == world && !policy_only) {
       f->file = f->dir / "ll.pt";
       f->ll = read_text(f->file.string());
       f->file = f->dir / "hl.pt";
@@ -221,6 +224,9 @@ void Trainer::State::read_checkpoint_files(CheckpointFiles* f) const {
     throw io::InputError(f->file.string() + ": cannot resume from this checkpoint (" + checkpoint_error_reason(e) +
                          "); the file is corrupt, truncated or from another build: restore it or train again");
   }
+  if (policy_only)
+    throw io::InputError(f->dir.string() + ": a policy-only copy (f16race export --policy-run), without the optimiser "
+                         "and trainer state a resume needs; resume the run it was copied from, or train a new run");
   if (written_by != world)
     throw io::InputError(
         f->file.string() + ": this checkpoint was written by " +

@@ -264,5 +264,53 @@ TEST(Checkpoint, EsRoundTripEveryVariant) {
   std::remove(path.c_str());
 }
 
+// A policy-only file (CheckpointContent::kPolicy, the shipped team's): the networks, normaliser,
+// counter and generator, without Adam's state (and the HL target): under half the bytes, the
+// same actions and values, and said so by loaded_content().
+TEST(Checkpoint, PolicyOnlyFilesActAsTheFullOnes) {
+  const std::string dir = ::testing::TempDir() + "/f16race_ckpt_policy";
+  std::filesystem::create_directories(dir);
+  torch::manual_seed(1);
+  PpoAgent a(small_ppo_config());
+  Rng r(5);
+  a.update(make_buffer(a, r, 64));
+  a.save(dir + "/full.pt");
+  a.save(dir + "/policy.pt", CheckpointContent::kPolicy);
+  EXPECT_LT(std::filesystem::file_size(dir + "/policy.pt"), std::filesystem::file_size(dir + "/full.pt") / 2);
+  PpoAgent b(small_ppo_config());
+  b.load(dir + "/policy.pt");
+  EXPECT_EQ(b.loaded_content(), CheckpointContent::kPolicy);
+  expect_same_parameters(*a.net(), *b.net());
+  expect_same_parameters(*a.normalizer(), *b.normalizer());
+  EXPECT_EQ(a.update_count(), b.update_count());
+  const auto obs = ll_obs(r, 32);
+  auto g1 = models::make_generator(1), g2 = models::make_generator(1);
+  EXPECT_TRUE(a.act(obs, g1, false).mean.equal(b.act(obs, g2, false).mean));
+  b.load(dir + "/full.pt");
+  EXPECT_EQ(b.loaded_content(), CheckpointContent::kFull);
+
+  EsConfig cfg;
+  cfg.variant = EsVariant::kEsD3;
+  cfg.dims = dims();
+  cfg.target_update_interval = 2;
+  cfg.n_minibatches = 2;
+  EsAgent e(cfg);
+  for (int k = 0; k < 3; ++k) e.update(make_es_batch(e, r, 16, 4));  // target and critic differ
+  e.save(dir + "/hl_full.pt");
+  e.save(dir + "/hl_policy.pt", CheckpointContent::kPolicy);
+  EXPECT_LT(std::filesystem::file_size(dir + "/hl_policy.pt"), std::filesystem::file_size(dir + "/hl_full.pt") / 2);
+  EsAgent f(cfg);
+  f.load(dir + "/hl_policy.pt");
+  EXPECT_EQ(f.loaded_content(), CheckpointContent::kPolicy);
+  expect_same_parameters(*e.critic(), *f.critic());
+  expect_same_parameters(*e.critic(), *f.target_critic());  // the target is the critic
+  const auto hobs = hl_obs(r, {24});
+  auto g3 = models::make_generator(1), g4 = models::make_generator(1);
+  const auto xe = e.act(hobs, 0.1, g3), xf = f.act(hobs, 0.1, g4);
+  EXPECT_TRUE(xe.q.equal(xf.q));
+  EXPECT_TRUE(xe.bins.equal(xf.bins));
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace f16race::agents

@@ -3,7 +3,7 @@
 # --html), tournament, export and Python's f16race.load_policy, and still races as it did when it
 # was shipped: its winrate against AeroBench's autopilot in a short tournament lies within
 # `tolerance` of the one provenance.md records (a change to the race or the networks' inputs moves
-# it). When it no longer loads or races differently, says how to retrain and reship it.
+# it), and the recorded one's Wilson interval lies above 0.5. When it no longer loads or races differently, says how to retrain and reship it.
 # usage: shipped_team.sh F16RACE SOURCE_DIR WORK_DIR [PYTHON PYTHONPATH]  (the last two: the module's tests)
 set -uo pipefail
 bin=$1 src=$2 work=$3 python=${4:-} pypath=${5:-}
@@ -55,6 +55,10 @@ winrate=$(awk -F, '$7 == "trained_team" && $8 == "autopilot" { print $3 }' "$wor
 [ -n "$winrate" ] || { echo "FAIL: no trained_team vs autopilot pairing in $work/tour/pairings.csv"; exit 1; }
 recorded=$(sed -n 's/^| trained_team vs autopilot | [0-9]* | \([0-9.]*\) .*/\1/p' "$team/provenance.md" | head -1)
 [ -n "$recorded" ] || { echo "FAIL: $team/provenance.md records no winrate against the autopilot (reship with scripts/ship_team.sh)"; exit 1; }
+# The recorded figure (hundreds of races) is the evidence that the team beats the autopilot.
+low=$(sed -n 's/^| trained_team vs autopilot | [0-9]* | [0-9.]* \[\([0-9.]*\),.*/\1/p' "$team/provenance.md" | head -1)
+awk -v l="${low:-0}" 'BEGIN { exit !(l > 0.5) }' ||
+  { echo "FAIL: $team/provenance.md: against the autopilot, Wilson lower bound ${low:-missing}, not above 0.5: ship a team that beats it"; exit 1; }
 if awk -v w="$winrate" -v r="$recorded" -v t="$tolerance" 'BEGIN { d = w - r; exit !(d <= t && -d <= t) }'; then
   echo "ok    races as shipped: winrate $winrate against the autopilot over $races races (recorded $recorded)"
 else
