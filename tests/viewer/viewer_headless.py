@@ -1,13 +1,12 @@
 """viewer_headless: `f16race replay --html` writes a page that headless Chromium renders offline.
 
-Trains a one-update run of configs/smoke.yaml as 4 vs 4 whose low level is AeroBench's autopilot (so
-all 8 aircraft fly the tube for the whole race), replays it against the autopilot with --html,
-then checks in Debian's chromium: the page sets its ready flag with WebGL on; it reads back 8
+Replays the shipped team (examples/trained_team, issue 52's acceptance) against the autopilot with
+--html, then checks in Debian's chromium: the page sets its ready flag with WebGL on; it reads back 8
 aircraft, the race length replay printed and the frame a #t= slider position selects; its
 leader is further along the track later on; screenshots are not blank and differ between two
 moments; and it asks for no host a blank page does not. Exit 77 (skipped) only without chromium.
 
-usage: viewer_headless.py F16RACE CONFIG_DIR WORK_DIR
+usage: viewer_headless.py F16RACE SHIPPED_TEAM_DIR WORK_DIR
 """
 import os
 import re
@@ -36,13 +35,9 @@ def sh(cmd):
     return r.stdout
 
 
-def make_page(f16race, configs, work):
-    run = os.path.join(work, "run")
-    sh([f16race, "train", "--config", os.path.join(configs, "smoke.yaml"), "--run", run, "--overwrite",
-        "--set", "race.team_size=4", "--set", "race.time_limit_s=30", "--set", "train.ll_pilot=autopilot",
-        "--max-updates", "1", "--quiet"])
+def make_page(f16race, team, work):
     page = os.path.join(work, "race.html")
-    out = sh([f16race, "replay", "--run", run, "--opponent", "autopilot", "--seed", "2",
+    out = sh([f16race, "replay", "--run", team, "--opponent", "autopilot", "--seed", "2",
               "--out", os.path.join(work, "replay"), "--html", page])
     m = re.search(r"after ([0-9.]+) s", out)
     if not m:
@@ -60,13 +55,13 @@ def check_file(page):
 
 
 def main():
-    f16race, configs, work = sys.argv[1:4]
+    f16race, team, work = sys.argv[1:4]
     if chrome.find() is None:
         print("SKIP: chromium is not installed (scripts/setup.sh installs it): the replay page was not rendered")
         return SKIP
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
-    page, printed_s = make_page(f16race, configs, work)
+    page, printed_s = make_page(f16race, team, work)
     check_file(page)
     url = "file://" + os.path.abspath(page)
 
