@@ -280,6 +280,7 @@ bool holds(const YAML::Node& n, const char* value) {
 
 void ConfigReader::retired(const char* key, const char* value) {
   used_.insert(key);
+  retired_.insert(key);
   if (!has(key)) return;
   const YAML::Node n = node_[key];
   if (holds(n, value)) return;
@@ -300,7 +301,8 @@ void ConfigReader::finish() const {
     const std::string k = kv.first.as<std::string>();
     if (!used_.count(k)) {
       std::string known;
-      for (const std::string& u : used_) known += (known.empty() ? "" : ", ") + u;
+      for (const std::string& u : used_)
+        if (!retired_.count(u)) known += (known.empty() ? "" : ", ") + u;
       throw ConfigError(origin(kv.second) + ": unknown key '" + key_path(k.c_str()) + "' (known here: " + known + ")");
     }
   }

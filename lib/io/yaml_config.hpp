@@ -78,6 +78,7 @@ class ConfigReader {
   std::string source_;
   std::string path_;
   std::set<std::string> used_;
+  std::set<std::string> retired_;  // consumed, but not offered as known keys in an error
 };
 
 // The mirror of ConfigReader with the same calls: writes the current values into a YAML tree,
