@@ -1,14 +1,18 @@
 #!/usr/bin/env python3
 """Notebook 64's table: learned low levels against the tuned autopilot, per seed and over seeds.
 
-    scripts/pilot_seeds_table.py EXPERIMENT_DIR
+    scripts/pilot_seeds_table.py EXPERIMENT_DIR [--control CONTROL_DIR]
 
 EXPERIMENT_DIR holds, per seed S, the run `sS` (its metrics.csv) and the tournament `t_sS`
 (`tournament --runs sS --no-untrained --with-autopilot --controls`; a seed counts once
 `t_sS/done.txt` exists). Prints Markdown: per seed the winrate against the autopilot, `@center`
 and `@random` (Wilson 95 %), airspeed of training's last tenth, the median race, aircraft lost per
 race by cause for both teams of the autopilot pairing, and the winrate in the races neither team
-lost an aircraft; then the pre-registered claims over seeds (bootstrap 95 % CIs). Standard library.
+lost an aircraft; then the pre-registered claims over seeds (bootstrap 95 % CIs). With
+--control, an A/B of EXPERIMENT_DIR (treatment) against CONTROL_DIR (the same layout): the
+difference of the arms' mean winrates against the autopilot, its bootstrap 95 % CI (seeds
+resampled within each arm, 10 000 resamples, random seed 67) and notebook 67's verdict: adopt
+when the CI lies above 0, worse when below, else not resolved. Standard library.
 """
 import csv
 import math
@@ -76,7 +80,7 @@ def fmt_ci(w, n):
     return f"{w / n:.3f} [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]"
 
 
-def seed_row(folder, s):
+def seed_row(folder, s, show=True):
     rows = list(csv.DictReader(open(os.path.join(folder, f"t_s{s}", "races.csv"))))
     me = f"s{s}"
     ap = head_to_head(rows, me, "autopilot")
@@ -84,7 +88,7 @@ def seed_row(folder, s):
     r = head_to_head(rows, me, me + "@random")
     v = last_tenth(os.path.join(folder, me, "metrics.csv"), "airspeed_ftps")
     lost = lambda d: ", ".join(f"{d[k]:.3f}" for k in ("team_collision", "collision", "tube", "envelope"))
-    print(f"| {s} | {fmt_ci(ap['w'], ap['n'])} | {fmt_ci(c['w'], c['n'])} | {fmt_ci(r['w'], r['n'])} | {v:.0f} "
+    (print if show else (lambda *a: None))(f"| {s} | {fmt_ci(ap['w'], ap['n'])} | {fmt_ci(c['w'], c['n'])} | {fmt_ci(r['w'], r['n'])} | {v:.0f} "
           f"| {ap['median_s']:.1f} | {lost(ap['lost'])} | {lost(ap['opp_lost'])} "
           f"| {fmt_ci(ap['clean_w'], ap['clean_n'])} ({ap['clean_n']}) |")
     others = [k for k in CAUSES if k not in ("team_collision", "collision", "tube", "envelope")]
@@ -111,16 +115,37 @@ def summary(per):
         print(f"run's team lost per race vs the autopilot, {c}: mean {m:.3f} [{b[0]:.3f}, {b[1]:.3f}]")
 
 
+def ab_difference(treatment, control, reps=10000, seed=67):
+    """Difference of means (treatment - control), its percentile bootstrap 95 % CI with each arm's
+    seeds resampled within the arm, and the verdict of notebook 67's rule."""
+    rng = random.Random(seed)
+    mean = lambda xs: sum(xs) / len(xs)
+    diffs = sorted(mean([rng.choice(treatment) for _ in treatment]) - mean([rng.choice(control) for _ in control])
+                   for _ in range(reps))
+    lo, hi = diffs[int(0.025 * reps)], diffs[int(0.975 * reps) - 1]
+    verdict = "adopt (CI above 0)" if lo > 0 else ("worse (CI below 0)" if hi < 0 else "not resolved (CI contains 0)")
+    return mean(treatment) - mean(control), lo, hi, verdict
+
+
+def finished_seeds(folder):
+    return [s for s in range(1, 100) if os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt"))]
+
+
 def mean_ci(xs):
     m = sum(xs) / len(xs)
     return m, (boot(xs) if len(xs) > 1 else (m, m))
 
 
 def main():
-    if len(sys.argv) != 2 or not os.path.isdir(sys.argv[1]):
-        sys.exit("usage: scripts/pilot_seeds_table.py EXPERIMENT_DIR (a folder with sS/ and t_sS/)")
-    folder = sys.argv[1]
-    seeds = [s for s in range(1, 100) if os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt"))]
+    args = sys.argv[1:]
+    control = None
+    if len(args) == 3 and args[1] == "--control":
+        control = args[2]
+        args = args[:1]
+    if len(args) != 1 or not os.path.isdir(args[0]) or (control is not None and not os.path.isdir(control)):
+        sys.exit("usage: scripts/pilot_seeds_table.py EXPERIMENT_DIR [--control CONTROL_DIR] (folders with sS/ and t_sS/)")
+    folder = args[0]
+    seeds = finished_seeds(folder)
     if not seeds:
         sys.exit(f"{folder}: no finished seed (t_sS/done.txt); run the tournaments first")
     print("| seed | vs autopilot [95 % Wilson] | vs @center | vs @random | airspeed ft/s (last tenth) "
@@ -129,6 +154,13 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|")
     per = [seed_row(folder, s) for s in seeds]
     summary(per)
+    if control is not None:
+        base = [seed_row(control, s, show=False) for s in finished_seeds(control)]
+        if not base:
+            sys.exit(f"{control}: no finished seed (t_sS/done.txt)")
+        d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
+        print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
+              f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
 
 
 if __name__ == "__main__":
