@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -21,7 +22,7 @@ namespace f16race::train {
 namespace fs = std::filesystem;
 
 template <class V>
-void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& stream_state) {
+void Trainer::State::visit_checkpoint(V& v, std::uint64_t& stream_state) {
   v.bytes("env", [&](std::ostream& out) { env->save_state(out); }, [&](std::istream& in) { env->load_state(in); });
   v.integers("counters", env_steps, ppo_updates, es_updates, phase, phase_updates, opponent, hl_grad_steps);
   v.integer_list("pool", pool.steps(), false);
@@ -45,7 +46,6 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
           last_es.q_spread, last_es.greedy_entropy, last_es.off_center_share, last_es.loss_before);
   // Added after the key above was fixed: checkpoints written before it resume with nan here.
   v.optional_reals("last_middle_share", last_es.middle_share[0], last_es.middle_share[1], last_es.middle_share[2]);
-  v.reals("wall", wall_s);
   // Only with tail members, so the checkpoints of every other run keep their bytes.
   if (has_tail_members()) {
     double started = tail_started ? 1.0 : 0.0;
@@ -55,6 +55,8 @@ void Trainer::State::visit_checkpoint(V& v, double& wall_s, std::uint64_t& strea
 }
 
 namespace {
+// The run's wall time at the checkpoint (seconds, text): metrics' wall_s continues from it.
+constexpr const char* kWallFile = "wall_s.txt";
 // A rank's trainer state in a checkpoint folder: rank 0's is a single process's file.
 std::string trainer_file(int rank) { return rank == 0 ? "trainer.pt" : "trainer_rank" + std::to_string(rank) + ".pt"; }
 
@@ -90,9 +92,8 @@ void Trainer::State::check_replicas_agree() {
 
 std::string Trainer::State::trainer_state_bytes() {
   CheckpointWriter w;
-  double wall_s = wall();
   std::uint64_t stream_state = stream.state();
-  visit_checkpoint(w, wall_s, stream_state);
+  visit_checkpoint(w, stream_state);
   w.a.write("generator", gen.get_state());
   if (world > 1) {  // ll.pt and hl.pt hold rank 0's minibatch order
     w.a.write("ppo_minibatch_generator", ppo->minibatch_generator().get_state());
@@ -130,6 +131,9 @@ void Trainer::State::save_checkpoint(bool last) {
     ppo->save((dir / "ll.pt").string());
     es->save((dir / "hl.pt").string());
     for (int r = 0; r < world; ++r) io::write_file_atomic((dir / trainer_file(r)).string(), states[static_cast<std::size_t>(r)]);
+    char wall_s[32];
+    std::snprintf(wall_s, sizeof wall_s, "%.17g\n", wall());
+    io::write_file_atomic((dir / kWallFile).string(), wall_s);
     std::ostringstream meta;
     meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
          << "\nupdates: " << ppo_updates + es_updates << "\n";
@@ -194,6 +198,7 @@ std::int64_t check_checkpoint_meta(const std::string& checkpoint_dir, std::uint6
 struct CheckpointFiles {
   fs::path dir, file;  // the folder, and the file being read (for the error message)
   std::string ll, hl;
+  std::string wall_s;  // kWallFile's text; empty for a checkpoint written before it (trainer.pt held it)
   std::vector<std::string> states;  // trainer.pt of each rank
 };
 
@@ -219,6 +224,8 @@ void Trainer::State::read_checkpoint_files(CheckpointFiles* f) const {
         f->file = f->dir / trainer_file(r);
         f->states[static_cast<std::size_t>(r)] = read_text(f->file.string());
       }
+      f->file = f->dir / kWallFile;
+      if (fs::exists(f->file)) f->wall_s = read_text(f->file.string());
     }
   } catch (const std::exception& e) {
     throw io::InputError(f->file.string() + ": cannot resume from this checkpoint (" + checkpoint_error_reason(e) +
@@ -247,7 +254,13 @@ std::string Trainer::State::restore_checkpoint(const CheckpointFiles& files, con
     CheckpointReader r;
     r.a.load_from(trainer_bytes.data(), trainer_bytes.size());
     std::uint64_t stream_state = 0;
-    visit_checkpoint(r, wall_offset, stream_state);
+    visit_checkpoint(r, stream_state);
+    // The run's wall time so far continues its metrics' wall_s; older trainer.pt files held it.
+    torch::Tensor old_wall;
+    if (r.a.try_read("wall", old_wall))
+      wall_offset = old_wall.item<double>();
+    else
+      wall_offset = files.wall_s.empty() ? 0.0 : std::stod(files.wall_s);
     stream.set_state(stream_state);
     gen.set_state(r.get("generator"));
     if (world > 1) {
@@ -294,6 +307,7 @@ void Trainer::State::load_checkpoint() {
     if (problem.empty()) {
       group->broadcast_bytes(files.ll);
       group->broadcast_bytes(files.hl);
+      group->broadcast_bytes(files.wall_s);
       for (int r = 0; r < world; ++r) {
         std::string bytes = files.states[static_cast<std::size_t>(r)];
         group->broadcast_bytes(bytes);

@@ -223,10 +223,11 @@ struct Trainer::State {
   void reload_opponent();
   // At a resume: checkpoint folders other than LATEST's (written, never committed) are removed.
   void remove_uncommitted_checkpoints() const;
-  // Everything trainer.pt holds, in one list both adapters walk. The clock and the stream are
-  // passed as plain values: saved from wall() and stream.state(), restored by the caller.
+  // Everything trainer.pt holds, in one list both adapters walk. The stream is passed as a plain
+  // value: saved from stream.state(), restored by the caller. The wall clock is not in it (the
+  // checkpoint's wall_s.txt), so trainer.pt's bytes depend only on the run.
   template <class V>
-  void visit_checkpoint(V& v, double& wall_s, std::uint64_t& stream_state);
+  void visit_checkpoint(V& v, std::uint64_t& stream_state);
   // Waits for the curves draw under way and keeps why it failed, if it did, for the summary.
   void collect_curves() {
     if (std::string problem = curves.wait(); !problem.empty()) curves_problem = problem;

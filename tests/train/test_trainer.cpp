@@ -488,6 +488,19 @@ TEST(Trainer, StoppedAndResumedRunEndsWithTheSameWeights) {
   int lines = 0;
   for (std::string l; std::getline(m, l);) ++lines;
   EXPECT_EQ(lines, 1 + full.updates);
+  // The last checkpoint's files, trainer.pt included (the wall clock lives in wall_s.txt), are
+  // the unbroken run's bytes.
+  const std::string name = latest_checkpoint_name(whole);
+  ASSERT_EQ(latest_checkpoint_name(split), name);
+  auto bytes = [&](const std::string& run, const char* file) {
+    std::ifstream in(run + "/checkpoint/" + name + "/" + file, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  for (const char* f : {"ll.pt", "hl.pt", "trainer.pt", "meta.yaml"}) {
+    EXPECT_FALSE(bytes(whole, f).empty()) << f;
+    EXPECT_EQ(bytes(whole, f), bytes(split, f)) << f << " differs between the resumed and the unbroken run";
+  }
+  EXPECT_GT(std::stod(bytes(split, "wall_s.txt")), 0.0);
 }
 
 // A run folder written before issue 51: its config.yaml lists the retired keys, and its
