@@ -8,6 +8,8 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 namespace f16race::io {
 
@@ -81,6 +83,14 @@ void append_file(const std::string& path, std::string_view bytes) {
   }
   if (::close(fd) != 0)
     throw FileWriteError(path + ": " + cause(errno) + " while closing after an append");
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InputError(path + ": cannot read");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
 }
 
 }  // namespace f16race::io

@@ -26,4 +26,7 @@ void write_file_atomic(const std::string& path, std::string_view bytes);
 // length, so a log never ends in half a line.
 void append_file(const std::string& path, std::string_view bytes);
 
+// A whole file's bytes; io::InputError "PATH: cannot read" when it cannot be opened.
+std::string read_file(const std::string& path);
+
 }  // namespace f16race::io

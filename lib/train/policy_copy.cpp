@@ -1,8 +1,6 @@
 #include "train/policy_copy.hpp"
 
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
 #include "io/atomic_file.hpp"
 #include "train/run_policy.hpp"
@@ -14,11 +12,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string file_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
 // One folder (the run or a member): its own networks, re-saved policy-only beside its files.
 // Returns how many tail members the folder's policy joins.
 std::size_t copy_folder(const std::string& from, const fs::path& to, PolicyCopyReport& report) {
@@ -26,9 +19,9 @@ std::size_t copy_folder(const std::string& from, const fs::path& to, PolicyCopyR
   const std::string name = fs::path(p.checkpoint_dir).filename().string();
   const fs::path dir = to / "checkpoint" / name;
   fs::create_directories(dir);
-  io::write_file_atomic((to / "config.yaml").string(), file_text(fs::path(from) / "config.yaml"));
+  io::write_file_atomic((to / "config.yaml").string(), io::read_file((fs::path(from) / "config.yaml").string()));
   io::write_file_atomic((to / "checkpoint" / "LATEST").string(), name);
-  std::string meta = file_text(fs::path(p.checkpoint_dir) / "meta.yaml");
+  std::string meta = io::read_file((fs::path(p.checkpoint_dir) / "meta.yaml").string());
   if (!meta.empty() && meta.back() != '\n') meta += '\n';
   io::write_file_atomic((dir / "meta.yaml").string(), meta + "policy_only: true\n");
   p.ll->save((dir / "ll.pt").string(), agents::CheckpointContent::kPolicy);

@@ -7,6 +7,7 @@
 #include <iterator>
 #include <stdexcept>
 
+#include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
 #include "train/obs_views.hpp"
 #include "train/policy_rows.hpp"
@@ -36,16 +37,11 @@ RunPolicy make_policy(TrainConfig cfg) {
   return p;
 }
 
-std::string file_bytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
-
 // m's high level joins p's ensemble: refused unless both fly one low level with critics of one kind.
 void add_hl_member(RunPolicy& p, RunPolicy m) {
   check_same_race_shape(p, m);
   // One low level flies every decision: the members' values are only comparable for it.
-  if (file_bytes(fs::path(m.checkpoint_dir) / "ll.pt") != file_bytes(fs::path(p.checkpoint_dir) / "ll.pt"))
+  if (io::read_file((fs::path(m.checkpoint_dir) / "ll.pt").string()) != io::read_file((fs::path(p.checkpoint_dir) / "ll.pt").string()))
     throw io::InputError(m.checkpoint_dir + "/ll.pt: another low level than " + p.checkpoint_dir +
                          "/ll.pt; an ensemble joins high levels trained against one low level");
   if (m.config.hl.variant != p.config.hl.variant || m.config.hl.n_bins != p.config.hl.n_bins)

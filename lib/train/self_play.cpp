@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "dist/process_group.hpp"
+#include "io/atomic_file.hpp"
 #include "train/trainer_state.hpp"
 
 namespace f16race::train {
@@ -67,7 +68,7 @@ void Trainer::State::load_pool_snapshot() {
   }
   // Rank 0 holds the pool; the others get the snapshot's bytes.
   std::string ll, hl;
-  if (writes()) ll = read_text((dir / "ll.pt").string()), hl = read_text((dir / "hl.pt").string());
+  if (writes()) ll = io::read_file((dir / "ll.pt").string()), hl = io::read_file((dir / "hl.pt").string());
   group->broadcast_bytes(ll);
   group->broadcast_bytes(hl);
   opp_ppo->load_bytes(ll);

@@ -40,7 +40,7 @@ void Trainer::State::start_tail() {
 void Trainer::State::fork_tail_members() {
   const fs::path members = fs::path(run_dir) / "members";
   const std::string ck = latest_checkpoint_name(run_dir);
-  const std::string meta = read_text((fs::path(run_dir) / "checkpoint" / ck / "meta.yaml").string());
+  const std::string meta = io::read_file((fs::path(run_dir) / "checkpoint" / ck / "meta.yaml").string());
   for (int m = 1; m < cfg.loop.hl_tail_members; ++m) {
     const fs::path dir = members / std::to_string(m);
     if (fs::exists(dir)) continue;

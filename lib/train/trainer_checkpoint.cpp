@@ -217,15 +217,15 @@ void Trainer::State::read_checkpoint_files(CheckpointFiles* f) const {
     if (policy_only) written_by = world;  // refused below, with its own reason
     if (written_by == world && !policy_only) {
       f->file = f->dir / "ll.pt";
-      f->ll = read_text(f->file.string());
+      f->ll = io::read_file(f->file.string());
       f->file = f->dir / "hl.pt";
-      f->hl = read_text(f->file.string());
+      f->hl = io::read_file(f->file.string());
       for (int r = 0; r < world; ++r) {
         f->file = f->dir / trainer_file(r);
-        f->states[static_cast<std::size_t>(r)] = read_text(f->file.string());
+        f->states[static_cast<std::size_t>(r)] = io::read_file(f->file.string());
       }
       f->file = f->dir / kWallFile;
-      if (fs::exists(f->file)) f->wall_s = read_text(f->file.string());
+      if (fs::exists(f->file)) f->wall_s = io::read_file(f->file.string());
     }
   } catch (const std::exception& e) {
     throw io::InputError(f->file.string() + ": cannot resume from this checkpoint (" + checkpoint_error_reason(e) +

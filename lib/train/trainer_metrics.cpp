@@ -78,7 +78,7 @@ void Trainer::State::truncate_metrics() {
   // Rows written after this checkpoint go (the resumed run writes them again).
   const std::string mpath = run_dir + "/metrics.csv";
   if (!fs::exists(mpath)) return;
-  io::write_file_atomic(mpath, metrics_kept_up_to(read_text(mpath), ppo_updates + es_updates, mpath));
+  io::write_file_atomic(mpath, metrics_kept_up_to(io::read_file(mpath), ppo_updates + es_updates, mpath));
 }
 
 }  // namespace f16race::train

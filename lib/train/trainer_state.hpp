@@ -32,15 +32,6 @@
 
 namespace f16race::train {
 
-// A file's bytes; io::InputError naming it when it cannot be read.
-inline std::string read_text(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw io::InputError(path + ": cannot read");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 // Open high-level decisions of the learner team, one slot per env.
 struct OpenHl {
   models::HlObs obs;          // fields [n_env, team_size, ...]

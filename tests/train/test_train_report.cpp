@@ -55,12 +55,18 @@ TEST(TrainerReport, SummaryNamesHowToContinueAndTheEnsemble) {
   EXPECT_FALSE(tail_members_due(cfg, sum));
 }
 
-TEST(TrainerReport, ProgressLineStartsWithItsPrefixAndShare) {
+// A low-level update's row at `env_steps` and `wall_s`, the rest left at its defaults.
+MetricsRow ll_row(std::int64_t update, std::int64_t env_steps, double wall_s) {
   MetricsRow r;
-  r.update = 4;
+  r.update = update;
   r.phase = "ll";
-  r.env_steps = 160;
-  r.wall_s = 75.0;
+  r.env_steps = env_steps;
+  r.wall_s = wall_s;
+  return r;
+}
+
+TEST(TrainerReport, ProgressLineStartsWithItsPrefixAndShare) {
+  const MetricsRow r = ll_row(4, 160, 75.0);
   const std::string line = progress_line(r, 640, "member 2: ");
   EXPECT_EQ(line.rfind("member 2:  25.0% 1:15 ETA 3:45 | upd 4 ll |", 0), 0u) << line;
   EXPECT_EQ(clock_text(std::nan("")), "--:--");
@@ -69,11 +75,7 @@ TEST(TrainerReport, ProgressLineStartsWithItsPrefixAndShare) {
 // A person reads no "nan": an update in which no race ended shows "-" for what it has not seen.
 // And the line fits 100 columns with the tail members' prefix and long-run values.
 TEST(TrainerReport, ProgressLineShowsNoNanAndFitsOneHundredColumns) {
-  MetricsRow r;
-  r.update = 1;
-  r.phase = "ll";
-  r.env_steps = 32;
-  r.wall_s = 0.5;
+  MetricsRow r = ll_row(1, 32, 0.5);
   r.airspeed_ftps = 559.4;
   r.winrate = r.finish_rate = r.ll_return = r.hl_return = r.goal_dist_ft = r.q_spread = std::nan("");
   std::string line = progress_line(r, 640);
