@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  cmake g++ make
+  cmake g++ make ninja-build
   libtorch-dev       # LibTorch 1.13 (CPU): the learning layers
   libgloo-dev        # the headers of c10d's Gloo process group (distributed runs: lib/dist)
   libeigen3-dev libyaml-cpp-dev libspdlog-dev libcli11-dev libgtest-dev

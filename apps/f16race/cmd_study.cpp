@@ -23,8 +23,8 @@ struct StudyOptions {
   bool plan_only = false;
 };
 
-std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop = true; }
+std::atomic<bool> g_study_stop{false};
+void on_signal(int) { g_study_stop = true; }
 
 void print_plan(const eval::StudyConfig& cfg, const std::vector<eval::StudyCell>& cells) {
   for (const auto& c : cells) {
@@ -41,7 +41,7 @@ void run_study(const StudyOptions& o) {
   if (o.plan_only) return print_plan(run.config, run.cells);
   run.config_path = o.config;
   run.out = o.out;
-  run.stop = &g_stop;
+  run.stop = &g_study_stop;
   run.say = [](const std::string& line) {
     std::fputs(line.c_str(), stdout);
     std::fflush(stdout);

@@ -26,8 +26,8 @@
 namespace f16race::app {
 namespace {
 
-std::atomic<bool> g_stop{false};
-extern "C" void on_sigint(int) { g_stop.store(true); }
+std::atomic<bool> g_train_stop{false};
+extern "C" void on_sigint(int) { g_train_stop.store(true); }
 
 struct TrainOptions {
   std::string config = "configs/default.yaml";
@@ -127,7 +127,7 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
       std::fflush(stdout);
     }
   };
-  const train::TrainSummary sum = trainer->run(&g_stop, o.max_updates, on_row);
+  const train::TrainSummary sum = trainer->run(&g_train_stop, o.max_updates, on_row);
   if (tty) std::printf("\n");
   if (!lead) {
     if (sum.interrupted) throw ExitStatus{130};
@@ -143,7 +143,7 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
       std::printf("%sthe run's policy is an ensemble of %d high-level tails: training %s/members/1..%d\n",
                   tty ? "\n" : "", cfg.loop.hl_tail_members, run_dir.c_str(), cfg.loop.hl_tail_members - 1);
     const train::TailEnsembleRun tails =
-        train::train_tail_ensemble(std::move(trainer), run_dir, sum, &g_stop, [&](int m, const train::MetricsRow& r) {
+        train::train_tail_ensemble(std::move(trainer), run_dir, sum, &g_train_stop, [&](int m, const train::MetricsRow& r) {
           member_tag = "member " + std::to_string(m) + ": ";
           on_row(r);
         });

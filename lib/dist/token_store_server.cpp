@@ -23,7 +23,9 @@
 
 namespace f16race::dist {
 
-namespace {
+// Named, not anonymous: Loop (a class with external linkage) holds these types, which GCC flags
+// when the file is part of a unity build.
+namespace store_server_detail {
 
 using Clock = SteadyClock;
 using wire::Op;
@@ -104,7 +106,9 @@ class DropLog {
   long unnamed_ = 0;
 };
 
-}  // namespace
+}  // namespace store_server_detail
+
+using namespace store_server_detail;
 
 class TokenStoreServer::Loop {
  public:
