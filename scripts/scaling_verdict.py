@@ -1,0 +1,93 @@
+#!/usr/bin/env python3
+"""Notebook 68's verdict: does the high level's margin over its own center line grow with data?
+
+    scripts/scaling_verdict.py MULT=STUDY [MULT=STUDY ...]
+
+Each STUDY is a `study --out` folder trained on one pilot at MULT x 1.75 M HL-only env steps
+(configs/study_scaling.yaml; the Fig. 3 study's own folder stands for MULT 2), with its runs'
+controls tournaments in dt8/controls/RUN (notebook 66, "Commands"). Runs es_d2_s1..3 and
+es_d3_s1..3 count. c_i = run i's winrate against RUN@center (512 races). The slope of c_i on
+log2(MULT) by least squares over all runs; its 95 % interval by bootstrap (10 000 replicates,
+Random("68:...")), resampling runs with replacement inside each (budget, variant) cell.
+Holds if lo > 0; does not hold if hi < 0.0125 per doubling (0.05 over x16, the study's delta);
+otherwise cannot tell at this power. Missing controls are reported as missing, never guessed.
+Standard library only.
+"""
+import math
+import os
+import random
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from study_verdicts import HOLDS, NOT, CANNOT, percentiles, read_controls  # noqa: E402
+
+RUNS = [f"{v}_s{s}" for v in ("es_d2", "es_d3") for s in (1, 2, 3)]
+BASE_STEPS = 1_750_000
+BAR = 0.0125  # per doubling: 0.05 over x16
+REPS = 10000
+
+
+def slope(points):
+    xs = [x for x, _ in points]
+    if len(set(xs)) < 2:
+        return None
+    mx, my = sum(xs) / len(xs), sum(y for _, y in points) / len(points)
+    return sum((x - mx) * (y - my) for x, y in points) / sum((x - mx) ** 2 for x in xs)
+
+
+def cells_of(studies):
+    """{(mult, variant): [c_i]} and the runs whose controls are missing."""
+    cells, missing = {}, []
+    for mult, folder in studies:
+        for run in RUNS:
+            got = read_controls(folder, 8, run)
+            if got is None:
+                missing.append(f"x{mult:g} {run}")
+                continue
+            cells.setdefault((mult, run.rsplit("_s", 1)[0]), []).append(got[0])
+    return cells, missing
+
+
+def resample(cells, r):
+    return {k: [r.choice(v) for _ in v] for k, v in cells.items()}
+
+
+def points_of(cells):
+    return [(math.log2(m), c) for (m, _), cs in cells.items() for c in cs]
+
+
+def main(argv):
+    studies = []
+    for a in argv:
+        mult, _, folder = a.partition("=")
+        if not folder or not os.path.isdir(folder):
+            sys.exit(f"scaling_verdict: {a}: want MULT=STUDY_FOLDER with an existing folder")
+        studies.append((float(mult), folder))
+    cells, missing = cells_of(studies)
+    print("| budget | HL env steps | runs | mean vs @center | 95 % CI |\n|---|---|---|---|---|")
+    for mult, _ in sorted(studies):
+        sub = {k: v for k, v in cells.items() if k[0] == mult}
+        vals = [c for v in sub.values() for c in v]
+        if not vals:
+            print(f"| x{mult:g} | {mult * BASE_STEPS / 1e6:g} M | 0 | missing | |")
+            continue
+        r = random.Random(f"68:mean:{mult:g}")
+        reps = [sum(sum(v) for v in rs.values()) / len(vals) for rs in (resample(sub, r) for _ in range(REPS))]
+        lo, hi = percentiles(reps)
+        print(f"| x{mult:g} | {mult * BASE_STEPS / 1e6:g} M | {len(vals)} | {sum(vals) / len(vals):.3f} | "
+              f"[{lo:.3f}, {hi:.3f}] |")
+    b = slope(points_of(cells))
+    if b is None:
+        print("\nslope: cannot be computed yet (fewer than two budgets with controls)")
+    else:
+        r = random.Random("68:slope")
+        reps = [slope(points_of(resample(cells, r))) for _ in range(REPS)]
+        lo, hi = percentiles(reps)
+        verdict = HOLDS if lo > 0 else (NOT if hi < BAR else CANNOT)
+        print(f"\nslope per doubling of HL env steps: {b:+.4f} [{lo:+.4f}, {hi:+.4f}] -> grows with data: {verdict}")
+    if missing:
+        print(f"\nmissing ({len(missing)}): " + ", ".join(missing))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
