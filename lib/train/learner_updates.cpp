@@ -13,11 +13,11 @@ using models::LlObs;
 
 void Trainer::State::ppo_update() {
   const auto t = Clock::now();
-  const LlObs last = models::index_rows(ll_view(false), learner_index());
+  const LlObs last = models::index_rows(ll_view(false), sample_index());
   buffer->finish(ppo->value(last), cfg.ll.gamma, cfg.ll.gae_lambda);
   last_ppo = ppo->update(*buffer);
   timing.ppo_chunk_wait += last_ppo.chunk_wait_s;
-  work.ll_forward_rows += static_cast<std::int64_t>(n_env) * ts;  // the bootstrap values above
+  work.ll_forward_rows += last.ego.size(0);  // the bootstrap values above
   work.ll_forward_alive += models::count_alive(last.ado_alive);
   work.ll_forward_calls += 1;
   work.ll_train_rows += last_ppo.train_rows;

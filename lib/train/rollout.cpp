@@ -44,6 +44,11 @@ torch::Tensor Trainer::State::learner_index() const {
   return idx;
 }
 
+torch::Tensor Trainer::State::sample_index() const {
+  if (!cfg.loop.ll_both_teams) return learner_index();
+  return torch::arange(static_cast<std::int64_t>(n_env) * n_agent, torch::kInt64);
+}
+
 void Trainer::State::close_open(int e, bool done, const HlObs& next_rows, const torch::Tensor& next_active) {
   if (!open.open[e]) return;
   done_obs.push_back(HlObs{open.obs.ego[e].clone(), open.obs.prev_action[e].clone(), open.obs.ado[e].clone(),
@@ -149,13 +154,18 @@ void Trainer::State::ll_step(bool learn) {
   agents::PpoAction act;
   const torch::Tensor actions = ll_actions(learn, &act);
   const auto learner = learner_index();  // before the step: sides change at resets
-  // Samples of the learner team, taken before the env overwrites its buffers (act.obs may view
-  // them), gathered straight into the buffer's next slot: aircraft k's row in act's outputs.
+  // Samples (sample_index), taken before the env overwrites its buffers (act.obs may view them),
+  // gathered straight into the buffer's next slot: aircraft k's row in act's outputs. A pool
+  // snapshot's aircraft has no row there: any row stands in, and record_step marks it invalid.
   if (learn) {
-    auto pos = torch::empty_like(learner);
-    const std::int64_t* li = learner.data_ptr<std::int64_t>();
+    const auto samples = sample_index();
+    auto pos = torch::empty_like(samples);
+    const std::int64_t* si = samples.data_ptr<std::int64_t>();
     std::int64_t* pi = pos.data_ptr<std::int64_t>();
-    for (std::int64_t k = 0; k < learner.numel(); ++k) pi[k] = ll_rows.position(static_cast<int>(li[k]));
+    for (std::int64_t k = 0; k < samples.numel(); ++k) {
+      const int i = static_cast<int>(si[k]);
+      pi[k] = learner_flies_ll(i / n_agent, i % n_agent) ? ll_rows.position(i) : 0;
+    }
     buffer->stage_picked(act.obs, act.action, act.log_prob, act.value, pos);
   }
   {  // airspeed of the learner's aircraft still racing, before the step (a finished race resets)
@@ -176,26 +186,12 @@ void Trainer::State::ll_step(bool learn) {
 void Trainer::State::record_step(const torch::Tensor& learner, bool learn) {
   // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
   // than the simulator.
-  const std::int64_t nl = static_cast<std::int64_t>(n_env) * ts;
-  auto reward = torch::empty({nl});
-  auto terminated = torch::empty({nl}, torch::kBool), truncated = torch::empty({nl}, torch::kBool);
-  auto valid = torch::empty({nl}, torch::kBool);
-  float* rw = reward.data_ptr<float>();
-  bool* te = terminated.data_ptr<bool>();
-  bool* tr = truncated.data_ptr<bool>();
-  bool* va = valid.data_ptr<bool>();
   const std::int64_t* li = learner.data_ptr<std::int64_t>();
   float* open_reward = open.reward.data_ptr<float>();
-  bool any_trunc = false;
   for (int e = 0; e < n_env; ++e) {
     for (int j = 0; j < ts; ++j) {
       const std::int64_t k = e * ts + j;
       const int i = static_cast<int>(li[k]);
-      rw[k] = env->ll_reward()[i];
-      te[k] = env->terminated()[i] != 0;
-      tr[k] = env->truncated()[i] != 0;
-      va[k] = env->acted()[i] != 0;
-      any_trunc = any_trunc || env->truncated()[i];
       if (env->acted()[i]) ll_ret[k] += env->ll_reward()[i];
       // The HL reward runs to the race's end, also for an aircraft already taken out.
       hl_ret[k] += env->hl_reward()[i];
@@ -213,11 +209,32 @@ void Trainer::State::record_step(const torch::Tensor& learner, bool learn) {
       }
     }
   }
-  torch::Tensor bootstrap;
-  if (learn && any_trunc) bootstrap = ppo->value(models::index_rows(ll_view(true), learner));
-  if (learn) {
-    buffer->commit(reward, terminated, truncated, bootstrap, valid);
+  if (learn) commit_samples();
+}
+
+void Trainer::State::commit_samples() {
+  const torch::Tensor samples = sample_index();
+  const std::int64_t n = samples.numel();
+  auto reward = torch::empty({n});
+  auto terminated = torch::empty({n}, torch::kBool), truncated = torch::empty({n}, torch::kBool);
+  auto valid = torch::empty({n}, torch::kBool);
+  float* rw = reward.data_ptr<float>();
+  bool* te = terminated.data_ptr<bool>();
+  bool* tr = truncated.data_ptr<bool>();
+  bool* va = valid.data_ptr<bool>();
+  const std::int64_t* si = samples.data_ptr<std::int64_t>();
+  bool any_trunc = false;
+  for (std::int64_t k = 0; k < n; ++k) {
+    const int i = static_cast<int>(si[k]);
+    rw[k] = env->ll_reward()[i];
+    te[k] = env->terminated()[i] != 0;
+    tr[k] = env->truncated()[i] != 0;
+    va[k] = env->acted()[i] != 0 && learner_flies_ll(i / n_agent, i % n_agent);
+    any_trunc = any_trunc || env->truncated()[i];
   }
+  torch::Tensor bootstrap;
+  if (any_trunc) bootstrap = ppo->value(models::index_rows(ll_view(true), samples));
+  buffer->commit(reward, terminated, truncated, bootstrap, valid);
 }
 
 void Trainer::State::end_races(const torch::Tensor& learner) {

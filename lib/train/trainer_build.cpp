@@ -52,8 +52,8 @@ void Trainer::State::build(bool fresh) {
   es = std::make_unique<agents::EsAgent>(cfg.hl);
   opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
-  buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
-                                                   race::kActionDim);
+  buffer = std::make_unique<agents::RolloutBuffer>(
+      cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * (cfg.loop.ll_both_teams ? n_agent : ts), dims, race::kActionDim);
   // Each rank its own streams (rank 0's are a single process's): actions, matchups.
   gen = models::make_generator(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003);
   stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank));

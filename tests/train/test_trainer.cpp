@@ -155,6 +155,32 @@ TEST(Trainer, SameSeedSameWeightsDifferentSeedDifferentWeights) {
   EXPECT_NE(a.ll_parameters(), c.ll_parameters());
 }
 
+// train.ll_both_teams: PPO also learns from the other team where the learner's low level flies
+// it. The first update's races are all self-play (the pool is still empty) and its 8 steps too
+// short for anyone to be out, so PPO sees exactly twice the rows of the same rollout. The run
+// stays deterministic, and a stopped and resumed one ends with the unbroken run's weights.
+TEST(Trainer, BothTeamsSamplesDoubleTheFirstUpdatesRowsAndResumeExactly) {
+  Trainer a(smoke(), fresh_dir("both_off")), b(smoke("train.ll_both_teams=true"), fresh_dir("both_on"));
+  const TrainSummary ra = a.run(nullptr, 1), rb = b.run(nullptr, 1);
+  ASSERT_GT(ra.work.ll_train_rows, 0);
+  EXPECT_EQ(rb.work.ll_train_rows, 2 * ra.work.ll_train_rows);
+  EXPECT_EQ(rb.env_steps, ra.env_steps);
+  EXPECT_NE(a.ll_parameters(), b.ll_parameters());
+
+  const std::string whole = fresh_dir("both_whole"), split = fresh_dir("both_split");
+  Trainer w(smoke("train.ll_both_teams=true"), whole);
+  const TrainSummary full = w.run(nullptr, 7);
+  {
+    Trainer s(smoke("train.ll_both_teams=true"), split);
+    s.run(nullptr, 3);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run(nullptr, 4);
+  EXPECT_EQ(resumed->updates(), full.updates);
+  EXPECT_EQ(resumed->ll_parameters(), w.ll_parameters());
+  EXPECT_EQ(resumed->hl_parameters(), w.hl_parameters());
+}
+
 // train.ll_pilot autopilot: AeroBench's waypoint autopilot flies the goal lanes, so every update
 // is an ES update, the low level's network never moves, the high level's does, and a stopped
 // and resumed run ends where an uninterrupted one does.
