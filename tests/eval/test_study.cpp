@@ -143,6 +143,38 @@ TEST(Study, MetricsTailSkipsALineStillBeingWritten) {
   EXPECT_EQ(last_metrics_value((d / "none").string(), kMetricsWallColumn), 0.0);  // no file yet
 }
 
+// A study stopped while a cell's tail member trained finds the run itself at its budget: the
+// cell stays partial (the study then resumes it, and `train --resume` finishes the members)
+// until every member has reached the budget too.
+TEST(Study, CellWithAnUnfinishedTailMemberIsPartial) {
+  const fs::path d = fresh_dir("members");
+  write(d / "base.yaml", kTinyBase);
+  StudyConfig c;
+  c.base_config = (d / "base.yaml").string();
+  c.set = {"train.hl_tail_share=0.5", "train.hl_tail_members=3"};
+  c.variants = {"es_d3"};
+  c.seeds = {1};
+  c.dt_hl_s = {1.6};
+  c.total_env_steps = 600;
+  const StudyCell cell = plan_study(c, (d / "out").string()).front();
+  const train::TrainConfig cfg =
+      train::read_train_config(io::load_yaml_with_overrides(c.base_config, cell.overrides), c.base_config);
+  {
+    train::Trainer t(cfg, cell.run_dir);
+    ASSERT_GE(t.run().env_steps, 600);  // the run's own budget; its members forked, not trained
+  }
+  const CellStatus forked = cell_status(c, cell);
+  EXPECT_EQ(forked.state, CellState::partial);
+  EXPECT_GE(forked.env_steps, 600);
+  train::Trainer::resume((fs::path(cell.run_dir) / "members" / "1").string())->run();
+  train::Trainer::resume((fs::path(cell.run_dir) / "members" / "2").string())->run(nullptr, 1);
+  EXPECT_EQ(cell_status(c, cell).state, CellState::partial);  // member 2 stopped part way
+  train::train_tail_members(cell.run_dir);
+  EXPECT_EQ(cell_status(c, cell).state, CellState::finished);
+  fs::remove_all(fs::path(cell.run_dir) / "members" / "2");
+  EXPECT_EQ(cell_status(c, cell).state, CellState::partial);
+}
+
 TEST(Study, CellStateFollowsTheRunAndRefusesAnotherConfig) {
   const fs::path d = fresh_dir("cells");
   write(d / "base.yaml", kTinyBase);
