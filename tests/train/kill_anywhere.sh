@@ -117,11 +117,13 @@ lane() {  # lane FIRST LANES COUNTS_FILE
     delay=$(awk -v r=$RANDOM -v m="$max_delay" 'BEGIN { printf "%.2f", 0.3 + m * r / 32767 }')
     kill_after "$delay" "$group" || kills=$((kills + 1))
   fi
-  # As a user would: start it again if it never made its folder, else resume; a second and third
+  # As a user would: start it again if it never wrote its config, else resume; a second and third
   # try only where the first met a transient (a group's rendezvous timing out on a loaded machine).
   ok=0
   for try in 1 2 3; do
-    if [ ! -d "$run" ]; then  # killed before it made its folder: nothing to resume, start it again
+    # Killed before it wrote its config (no folder yet, or one with only its lock and empty
+    # subfolders): nothing to resume, and `train --resume` says to start it again, as done here.
+    if [ ! -f "$run/config.yaml" ]; then
       [ "$try" = 1 ] && not_started=$((not_started + 1))
       if [ "$group" = 1 ]; then out=$("$bin" --threads 1 launch --nproc 2 --timeout 6 -- train "${args[@]}" --run "$run" 2>&1)
       else out=$("$bin" --threads 1 train "${args[@]}" --run "$run" 2>&1); fi && { ok=1; break; }
@@ -166,7 +168,7 @@ cat "$work/lane1.log" "$work/lane2.log"
 read -r kills lost compared before_first group_kills not_started retries < <(paste -d' ' "$work/lane1" "$work/lane2" |
   awk '{ for (k = 1; k <= 7; ++k) printf "%d ", $k + $(k + 7); print "" }')
 echo "kill_anywhere: $trials trials, $kills SIGKILLs ($group_kills of a group's rank, $before_first before the" \
-     "first checkpoint, $not_started of them before the run folder existed), $lost runs lost, $compared resumed" \
+     "first checkpoint, $not_started of them before the run wrote its config), $lost runs lost, $compared resumed" \
      "runs byte-identical to uninterrupted ones, $retries second tries after a transient failure"
 [ "$lost" -eq 0 ] || fail "$lost of $kills killed runs could not be resumed"
 [ "$kills" -ge $((trials * 3 / 4)) ] || fail "only $kills of $trials trials were killed mid-run: the delays are too long"
