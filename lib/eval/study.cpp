@@ -115,8 +115,9 @@ namespace {
 bool tail_members_finished(const std::string& run_dir, const train::TrainConfig& config) {
   for (int m = 1; m < config.loop.hl_tail_members; ++m) {
     const std::string member = (fs::path(run_dir) / "members" / std::to_string(m)).string();
-    if (!fs::is_directory(member) || train::latest_checkpoint_name(member).empty()) return false;
-    const fs::path dir = fs::path(member) / "checkpoint" / train::latest_checkpoint_name(member);
+    const std::string latest = fs::is_directory(member) ? train::latest_checkpoint_name(member) : "";
+    if (latest.empty()) return false;
+    const fs::path dir = fs::path(member) / "checkpoint" / latest;
     try {
       const train::RunConfig mc = train::read_run_config(member);
       if (train::check_checkpoint_meta(dir.string(), mc.hash, train::CheckpointUse::policy) <

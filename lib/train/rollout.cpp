@@ -157,8 +157,8 @@ void Trainer::State::ll_step(bool learn) {
   // Samples (sample_index), taken before the env overwrites its buffers (act.obs may view them),
   // gathered straight into the buffer's next slot: aircraft k's row in act's outputs. A pool
   // snapshot's aircraft has no row there: any row stands in, and record_step marks it invalid.
+  const torch::Tensor samples = learn ? sample_index() : torch::Tensor();
   if (learn) {
-    const auto samples = sample_index();
     auto pos = torch::empty_like(samples);
     const std::int64_t* si = samples.data_ptr<std::int64_t>();
     std::int64_t* pi = pos.data_ptr<std::int64_t>();
@@ -179,11 +179,11 @@ void Trainer::State::ll_step(bool learn) {
   timing.env += since(t_env);
   env_steps += n_env;  // a group sums its ranks' steps after each update (Trainer::run)
   rank_env_steps += n_env;
-  record_step(learner, learn);
+  record_step(learner, samples);
   end_races(learner);
 }
 
-void Trainer::State::record_step(const torch::Tensor& learner, bool learn) {
+void Trainer::State::record_step(const torch::Tensor& learner, const torch::Tensor& samples) {
   // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
   // than the simulator.
   const std::int64_t* li = learner.data_ptr<std::int64_t>();
@@ -209,11 +209,10 @@ void Trainer::State::record_step(const torch::Tensor& learner, bool learn) {
       }
     }
   }
-  if (learn) commit_samples();
+  if (samples.defined()) commit_samples(samples);
 }
 
-void Trainer::State::commit_samples() {
-  const torch::Tensor samples = sample_index();
+void Trainer::State::commit_samples(const torch::Tensor& samples) {
   const std::int64_t n = samples.numel();
   auto reward = torch::empty({n});
   auto terminated = torch::empty({n}, torch::kBool), truncated = torch::empty({n}, torch::kBool);

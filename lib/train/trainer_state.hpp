@@ -161,10 +161,11 @@ struct Trainer::State {
   torch::Tensor ll_actions(bool learn, agents::PpoAction* act);
   // Of ll_step, after env->step: rewards, returns and race causes of the learner aircraft, and
   // (learning) their samples committed to the rollout buffer.
-  void record_step(const torch::Tensor& learner, bool learn);
+  // `samples`: sample_index() when learning, undefined otherwise.
+  void record_step(const torch::Tensor& learner, const torch::Tensor& samples);
   // Of record_step: this step's rewards, ends and validity of the sample_index aircraft into the
   // rollout buffer (valid: the aircraft acted and the learner's low level flew it).
-  void commit_samples();
+  void commit_samples(const torch::Tensor& samples);
   // Of ll_step: the races that ended, their results and HL transitions closed; new matchups.
   void end_races(const torch::Tensor& learner);
 
