@@ -114,7 +114,7 @@ namespace {
 // trained finds the run itself at its budget, and `train --resume RUN` finishes the members.
 bool tail_members_finished(const std::string& run_dir, const train::TrainConfig& config) {
   for (int m = 1; m < config.loop.hl_tail_members; ++m) {
-    const std::string member = (fs::path(run_dir) / "members" / std::to_string(m)).string();
+    const std::string member = train::member_dir(run_dir, m);
     const std::string latest = fs::is_directory(member) ? train::latest_checkpoint_name(member) : "";
     if (latest.empty()) return false;
     const fs::path dir = fs::path(member) / "checkpoint" / latest;

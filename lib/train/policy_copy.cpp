@@ -38,8 +38,7 @@ PolicyCopyReport write_policy_copy(const std::string& run_dir, const std::string
   // The members load_run_policy joined (a finished run with train.hl_tail_members > 1).
   const std::size_t members = copy_folder(run_dir, out_dir, report);
   for (std::size_t m = 1; m <= members; ++m) {
-    const std::string member = (fs::path(run_dir) / "members" / std::to_string(m)).string();
-    copy_folder(member, fs::path(out_dir) / "members" / std::to_string(m), report);
+    copy_folder(member_dir(run_dir, m), member_dir(out_dir, m), report);
   }
   return report;
 }

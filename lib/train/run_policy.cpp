@@ -77,7 +77,7 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   // training is evaluated as it stands: its members come at its end).
   if (p.config.loop.hl_tail_members > 1 && p.env_steps >= p.config.loop.total_env_steps)
     for (int m = 1; m < p.config.loop.hl_tail_members; ++m) {
-      const std::string member = (fs::path(run_dir) / "members" / std::to_string(m)).string();
+      const std::string member = member_dir(run_dir, m);
       if (!fs::is_directory(member))
         throw io::InputError(member + ": missing, so the run's policy (an ensemble of " +
                              std::to_string(p.config.loop.hl_tail_members) +

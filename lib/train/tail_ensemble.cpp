@@ -65,12 +65,16 @@ void Trainer::State::fork_tail_members() {
   }
 }
 
+std::string member_dir(const std::string& run_dir, int m) {
+  return (fs::path(run_dir) / "members" / std::to_string(m)).string();
+}
+
 std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const std::atomic<bool>* stop,
                                              const std::function<void(int, const MetricsRow&)>& on_row) {
   const RunConfig run = read_run_config(run_dir);
   std::vector<TrainSummary> out;
   for (int m = 1; m < run.config.loop.hl_tail_members; ++m) {
-    const std::string dir = (fs::path(run_dir) / "members" / std::to_string(m)).string();
+    const std::string dir = member_dir(run_dir, m);
     if (!fs::is_directory(dir))
       throw io::InputError(dir + ": missing, so tail member " + std::to_string(m) +
                            " was never forked (the run has not reached its tail, or the folder was removed); "

@@ -148,6 +148,9 @@ class Trainer {
 // checkpoint (a member already at the end returns at once); stops after a member whose run was
 // interrupted by `stop`. `on_row(m, row)` for every metrics row of member m. Throws
 // io::InputError naming a member folder that is missing.
+// RUN/members/M: the run folder of tail member M (train.hl_tail_members), the one spelling of it.
+std::string member_dir(const std::string& run_dir, int m);
+
 std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const std::atomic<bool>* stop = nullptr,
                                              const std::function<void(int, const MetricsRow&)>& on_row = {});
 
