@@ -18,6 +18,7 @@
 #include "dist_options.hpp"
 #include "progress_bar.hpp"
 #include "eval/tournament.hpp"
+#include "eval/tournament_journal.hpp"
 #include "eval/tournament_output.hpp"
 #include "eval/tournament_report.hpp"
 #include "io/staged_folder.hpp"
@@ -60,7 +61,11 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
   std::error_code ec;
   std::filesystem::create_directories(o.out_dir, ec);
   if (ec) throw io::InputError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
-  r = eval::run_tournament(o, [&](long done, long total) {
+  // The races so far go to a journal beside the folder, so a stopped tournament goes on where it
+  // stopped; it is removed once the output is in place.
+  eval::TournamentOptions journaled = o;
+  journaled.journal_path = eval::tournament_journal_path(o.out_dir);
+  r = eval::run_tournament(journaled, [&](long done, long total) {
     const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double left = frac > 0.0 ? elapsed * (1.0 - frac) / frac : 0.0;
@@ -75,7 +80,7 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
     }
     last_percent = percent;
     std::fflush(stdout);
-  }, group.get());
+  }, group.get(), [](const std::string& line) { std::printf("%s\n", line.c_str()); });
   if (tty) std::printf("\n");
   std::string md;
   std::vector<std::string> missing;
@@ -84,6 +89,7 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
     staged.out_dir = staging;
     md = eval::write_tournament_report(r, staged, &missing);
   });
+  std::filesystem::remove(journaled.journal_path, ec);  // a journal left by a kill here is whole: reused, not raced
   std::printf("%s", md.c_str());
   std::printf("%zu races in %.1f s\n", r.races.size(),
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

@@ -15,6 +15,9 @@
 #include <stdexcept>
 
 #include "dist/process_group.hpp"
+#include "eval/tournament_journal.hpp"
+#include "eval/tournament_output.hpp"
+#include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
 #include "race/block_events.hpp"
 #include "io/yaml_config.hpp"
@@ -172,10 +175,210 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
   return out;
 }
 
+// What a journal must have been written for: this build, the options that decide the races, the
+// tracks file's bytes and each run's checkpoint (a run trained further is another entry).
+std::string journal_identity(const TournamentOptions& o, const std::vector<train::RunPolicy>& pol) {
+  std::ostringstream s;
+  s << "binary " << std::hex << dist::executable_hash() << std::dec << "; " << tournament_marker_options(o)
+    << " autopilot_airspeed=" << o.autopilot_airspeed_ftps << " tracks=" << o.tracks_config;
+  if (!o.tracks_config.empty()) s << ":" << std::hex << std::hash<std::string>{}(io::read_file(o.tracks_config)) << std::dec;
+  s << " checkpoints=";
+  for (const train::RunPolicy& p : pol)
+    s << p.name << ":" << fs::path(p.checkpoint_dir).filename().string() << ":" << p.env_steps << ",";
+  return s.str();
+}
+
+// The journal of this tournament's races so far; `todo` is left with the games it does not hold.
+// Game k of `games` is race k % races_per_pair of pairing k / races_per_pair.
+std::unique_ptr<TournamentJournal> open_journal(const TournamentOptions& o, const std::vector<train::RunPolicy>& pol,
+                                                const std::vector<Game>& games, std::vector<Game>* todo) {
+  const std::size_t per_pair = static_cast<std::size_t>(o.races_per_pair);
+  std::vector<char> raced(games.size(), 0);
+  auto index = [&](const RaceRecord& r) { return static_cast<std::size_t>(r.pair) * per_pair + r.race; };
+  auto accept = [&](const RaceRecord& r) {
+    if (r.pair < 0 || r.race < 0 || r.race >= o.races_per_pair || index(r) >= games.size() || raced[index(r)])
+      return false;
+    const Game& g = games[index(r)];
+    if (g.blue != r.blue || g.red != r.red || r.track != r.race / 2 ||
+        (r.winner != -1 && r.winner != r.blue && r.winner != r.red))
+      return false;
+    raced[index(r)] = 1;
+    return true;
+  };
+  auto journal = std::make_unique<TournamentJournal>(o.journal_path, journal_identity(o, pol), accept);
+  // A journal refused part way marked some games: count only what it kept.
+  std::fill(raced.begin(), raced.end(), 0);
+  for (const RaceRecord& r : journal->kept()) raced[index(r)] = 1;
+  todo->clear();
+  for (std::size_t k = 0; k < games.size(); ++k)
+    if (!raced[k]) todo->push_back(games[k]);
+  return journal;
+}
+
+// Races `games` (the tournament's, less those a journal kept) and returns their records, each
+// appended to `journal` (if any) in the step it ended. `done_before` races of `total` were
+// raced before (progress counts them).
+std::vector<RaceRecord> race_games(const TournamentOptions& o, const std::vector<Entry>& entries,
+                                   std::vector<train::RunPolicy>& pol, race::RaceConfig rc,
+                                   const std::vector<Game>& games, long done_before, long total,
+                                   const std::function<void(long, long)>& progress, dist::Group* group,
+                                   const TournamentJournal* journal) {
+  const int n_entries = static_cast<int>(entries.size());
+  std::vector<RaceRecord> out;
+  c10::InferenceMode inference;  // as the trainer's rollout: no autograd bookkeeping on any tensor of a race
+  at::Generator gen = models::make_generator(o.seed * 31 + 7);
+  const int ts = rc.team_size, n_agent = rc.n_agent();
+  // One batch of envs for the whole tournament: an env whose race ends takes the next game at
+  // once, so no env idles until the slowest race of a batch is over. Each game's track and start
+  // come from its own stream, race r of every pairing on track r / 2 (both sides of each track
+  // flown, sides swapped), and its @random draws from the race's own: the same race whatever
+  // env slot it lands in, so pairings within a tournament and the same pairing in tournaments of
+  // other entries race the same tracks (common random numbers for paired comparisons).
+  const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size()));
+  // Ranks: this one races envs [lo, hi) of the n; every rank makes the same assignments, so the
+  // split changes no race.
+  const int world = group ? group->size() : 1, rank = group ? group->rank() : 0;
+  if (n < world)
+    throw io::InputError("tournament: " + std::to_string(n) + " races at once cannot be split over " +
+                         std::to_string(world) + " ranks; give --batch (and races) of at least the number of ranks");
+  const int lo = static_cast<int>(static_cast<long long>(n) * rank / world);
+  const int hi = static_cast<int>(static_cast<long long>(n) * (rank + 1) / world);
+  const int nl = hi - lo;
+  rc.n_env = nl;
+  race::RaceEnv env(rc, lo);
+  race::BlockCounter blocks(env);
+  // The @random rule's draws: the stream of the env's current race, used only at its own HL
+  // decisions.
+  std::vector<RandomStream> control_rng(nl, control_stream(o.seed, 0));
+  std::vector<long> env_game(n, -1);  // game index raced in each env of the whole batch, -1 idle
+  using Lost = std::array<int, race::kNumCauses>;
+  std::vector<Lost> lost_blue(nl), lost_red(nl);  // [n_env_local][cause]
+  std::vector<int> owner(static_cast<std::size_t>(nl) * n_agent, -1);  // entry flying this rank's aircraft i
+  std::size_t next_game = 0;
+  // Every rank makes the same assignments (global env order), its own envs' owners only.
+  auto assign = [&](int eg) {
+    env_game[eg] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
+    if (eg < lo || eg >= hi) return;
+    const int e = eg - lo;
+    lost_blue[e].fill(0);
+    lost_red[e].fill(0);
+    const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
+    for (int a = 0; a < n_agent; ++a) owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
+    if (!g) return;
+    env.start_race(e, track_stream_id(g->race / 2));
+    control_rng[e] = control_stream(o.seed, g->race);
+  };
+  for (int e = 0; e < n; ++e) assign(e);
+  // Aircraft rows per entry: every network acts only on the aircraft it flies.
+  train::PolicyRows rows(n_entries, nl * n_agent), hl_rows(n_entries, nl * n_agent);
+  rows.assign(owner);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(nl) * n_agent * 3, rc.hl_center_bin());
+  std::vector<float> actions(static_cast<std::size_t>(nl) * n_agent * 3, 0.0f);
+  race::AutopilotPilotConfig autopilot;
+  autopilot.airspeed_ftps = o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : rc.autopilot_airspeed();
+  // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
+  // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
+  // env and team order, so independent of the thread count).
+  auto choose_hl_bins = [&]() {
+    const HlObs obs = train::hl_obs_view(env);
+    std::vector<int> hl_owner(owner);
+    for (std::size_t i = 0; i < hl_owner.size(); ++i) {
+      const int e = static_cast<int>(i) / n_agent;
+      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || !hl_override_uses_policy(entries[hl_owner[i]].hl) ||
+                               is_autopilot(entries[hl_owner[i]])))
+        hl_owner[i] = -1;
+    }
+    hl_rows.assign(hl_owner);
+    for (int id = 0; id < n_entries; ++id)
+      train::policy_hl_bins(pol[entries[id].policy], obs, hl_rows.rows(id), o.epsilon, gen, bins.data());
+    for (int e = 0; e < nl; ++e) {
+      if (env_game[lo + e] < 0 || !env.hl_due()[e]) continue;
+      for (int team = 0; team < 2; ++team) {
+        const Entry& en = entries[owner[e * n_agent + team * ts]];
+        // The autopilot has no high level: its goals stay on the center-line (reward only).
+        if (is_control(en) || is_autopilot(en))
+          fixed_hl_bins(is_autopilot(en) ? HlOverride::center : en.hl, rc.hl_bins, ts, control_rng[e],
+                        bins.data() + static_cast<std::size_t>(e * n_agent + team * ts) * race::kHlDims);
+      }
+    }
+  };
+  long done_games = 0, reported = 0;
+  int active = n;
+  std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
+  while (active > 0) {
+    bool due = false;
+    for (int e = 0; e < nl; ++e) due = due || (env.hl_due()[e] && env_game[lo + e] >= 0);
+    if (due) {
+      choose_hl_bins();
+      env.set_hl_actions(bins.data());
+    }
+    const LlObs obs = train::ll_obs_view(env);
+    for (int id = 0; id < n_entries; ++id) {
+      if (rows.rows(id).numel() == 0) continue;
+      if (is_autopilot(entries[id])) {
+        race::autopilot_actions(env, autopilot, actions.data(), rows.rows(id).data_ptr<std::int64_t>(),
+                                rows.rows(id).numel());
+        continue;
+      }
+      train::greedy_ll_actions(pol[entries[id].policy], env, obs, rows.rows(id), gen, actions.data());
+    }
+    std::vector<double> t_before(nl);
+    for (int e = 0; e < nl; ++e) t_before[e] = env.race_time_s(e);
+    env.step(actions.data());
+    blocks.after_step(race::block_view(env));
+    std::fill(ended.begin(), ended.end(), 0);
+    std::vector<RaceRecord> now;  // the races that ended this step
+    for (int e = 0; e < nl; ++e) {
+      if (env_game[lo + e] < 0) continue;
+      for (int a = 0; a < n_agent; ++a)
+        if (const int c = env.step_cause()[e * n_agent + a]; c != race::kCauseNone) (a < ts ? lost_blue[e] : lost_red[e])[c] += 1;
+      if (!env.env_done()[e]) continue;
+      const Game& g = games[env_game[lo + e]];
+      RaceRecord r;
+      r.pair = g.pair;
+      r.blue = g.blue;
+      r.red = g.red;
+      r.track_seed = rc.seed;
+      r.env = lo + e;
+      r.race = g.race;
+      r.track = g.race / 2;
+      const int w = env.race_winner()[e];
+      r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
+      r.end_reason = env.race_end()[e];
+      r.duration_s = t_before[e] + rc.dt_ll_s;
+      r.blue_lost = lost_blue[e];
+      r.red_lost = lost_red[e];
+      r.blue_blocks = blocks.race_blocks(e, 0);
+      r.red_blocks = blocks.race_blocks(e, 1);
+      out.push_back(r);
+      now.push_back(r);
+      ended[lo + e] = 1;
+    }
+    if (journal) journal->append(now);
+    if (group) group->allreduce_sum(ended);
+    bool changed = false;
+    for (int eg = 0; eg < n; ++eg) {
+      if (ended[eg] == 0) continue;
+      ++done_games;
+      assign(eg);
+      active -= env_game[eg] < 0;
+      changed = changed || (eg >= lo && eg < hi);
+    }
+    if (changed) rows.assign(owner);
+    // Progress about every 1 % of the games.
+    if (progress && (done_games - reported >= std::max<long>(1, total / 100) ||
+                     (active == 0 && done_games != reported))) {
+      reported = done_games;
+      progress(done_before + done_games, total);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 TournamentResult run_tournament(const TournamentOptions& o, const std::function<void(long, long)>& progress,
-                                dist::Group* group) {
+                                dist::Group* group, const std::function<void(const std::string&)>& say) {
   if (o.runs.empty() && !o.include_untrained) throw io::InputError("tournament: no entries");
   if (o.runs.empty()) throw io::InputError("tournament: give at least one run folder with --runs");
   TournamentResult res;
@@ -229,150 +432,25 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
       for (int r = 0; r < o.races_per_pair; ++r)
         games.push_back(r % 2 == 0 ? Game{pair, i, j, r} : Game{pair, j, i, r});
 
-  c10::InferenceMode inference;  // as the trainer's rollout: no autograd bookkeeping on any tensor of a race
-  at::Generator gen = models::make_generator(o.seed * 31 + 7);
-  const int ts = rc.team_size, n_agent = rc.n_agent();
-  // One batch of envs for the whole tournament: an env whose race ends takes the next game at
-  // once, so no env idles until the slowest race of a batch is over. Each game's track and start
-  // come from its own stream, race r of every pairing on track r / 2 (both sides of each track
-  // flown, sides swapped), and its @random draws from the race's own: the same race whatever
-  // env slot it lands in, so pairings within a tournament and the same pairing in tournaments of
-  // other entries race the same tracks (common random numbers for paired comparisons).
-  const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size()));
-  // Ranks: this one races envs [lo, hi) of the n; every rank makes the same assignments, so the
-  // split changes no race.
-  const int world = group ? group->size() : 1, rank = group ? group->rank() : 0;
-  if (n < world)
-    throw io::InputError("tournament: " + std::to_string(n) + " races at once cannot be split over " +
-                         std::to_string(world) + " ranks; give --batch (and races) of at least the number of ranks");
-  const int lo = static_cast<int>(static_cast<long long>(n) * rank / world);
-  const int hi = static_cast<int>(static_cast<long long>(n) * (rank + 1) / world);
-  const int nl = hi - lo;
-  rc.n_env = nl;
   rc.seed = o.seed * 1000003ULL;
-  race::RaceEnv env(rc, lo);
-  race::BlockCounter blocks(env);
-  // The @random rule's draws: the stream of the env's current race, used only at its own HL
-  // decisions.
-  std::vector<RandomStream> control_rng(nl, control_stream(o.seed, 0));
-  std::vector<long> env_game(n, -1);  // game index raced in each env of the whole batch, -1 idle
-  using Lost = std::array<int, race::kNumCauses>;
-  std::vector<Lost> lost_blue(nl), lost_red(nl);  // [n_env_local][cause]
-  std::vector<int> owner(static_cast<std::size_t>(nl) * n_agent, -1);  // entry flying this rank's aircraft i
-  std::size_t next_game = 0;
-  // Every rank makes the same assignments (global env order), its own envs' owners only.
-  auto assign = [&](int eg) {
-    env_game[eg] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
-    if (eg < lo || eg >= hi) return;
-    const int e = eg - lo;
-    lost_blue[e].fill(0);
-    lost_red[e].fill(0);
-    const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
-    for (int a = 0; a < n_agent; ++a) owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
-    if (!g) return;
-    env.start_race(e, track_stream_id(g->race / 2));
-    control_rng[e] = control_stream(o.seed, g->race);
-  };
-  for (int e = 0; e < n; ++e) assign(e);
-  // Aircraft rows per entry: every network acts only on the aircraft it flies.
-  train::PolicyRows rows(n_entries, nl * n_agent), hl_rows(n_entries, nl * n_agent);
-  rows.assign(owner);
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(nl) * n_agent * 3, rc.hl_center_bin());
-  std::vector<float> actions(static_cast<std::size_t>(nl) * n_agent * 3, 0.0f);
-  race::AutopilotPilotConfig autopilot;
-  autopilot.airspeed_ftps = o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : rc.autopilot_airspeed();
-  // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
-  // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
-  // env and team order, so independent of the thread count).
-  auto choose_hl_bins = [&]() {
-    const HlObs obs = train::hl_obs_view(env);
-    std::vector<int> hl_owner(owner);
-    for (std::size_t i = 0; i < hl_owner.size(); ++i) {
-      const int e = static_cast<int>(i) / n_agent;
-      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || !hl_override_uses_policy(res.entries[hl_owner[i]].hl) ||
-                               is_autopilot(res.entries[hl_owner[i]])))
-        hl_owner[i] = -1;
-    }
-    hl_rows.assign(hl_owner);
-    for (int id = 0; id < n_entries; ++id)
-      train::policy_hl_bins(pol[res.entries[id].policy], obs, hl_rows.rows(id), o.epsilon, gen, bins.data());
-    for (int e = 0; e < nl; ++e) {
-      if (env_game[lo + e] < 0 || !env.hl_due()[e]) continue;
-      for (int team = 0; team < 2; ++team) {
-        const Entry& en = res.entries[owner[e * n_agent + team * ts]];
-        // The autopilot has no high level: its goals stay on the center-line (reward only).
-        if (is_control(en) || is_autopilot(en))
-          fixed_hl_bins(is_autopilot(en) ? HlOverride::center : en.hl, rc.hl_bins, ts, control_rng[e],
-                        bins.data() + static_cast<std::size_t>(e * n_agent + team * ts) * race::kHlDims);
-      }
-    }
-  };
-  long done_games = 0, reported = 0;
-  int active = n;
-  std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
-  while (active > 0) {
-    bool due = false;
-    for (int e = 0; e < nl; ++e) due = due || (env.hl_due()[e] && env_game[lo + e] >= 0);
-    if (due) {
-      choose_hl_bins();
-      env.set_hl_actions(bins.data());
-    }
-    const LlObs obs = train::ll_obs_view(env);
-    for (int id = 0; id < n_entries; ++id) {
-      if (rows.rows(id).numel() == 0) continue;
-      if (is_autopilot(res.entries[id])) {
-        race::autopilot_actions(env, autopilot, actions.data(), rows.rows(id).data_ptr<std::int64_t>(),
-                                rows.rows(id).numel());
-        continue;
-      }
-      train::greedy_ll_actions(pol[res.entries[id].policy], env, obs, rows.rows(id), gen, actions.data());
-    }
-    std::vector<double> t_before(nl);
-    for (int e = 0; e < nl; ++e) t_before[e] = env.race_time_s(e);
-    env.step(actions.data());
-    blocks.after_step(race::block_view(env));
-    std::fill(ended.begin(), ended.end(), 0);
-    for (int e = 0; e < nl; ++e) {
-      if (env_game[lo + e] < 0) continue;
-      for (int a = 0; a < n_agent; ++a)
-        if (const int c = env.step_cause()[e * n_agent + a]; c != race::kCauseNone) (a < ts ? lost_blue[e] : lost_red[e])[c] += 1;
-      if (!env.env_done()[e]) continue;
-      const Game& g = games[env_game[lo + e]];
-      RaceRecord r;
-      r.pair = g.pair;
-      r.blue = g.blue;
-      r.red = g.red;
+  const long total = static_cast<long>(games.size());
+  std::vector<Game> todo = games;
+  std::unique_ptr<TournamentJournal> journal;
+  // A journal only where the races do not depend on the batch: one process, greedy HL.
+  if (!o.journal_path.empty() && !group && o.epsilon == 0.0) {
+    journal = open_journal(o, pol, games, &todo);
+    if (say && !journal->note().empty()) say(journal->note());
+    for (RaceRecord r : journal->kept()) {
       r.track_seed = rc.seed;
-      r.env = lo + e;
-      r.race = g.race;
-      r.track = g.race / 2;
-      const int w = env.race_winner()[e];
-      r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
-      r.end_reason = env.race_end()[e];
-      r.duration_s = t_before[e] + rc.dt_ll_s;
-      r.blue_lost = lost_blue[e];
-      r.red_lost = lost_red[e];
-      r.blue_blocks = blocks.race_blocks(e, 0);
-      r.red_blocks = blocks.race_blocks(e, 1);
       res.races.push_back(r);
-      ended[lo + e] = 1;
     }
-    if (group) group->allreduce_sum(ended);
-    bool changed = false;
-    for (int eg = 0; eg < n; ++eg) {
-      if (ended[eg] == 0) continue;
-      ++done_games;
-      assign(eg);
-      active -= env_game[eg] < 0;
-      changed = changed || (eg >= lo && eg < hi);
-    }
-    if (changed) rows.assign(owner);
-    // Progress about every 1 % of the games.
-    if (progress && (done_games - reported >= std::max<long>(1, static_cast<long>(games.size()) / 100) ||
-                     (active == 0 && done_games != reported))) {
-      reported = done_games;
-      progress(done_games, static_cast<long>(games.size()));
-    }
+  }
+  if (todo.empty()) {
+    if (progress) progress(total, total);
+  } else {
+    std::vector<RaceRecord> raced = race_games(o, res.entries, pol, rc, todo, total - static_cast<long>(todo.size()),
+                                               total, progress, group, journal.get());
+    res.races.insert(res.races.end(), raced.begin(), raced.end());
   }
   if (group) res.races = gather_races(*group, res.races, rc.seed);
   res.wins.assign(n_entries, std::vector<double>(n_entries, 0.0));

@@ -78,6 +78,10 @@ struct TournamentOptions {
   int batch_envs = 256;           // races run at once
   int bootstrap_replicates = 2000;
   std::string out_dir;
+  // Non-empty: the races so far are kept in this file (eval/tournament_journal.hpp), and a
+  // tournament stopped before its end goes on from it. Used by one process with greedy HL only
+  // (epsilon 0): a group's or an exploring tournament's races depend on the batch.
+  std::string journal_path;
 };
 
 struct Entry {
@@ -125,7 +129,8 @@ struct TournamentResult {
   std::vector<std::vector<double>> wins, games;
 };
 
-// Runs every pair; `progress(done, total)` after each batch. Throws io::InputError with the
+// Runs every pair; `progress(done, total)` after each batch; `say` gets one line about the
+// journal (races kept, or why it was started anew). Throws io::InputError with the
 // run folder named when a run is missing, corrupt, or trained on a different race shape.
 // With a `group` of W ranks each rank races its share of the batch's envs (a contiguous slice,
 // its own streams under the same ids), the ranks step in lockstep and agree on which env takes
@@ -134,7 +139,8 @@ struct TournamentResult {
 // depend on the batch they come in, which the test holds).
 TournamentResult run_tournament(const TournamentOptions& options,
                                 const std::function<void(long, long)>& progress = {},
-                                dist::Group* group = nullptr);
+                                dist::Group* group = nullptr,
+                                const std::function<void(const std::string&)>& say = {});
 
 // Its outputs (summary tables, CSVs, figures): eval/tournament_report.hpp.
 

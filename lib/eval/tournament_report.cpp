@@ -156,7 +156,9 @@ TournamentStatistics tournament_statistics(const TournamentResult& r, const Tour
 
 // One row per race; the last columns count each team's aircraft lost per termination cause.
 void write_races_csv(const TournamentResult& r, const std::string& path) {
-  constexpr int kBase = 13;
+  // No env slot column: a race is the same in any slot, and a resumed tournament places its
+  // games in other slots; without it races.csv is the same bytes either way.
+  constexpr int kBase = 12;
   std::vector<std::vector<double>> cols(kBase + 2 * (race::kNumCauses - 1));
   std::vector<std::vector<std::string>> names(3);
   for (const RaceRecord& x : r.races) {
@@ -166,7 +168,6 @@ void write_races_csv(const TournamentResult& r, const std::string& path) {
                              static_cast<double>(r.entries[x.red].seed),
                              static_cast<double>(x.track_seed),
                              double(x.track),
-                             double(x.env),
                              double(x.end_reason),
                              double(x.blue_out()),
                              double(x.red_out()),
@@ -183,7 +184,7 @@ void write_races_csv(const TournamentResult& r, const std::string& path) {
     names[2].push_back(x.winner < 0 ? "draw" : r.entries[x.winner].name);
   }
   std::vector<std::string> header = {"pair",           "race",          "blue_seed",  "red_seed",    "track_seed",
-                                     "track",          "env",           "end_reason", "blue_terminated",
+                                     "track",          "end_reason",    "blue_terminated",
                                      "red_terminated", "duration_s",    "blue_blocks", "red_blocks"};
   for (const char* team : {"blue", "red"})
     for (int c = 1; c < race::kNumCauses; ++c) header.push_back(std::string(team) + "_out_" + race::cause_name(c));
