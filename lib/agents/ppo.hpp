@@ -52,6 +52,9 @@ struct PpoConfig {
   bool anneal_lr = true;
   int64_t total_updates = 0;  // planned updates; the lr reaches 0 after this many (needed if anneal_lr)
   bool normalize_advantages = true;
+  // The trainer divides LL rewards by the running std of their discounted return
+  // (agents/return_scaler.hpp; issue 49, notebook 70). One process only.
+  bool normalize_returns = false;
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order

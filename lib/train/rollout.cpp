@@ -229,6 +229,7 @@ void Trainer::State::commit_samples(const torch::Tensor& samples) {
     te[k] = env->terminated()[i] != 0;
     tr[k] = env->truncated()[i] != 0;
     va[k] = env->acted()[i] != 0 && learner_flies_ll(i / n_agent, i % n_agent);
+    if (cfg.ll.normalize_returns) return_scaler.observe(k, rw[k], va[k], te[k] || tr[k]);
     any_trunc = any_trunc || env->truncated()[i];
   }
   torch::Tensor bootstrap;

@@ -54,6 +54,13 @@ void Trainer::State::build(bool fresh) {
   opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
   buffer = std::make_unique<agents::RolloutBuffer>(
       cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * (cfg.loop.ll_both_teams ? n_agent : ts), dims, race::kActionDim);
+  if (cfg.ll.normalize_returns) {
+    // Each rank's statistics would differ, and so would its rewards' scale.
+    if (world > 1)
+      throw io::InputError("ll.normalize_returns: true is for one process; set it to false to train over " +
+                           std::to_string(world) + " ranks");
+    return_scaler = agents::ReturnScaler(buffer->n_samples(), cfg.ll.gamma);
+  }
   // Each rank its own streams (rank 0's are a single process's): actions, matchups.
   gen = models::make_generator(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003);
   stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank));

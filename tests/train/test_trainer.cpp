@@ -22,6 +22,7 @@
 #include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
+#include "race/race_config.hpp"
 #include "train/run_policy.hpp"
 #include "train/trainer.hpp"
 #include "support/temp_paths.hpp"
@@ -55,6 +56,23 @@ std::string error_of(const std::string& yaml) {
     return e.what();
   }
   return "";
+}
+
+// A smoke run with `override`, stopped after 3 updates and resumed for 4, ends with the weights
+// of the same run trained 7 updates unbroken.
+void expect_resumed_run_ends_as_unbroken(const std::string& override, const std::string& name) {
+  Trainer w(smoke(override), fresh_dir(name + "_whole"));
+  const TrainSummary full = w.run(nullptr, 7);
+  const std::string split = fresh_dir(name + "_split");
+  {
+    Trainer s(smoke(override), split);
+    s.run(nullptr, 3);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run(nullptr, 4);
+  EXPECT_EQ(resumed->updates(), full.updates);
+  EXPECT_EQ(resumed->ll_parameters(), w.ll_parameters());
+  EXPECT_EQ(resumed->hl_parameters(), w.hl_parameters());
 }
 
 TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
@@ -167,18 +185,45 @@ TEST(Trainer, BothTeamsSamplesDoubleTheFirstUpdatesRowsAndResumeExactly) {
   EXPECT_EQ(rb.env_steps, ra.env_steps);
   EXPECT_NE(a.ll_parameters(), b.ll_parameters());
 
-  const std::string whole = fresh_dir("both_whole"), split = fresh_dir("both_split");
-  Trainer w(smoke("train.ll_both_teams=true"), whole);
-  const TrainSummary full = w.run(nullptr, 7);
-  {
-    Trainer s(smoke("train.ll_both_teams=true"), split);
-    s.run(nullptr, 3);
-  }
-  auto resumed = Trainer::resume(split);
-  resumed->run(nullptr, 4);
-  EXPECT_EQ(resumed->updates(), full.updates);
-  EXPECT_EQ(resumed->ll_parameters(), w.ll_parameters());
-  EXPECT_EQ(resumed->hl_parameters(), w.hl_parameters());
+  expect_resumed_run_ends_as_unbroken("train.ll_both_teams=true", "both");
+}
+
+// ll.normalize_returns: LL rewards divided by the spread of their discounted return, so the run
+// no longer depends on the rewards' unit. Every LL reward weight x10 (the reward x10, up to its
+// float rounding) leaves the trained low level where it was with the switch on, and moves it
+// without. A stopped and resumed run ends with the unbroken run's weights.
+TEST(Trainer, ReturnScalingMakesTheLowLevelBlindToTheRewardsUnitAndResumesExactly) {
+  auto config = [](bool on, double k) {
+    YAML::Node root = YAML::Load(kSmoke);
+    io::apply_override(root, std::string("ll.normalize_returns=") + (on ? "true" : "false"));
+    const race::RaceConfig d;  // the defaults kSmoke keeps
+    const std::pair<const char*, double> weights[] = {
+        {"w_goal_progress", d.w_goal_progress}, {"w_goal_proximity", d.w_goal_proximity},
+        {"w_goal_lane", d.w_goal_lane},         {"w_separation", d.w_separation},
+        {"w_tube", d.w_tube},                   {"w_collision", d.w_collision},
+        {"w_termination", d.w_termination},     {"w_action_change", d.w_action_change},
+        {"w_rates", d.w_rates}};
+    for (const auto& [key, base] : weights)
+      io::apply_override(root, std::string("race.") + key + "=" + std::to_string(k * base));
+    return read_train_config(root, "smoke.yaml");
+  };
+  auto max_diff = [](const std::vector<float>& a, const std::vector<float>& b) {
+    double m = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, static_cast<double>(std::fabs(a[i] - b[i])));
+    return m;
+  };
+  std::vector<std::vector<float>> ll;
+  for (bool on : {false, true})
+    for (double k : {1.0, 10.0}) {
+      Trainer t(config(on, k), fresh_dir(std::string("retscale_") + (on ? "on" : "off") + (k > 1 ? "10" : "1")));
+      t.run(nullptr, 2);
+      ll.push_back(t.ll_parameters());
+    }
+  EXPECT_GT(max_diff(ll[0], ll[1]), 1e-3) << "without the switch the reward's unit moves the low level";
+  EXPECT_LT(max_diff(ll[2], ll[3]), 1e-5) << "with it, only float rounding does";
+  EXPECT_GT(max_diff(ll[0], ll[2]), 1e-3) << "the switch changes the update";
+
+  expect_resumed_run_ends_as_unbroken("ll.normalize_returns=true", "retscale");
 }
 
 // train.ll_pilot autopilot: AeroBench's waypoint autopilot flies the goal lanes, so every update
