@@ -108,32 +108,6 @@ double last_metrics_value(const std::string& run_dir, int column) {
   }
 }
 
-namespace {
-
-// A run of train.hl_tail_members K > 1 is done when its members are: a study stopped while one
-// trained finds the run itself at its budget, and `train --resume RUN` finishes the members.
-bool tail_members_finished(const std::string& run_dir, const train::TrainConfig& config) {
-  for (int m = 1; m < config.loop.hl_tail_members; ++m) {
-    const std::string member = train::member_dir(run_dir, m);
-    const std::string latest = fs::is_directory(member) ? train::latest_checkpoint_name(member) : "";
-    if (latest.empty()) return false;
-    const fs::path dir = fs::path(member) / "checkpoint" / latest;
-    try {
-      const train::RunConfig mc = train::read_run_config(member);
-      if (train::check_checkpoint_meta(dir.string(), mc.hash, train::CheckpointUse::policy) <
-          static_cast<std::int64_t>(mc.config.loop.total_env_steps))
-        return false;
-    } catch (const std::exception& e) {
-      throw io::InputError((dir / "meta.yaml").string() + ": cannot read tail member " + std::to_string(m) +
-                           "'s checkpoint (" + train::checkpoint_error_reason(e) +
-                           "); restore it, or move the run folder aside to retrain");
-    }
-  }
-  return true;
-}
-
-}  // namespace
-
 CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
   CellStatus st;
   st.total_env_steps = static_cast<std::int64_t>(config.total_env_steps);
@@ -160,7 +134,7 @@ CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
     throw io::InputError((dir / "meta.yaml").string() + ": cannot read the checkpoint (" +
                          train::checkpoint_error_reason(e) + "); restore it, or move the run folder aside to retrain");
   }
-  st.state = st.env_steps >= st.total_env_steps && tail_members_finished(cell.run_dir, have.config)
+  st.state = st.env_steps >= st.total_env_steps && train::unfinished_tail_member(cell.run_dir, have.config).empty()
                  ? CellState::finished
                  : CellState::partial;
   st.wall_s = last_metrics_value(cell.run_dir, kMetricsWallColumn);

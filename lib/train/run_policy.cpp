@@ -75,21 +75,10 @@ RunPolicy load_run_policy(const std::string& run_dir) {
   }
   // train.hl_tail_members: a finished run's policy is the ensemble of its tails (a run still
   // training is evaluated as it stands: its members come at its end).
-  if (p.config.loop.hl_tail_members > 1 && p.env_steps >= p.config.loop.total_env_steps)
-    for (int m = 1; m < p.config.loop.hl_tail_members; ++m) {
-      const std::string member = member_dir(run_dir, m);
-      if (!fs::is_directory(member))
-        throw io::InputError(member + ": missing, so the run's policy (an ensemble of " +
-                             std::to_string(p.config.loop.hl_tail_members) +
-                             " tails, train.hl_tail_members) is incomplete; continue it with f16race train --resume " +
-                             run_dir);
-      RunPolicy mp = load_run_policy(member);
-      if (mp.env_steps < mp.config.loop.total_env_steps)
-        throw io::InputError(member + ": tail member " + std::to_string(m) + " is at " + std::to_string(mp.env_steps) +
-                             " of " + std::to_string(mp.config.loop.total_env_steps) +
-                             " env steps; finish it with f16race train --resume " + run_dir);
-      add_hl_member(p, std::move(mp));
-    }
+  if (p.config.loop.hl_tail_members > 1 && p.env_steps >= p.config.loop.total_env_steps) {
+    if (const std::string why = unfinished_tail_member(run_dir, p.config); !why.empty()) throw io::InputError(why);
+    for (int m = 1; m < p.config.loop.hl_tail_members; ++m) add_hl_member(p, load_run_policy(member_dir(run_dir, m)));
+  }
   return p;
 }
 

@@ -69,6 +69,33 @@ std::string member_dir(const std::string& run_dir, int m) {
   return (fs::path(run_dir) / "members" / std::to_string(m)).string();
 }
 
+std::string unfinished_tail_member(const std::string& run_dir, const TrainConfig& config) {
+  for (int m = 1; m < config.loop.hl_tail_members; ++m) {
+    const std::string member = member_dir(run_dir, m);
+    const bool exists = fs::is_directory(member);
+    const std::string latest = exists ? latest_checkpoint_name(member) : "";
+    if (latest.empty())
+      return member + (exists ? ": has no checkpoint yet" : ": missing") + ", so the run's policy (an ensemble of " +
+             std::to_string(config.loop.hl_tail_members) +
+             " tails, train.hl_tail_members) is incomplete; continue it with f16race train --resume " + run_dir;
+    const fs::path dir = fs::path(member) / "checkpoint" / latest;
+    std::int64_t steps = 0, budget = 0;
+    try {
+      const RunConfig mc = read_run_config(member);
+      budget = static_cast<std::int64_t>(mc.config.loop.total_env_steps);
+      steps = check_checkpoint_meta(dir.string(), mc.hash, CheckpointUse::policy);
+    } catch (const std::exception& e) {
+      throw io::InputError((dir / "meta.yaml").string() + ": cannot read tail member " + std::to_string(m) +
+                           "'s checkpoint (" + checkpoint_error_reason(e) +
+                           "); restore it, or move the run folder aside to retrain");
+    }
+    if (steps < budget)
+      return member + ": tail member " + std::to_string(m) + " is at " + std::to_string(steps) + " of " +
+             std::to_string(budget) + " env steps; finish it with f16race train --resume " + run_dir;
+  }
+  return "";
+}
+
 std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const std::atomic<bool>* stop,
                                              const std::function<void(int, const MetricsRow&)>& on_row) {
   const RunConfig run = read_run_config(run_dir);

@@ -143,14 +143,21 @@ class Trainer {
   std::unique_ptr<State> s_;
 };
 
+// RUN/members/M: the run folder of tail member M (train.hl_tail_members), the one spelling of it.
+std::string member_dir(const std::string& run_dir, int m);
+
+// "" when every tail member of a run of train.hl_tail_members K (RUN/members/1..K-1) has a
+// checkpoint at its budget; otherwise one line naming the first that has not and the fix
+// (`train --resume RUN`). Reads each member's config.yaml and checkpoint meta.yaml only. Throws
+// io::InputError naming the member's meta.yaml when it cannot be read. The one definition of
+// "the ensemble is complete" for the study and for loading the run's policy.
+std::string unfinished_tail_member(const std::string& run_dir, const TrainConfig& config);
+
 // train.hl_tail_members K > 1: trains the run's tail members RUN/members/1..K-1 (forked at its
 // tail's first update) to the end, one after the other, each resumed from its own LATEST
 // checkpoint (a member already at the end returns at once); stops after a member whose run was
 // interrupted by `stop`. `on_row(m, row)` for every metrics row of member m. Throws
 // io::InputError naming a member folder that is missing.
-// RUN/members/M: the run folder of tail member M (train.hl_tail_members), the one spelling of it.
-std::string member_dir(const std::string& run_dir, int m);
-
 std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const std::atomic<bool>* stop = nullptr,
                                              const std::function<void(int, const MetricsRow&)>& on_row = {});
 
