@@ -305,6 +305,8 @@ std::vector<RaceRecord> race_games(const TournamentOptions& o, const std::vector
   long done_games = 0, reported = 0;
   int active = n;
   std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
+  std::vector<double> t_before(nl);       // each env's race time before the step
+  std::vector<RaceRecord> now;            // this rank's races that ended this step
   while (active > 0) {
     bool due = false;
     for (int e = 0; e < nl; ++e) due = due || (env.hl_due()[e] && env_game[lo + e] >= 0);
@@ -322,12 +324,11 @@ std::vector<RaceRecord> race_games(const TournamentOptions& o, const std::vector
       }
       train::greedy_ll_actions(pol[entries[id].policy], env, obs, rows.rows(id), gen, actions.data());
     }
-    std::vector<double> t_before(nl);
     for (int e = 0; e < nl; ++e) t_before[e] = env.race_time_s(e);
     env.step(actions.data());
     blocks.after_step(race::block_view(env));
     std::fill(ended.begin(), ended.end(), 0);
-    std::vector<RaceRecord> now;  // the races that ended this step
+    now.clear();
     for (int e = 0; e < nl; ++e) {
       if (env_game[lo + e] < 0) continue;
       for (int a = 0; a < n_agent; ++a)
