@@ -21,6 +21,7 @@
 #include "dist/group_token.hpp"
 #include "dist/token_store.hpp"
 #include "dist/token_store_server.hpp"
+#include "io/byte_hash.hpp"
 #include "io/input_error.hpp"
 
 // glog's threshold (libc10 logs through Debian's glog): c10d's code logs a failure with a glog
@@ -135,14 +136,11 @@ std::string store_bind_address(const DistConfig& c) {
 
 std::uint64_t executable_hash() {
   std::ifstream in("/proc/self/exe", std::ios::binary);
-  std::uint64_t h = 1469598103934665603ULL;
+  std::uint64_t h = io::kFnv1aOffset;
   std::vector<char> buf(1 << 20);
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    for (std::streamsize i = 0; i < in.gcount(); ++i) {
-      h ^= static_cast<unsigned char>(buf[static_cast<std::size_t>(i)]);
-      h *= 1099511628211ULL;
-    }
+    h = io::fnv1a(buf.data(), static_cast<std::size_t>(in.gcount()), h);
   }
   return h;
 }

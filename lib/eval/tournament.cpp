@@ -180,9 +180,7 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
 std::string journal_identity(const TournamentOptions& o, const std::vector<train::RunPolicy>& pol) {
   std::ostringstream s;
   s << "binary " << std::hex << dist::executable_hash() << std::dec << "; " << tournament_marker_options(o)
-    << " autopilot_airspeed=" << o.autopilot_airspeed_ftps << " tracks=" << o.tracks_config;
-  if (!o.tracks_config.empty()) s << ":" << std::hex << std::hash<std::string>{}(io::read_file(o.tracks_config)) << std::dec;
-  s << " checkpoints=";
+    << " checkpoints=";
   for (const train::RunPolicy& p : pol)
     s << p.name << ":" << fs::path(p.checkpoint_dir).filename().string() << ":" << p.env_steps << ",";
   return s.str();

@@ -2,10 +2,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <sstream>
 
 #include "io/atomic_file.hpp"
+#include "io/byte_hash.hpp"
 
 namespace f16race::eval {
 
@@ -30,6 +32,18 @@ std::string run_names(const std::string& spec) {
 
 const char* yes_no(bool b) { return b ? "yes" : "no"; }
 
+// The tracks file as the races saw it: its name and a hash of its bytes (an edit races anew).
+std::string tracks_identity(const std::string& path) {
+  if (path.empty()) return "runs'";
+  std::ostringstream s;
+  s << fs::path(path).filename().string() << ":";
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return s.str() + "unreadable";
+  const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  s << std::hex << io::fnv1a(bytes);
+  return s.str();
+}
+
 }  // namespace
 
 bool is_tournament_output(const std::string& name) {
@@ -44,7 +58,8 @@ std::string tournament_marker_options(const TournamentOptions& o) {
   s << "races=" << o.races_per_pair << " seed=" << o.seed << " epsilon=" << o.epsilon << " batch=" << o.batch_envs
     << " bootstrap=" << o.bootstrap_replicates << " untrained=" << yes_no(o.include_untrained)
     << " untrained_in_statistics=" << yes_no(o.untrained_in_statistics) << " autopilot=" << yes_no(o.include_autopilot)
-    << " controls=" << yes_no(o.controls) << " axis_controls=" << yes_no(o.axis_controls) << " runs=";
+    << " controls=" << yes_no(o.controls) << " axis_controls=" << yes_no(o.axis_controls)
+    << " autopilot_airspeed=" << o.autopilot_airspeed_ftps << " tracks=" << tracks_identity(o.tracks_config) << " runs=";
   for (std::size_t k = 0; k < o.runs.size(); ++k) s << (k ? "," : "") << run_names(o.runs[k]);
   return s.str();
 }

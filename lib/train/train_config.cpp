@@ -8,6 +8,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "io/byte_hash.hpp"
 #include "io/csv_table.hpp"
 #include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
@@ -285,14 +286,7 @@ std::string train_config_yaml(const TrainConfig& config) {
   return std::string(out.c_str()) + "\n";
 }
 
-std::uint64_t config_hash(const std::string& text) {
-  std::uint64_t h = 1469598103934665603ULL;  // FNV-1a: stable across machines and compilers
-  for (unsigned char ch : text) {
-    h ^= ch;
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
+std::uint64_t config_hash(const std::string& text) { return io::fnv1a(text); }
 
 RunConfig read_run_config(const std::string& run_dir) {
   const std::string path = run_dir + "/config.yaml";

@@ -14,6 +14,7 @@
 
 #include "dist/process_group.hpp"
 #include "io/atomic_file.hpp"
+#include "io/byte_hash.hpp"
 #include "train/checkpoint_archive.hpp"
 #include "train/trainer_state.hpp"
 
@@ -66,27 +67,21 @@ constexpr const char* kWallFile = "wall_s.txt";
 // A rank's trainer state in a checkpoint folder: rank 0's is a single process's file.
 std::string trainer_file(int rank) { return rank == 0 ? "trainer.pt" : "trainer_rank" + std::to_string(rank) + ".pt"; }
 
-std::uint64_t fnv1a(const torch::nn::Module& m, std::uint64_t h) {
-  for (const auto& t : m.parameters()) {
-    const auto c = t.detach().contiguous();
-    const auto* p = static_cast<const unsigned char*>(c.data_ptr());
-    for (std::size_t i = 0; i < static_cast<std::size_t>(c.nbytes()); ++i) h = (h ^ p[i]) * 1099511628211ULL;
-  }
-  for (const auto& t : m.buffers()) {
-    const auto c = t.detach().contiguous();
-    const auto* p = static_cast<const unsigned char*>(c.data_ptr());
-    for (std::size_t i = 0; i < static_cast<std::size_t>(c.nbytes()); ++i) h = (h ^ p[i]) * 1099511628211ULL;
-  }
+std::uint64_t module_hash(const torch::nn::Module& m, std::uint64_t h) {
+  for (const auto& list : {m.parameters(), m.buffers()})
+    for (const auto& t : list) {
+      const auto c = t.detach().contiguous();
+      h = io::fnv1a(c.data_ptr(), static_cast<std::size_t>(c.nbytes()), h);
+    }
   return h;
 }
 }  // namespace
 
 void Trainer::State::check_replicas_agree() {
-  std::uint64_t h = 1469598103934665603ULL;
-  h = fnv1a(*ppo->net(), h);
-  h = fnv1a(*ppo->normalizer(), h);
-  h = fnv1a(*es->critic(), h);
-  h = fnv1a(*es->normalizer(), h);
+  std::uint64_t h = module_hash(*ppo->net(), io::kFnv1aOffset);
+  h = module_hash(*ppo->normalizer(), h);
+  h = module_hash(*es->critic(), h);
+  h = module_hash(*es->normalizer(), h);
   // Two exact halves in doubles.
   const std::vector<double> all = group->allgather({static_cast<double>(h >> 32), static_cast<double>(h & 0xFFFFFFFFULL)});
   for (int r = 1; r < world; ++r)

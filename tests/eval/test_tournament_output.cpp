@@ -49,6 +49,35 @@ TEST(TournamentOutput, DoneOnlyWithTheSameOptionsAndEveryFigure) {
   EXPECT_EQ(why, "figures: missing tournament.png (gnuplot failed on x.gp: bad)");
 }
 
+// Races on another tracks file, or on the same file edited, or against another autopilot set
+// point are other races: the folder is not done for them.
+TEST(TournamentOutput, TracksFileBytesAndAutopilotAirspeedArePartOfTheOptions) {
+  const std::string dir = test_support::fresh_temp_path("tournament_marker_tracks");
+  fs::create_directories(dir);
+  const std::string tracks = dir + "/long.yaml";
+  std::ofstream(tracks) << "race: {track: {n_waypoints: 15}}\n";
+  TournamentOptions o = options(dir);
+  o.tracks_config = tracks;
+  o.autopilot_airspeed_ftps = 640.0;
+  write_tournament_marker(o, {}, dir);
+  std::string why;
+  EXPECT_TRUE(tournament_complete(o, &why)) << why;
+
+  TournamentOptions runs_tracks = o;
+  runs_tracks.tracks_config.clear();
+  EXPECT_FALSE(tournament_complete(runs_tracks, &why));
+  EXPECT_EQ(why, "it was raced with other options");
+  TournamentOptions slower = o;
+  slower.autopilot_airspeed_ftps = 620.0;
+  EXPECT_FALSE(tournament_complete(slower, &why));
+  std::ofstream(tracks) << "race: {track: {n_waypoints: 14}}\n";
+  EXPECT_FALSE(tournament_complete(o, &why));
+  std::ofstream(tracks) << "race: {track: {n_waypoints: 15}}\n";
+  EXPECT_TRUE(tournament_complete(o, &why)) << why;
+  fs::remove(tracks);
+  EXPECT_FALSE(tournament_complete(o, &why));
+}
+
 TEST(TournamentOutput, NamesEveryFileATournamentWritesAndNothingElse) {
   for (const char* f : {"races.csv", "pairings.csv", "summary.json", "summary.md", "variants.csv", "variant_matrix.csv",
                         "heatmap.csv", "tournament.gp", "tournament.png", "pairings.gp", "pairings.png", "done.txt"})
