@@ -55,6 +55,9 @@ struct PpoConfig {
   // The trainer divides LL rewards by the running std of their discounted return
   // (agents/return_scaler.hpp; issue 49, notebook 70). One process only.
   bool normalize_returns = false;
+  // The trainer starts the policy's mean action at the race's level trim (net.init_mean)
+  // instead of 0, which commands Nz_ref 2.5 g (issue 49, notebook 71).
+  bool init_at_trim = false;
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order

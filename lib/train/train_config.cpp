@@ -53,6 +53,7 @@ void bind_ll(R& r, agents::PpoConfig* c) {
   r.read("normalize_advantages", &c->normalize_advantages);
   r.read("normalize_returns", &c->normalize_returns);
   r.read("normalize_obs", &c->normalize_obs);
+  r.read("init_at_trim", &c->init_at_trim);
   r.retired("inference", "eigen");  // a test hook: PpoConfig::eigen_inference
   r.finish();
 }

@@ -40,27 +40,7 @@ void Trainer::State::build(bool fresh) {
   resolve_hl_scales(&cfg);
   cfg.ll.net.dims = dims;
   cfg.hl.dims = dims;
-  // Planned PPO updates for the learning-rate schedule: the LL share of the step budget.
-  const double ll_share = static_cast<double>(cfg.loop.ll_phase_updates) /
-                          (cfg.loop.ll_phase_updates + cfg.loop.hl_phase_updates * cfg.hl.n_steps_per_update *
-                                                           std::max(1.0, cfg.race.dt_hl_s / cfg.race.dt_ll_s) /
-                                                           static_cast<double>(cfg.ll.n_steps));
-  const double ll_steps = (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
-  cfg.ll.total_updates =
-      std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env_global)) + 1);
-  ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
-  es = std::make_unique<agents::EsAgent>(cfg.hl);
-  opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
-  opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
-  buffer = std::make_unique<agents::RolloutBuffer>(
-      cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * (cfg.loop.ll_both_teams ? n_agent : ts), dims, race::kActionDim);
-  if (cfg.ll.normalize_returns) {
-    // Each rank's statistics would differ, and so would its rewards' scale.
-    if (world > 1)
-      throw io::InputError("ll.normalize_returns: true is for one process; set it to false to train over " +
-                           std::to_string(world) + " ranks");
-    return_scaler = agents::ReturnScaler(buffer->n_samples(), cfg.ll.gamma);
-  }
+  build_learners();
   // Each rank its own streams (rank 0's are a single process's): actions, matchups.
   gen = models::make_generator(cfg.seed * 7919 + 3 + static_cast<std::uint64_t>(rank) * 1000003);
   stream = RandomStream(cfg.seed, 0xC0FFEE + static_cast<std::uint64_t>(rank));
@@ -90,6 +70,35 @@ void Trainer::State::build(bool fresh) {
   if (fresh && (cfg.loop.ll_pilot == LowLevelPilot::kAutopilot || !cfg.loop.ll_from.empty())) phase = 1;
   if (fresh)
     for (int e = 0; e < n_env; ++e) draw_matchup(e);
+}
+
+// The learners, the pool opponent's networks and the rollout buffer, from the resolved config.
+void Trainer::State::build_learners() {
+  // Planned PPO updates for the learning-rate schedule: the LL share of the step budget.
+  const double ll_share = static_cast<double>(cfg.loop.ll_phase_updates) /
+                          (cfg.loop.ll_phase_updates + cfg.loop.hl_phase_updates * cfg.hl.n_steps_per_update *
+                                                           std::max(1.0, cfg.race.dt_hl_s / cfg.race.dt_ll_s) /
+                                                           static_cast<double>(cfg.ll.n_steps));
+  const double ll_steps = (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
+  cfg.ll.total_updates =
+      std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env_global)) + 1);
+  if (cfg.ll.init_at_trim) {
+    const auto trim = env->level_trim_action();
+    cfg.ll.net.init_mean.assign(trim.begin(), trim.end());
+  }
+  ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
+  es = std::make_unique<agents::EsAgent>(cfg.hl);
+  opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
+  opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
+  buffer = std::make_unique<agents::RolloutBuffer>(
+      cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * (cfg.loop.ll_both_teams ? n_agent : ts), dims, race::kActionDim);
+  if (cfg.ll.normalize_returns) {
+    // Each rank's statistics would differ, and so would its rewards' scale.
+    if (world > 1)
+      throw io::InputError("ll.normalize_returns: true is for one process; set it to false to train over " +
+                           std::to_string(world) + " ranks");
+    return_scaler = agents::ReturnScaler(buffer->n_samples(), cfg.ll.gamma);
+  }
 }
 
 void Trainer::State::load_frozen_low_level() {

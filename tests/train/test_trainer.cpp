@@ -23,6 +23,7 @@
 #include "io/input_error.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_config.hpp"
+#include "race/race_env.hpp"
 #include "train/run_policy.hpp"
 #include "train/trainer.hpp"
 #include "support/temp_paths.hpp"
@@ -224,6 +225,27 @@ TEST(Trainer, ReturnScalingMakesTheLowLevelBlindToTheRewardsUnitAndResumesExactl
   EXPECT_GT(max_diff(ll[0], ll[2]), 1e-3) << "the switch changes the update";
 
   expect_resumed_run_ends_as_unbroken("ll.normalize_returns=true", "retscale");
+}
+
+// ll.init_at_trim: a fresh run's low level differs from the default's in three numbers, the
+// policy's mean action, and they are the race's level trim; the run then resumes exactly.
+TEST(Trainer, TrimInitStartsTheMeanActionAtLevelFlightAndResumesExactly) {
+  const Trainer plain(smoke(), fresh_dir("trim_off")), trimmed(smoke("ll.init_at_trim=true"), fresh_dir("trim_on"));
+  const std::vector<float> a = plain.ll_parameters(), b = trimmed.ll_parameters();
+  ASSERT_EQ(a.size(), b.size());
+  std::vector<float> changed;
+  for (std::size_t k = 0; k < a.size(); ++k)
+    if (a[k] != b[k]) {
+      EXPECT_EQ(a[k], 0.0f) << "only the output layer's zero bias moves";
+      changed.push_back(b[k]);
+    }
+  const auto trim = race::RaceEnv(smoke().race).level_trim_action();
+  ASSERT_EQ(changed.size(), 2u) << "throttle and Nz_ref; ps_ref's trim is 0 as before";
+  EXPECT_EQ(changed[0], trim[0]);
+  EXPECT_EQ(changed[1], trim[1]);
+  EXPECT_LT(trim[1], -0.7f);
+
+  expect_resumed_run_ends_as_unbroken("ll.init_at_trim=true", "trim");
 }
 
 // train.ll_pilot autopilot: AeroBench's waypoint autopilot flies the goal lanes, so every update
