@@ -12,7 +12,9 @@ lost an aircraft; then the pre-registered claims over seeds (bootstrap 95 % CIs)
 --control, an A/B of EXPERIMENT_DIR (treatment) against CONTROL_DIR (the same layout): the
 difference of the arms' mean winrates against the autopilot, its bootstrap 95 % CI (seeds
 resampled within each arm, 10 000 resamples, random seed 67) and notebook 67's verdict: adopt
-when the CI lies above 0, worse when below, else not resolved. Standard library.
+when the CI lies above 0, worse when below, else not resolved; and, as notebook 71's secondary
+measure, the arms' tube exits per race in training's first tenth of updates (metrics.csv's
+`term_tube` weighted by `races`) with the same CI. Standard library.
 """
 import csv
 import math
@@ -75,6 +77,18 @@ def last_tenth(path, col):
     return sum(xs) / len(xs) if xs else float("nan")
 
 
+def first_tenth_per_race(path, col):
+    """Training's first tenth of updates: `col` (a per-race rate) weighted by each row's races."""
+    rows = list(csv.DictReader(open(path)))
+    races = rate = 0.0
+    for r in rows[:max(1, len(rows) // 10)]:
+        n = float(r.get("races") or 0)
+        if n > 0 and r.get(col) not in (None, "", "nan"):
+            races += n
+            rate += n * float(r[col])
+    return rate / races if races > 0 else float("nan")
+
+
 def fmt_ci(w, n):
     lo, hi = wilson(w, n)
     return f"{w / n:.3f} [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]"
@@ -92,7 +106,9 @@ def seed_row(folder, s, show=True):
           f"| {ap['median_s']:.1f} | {lost(ap['lost'])} | {lost(ap['opp_lost'])} "
           f"| {fmt_ci(ap['clean_w'], ap['clean_n'])} ({ap['clean_n']}) |")
     others = [k for k in CAUSES if k not in ("team_collision", "collision", "tube", "envelope")]
+    early_tube = first_tenth_per_race(os.path.join(folder, me, "metrics.csv"), "term_tube")
     return dict(ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
+                early_tube=early_tube,
                 clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"],
                 other_lost=sum(ap["lost"][k] + ap["opp_lost"][k] for k in others))
 
@@ -115,16 +131,21 @@ def summary(per):
         print(f"run's team lost per race vs the autopilot, {c}: mean {m:.3f} [{b[0]:.3f}, {b[1]:.3f}]")
 
 
-def ab_difference(treatment, control, reps=10000, seed=67):
-    """Difference of means (treatment - control), its percentile bootstrap 95 % CI with each arm's
-    seeds resampled within the arm, and the verdict of notebook 67's rule."""
+def difference_ci(treatment, control, reps=10000, seed=67):
+    """Difference of means (treatment - control) and its percentile bootstrap 95 % CI, each arm's
+    seeds resampled within the arm."""
     rng = random.Random(seed)
     mean = lambda xs: sum(xs) / len(xs)
     diffs = sorted(mean([rng.choice(treatment) for _ in treatment]) - mean([rng.choice(control) for _ in control])
                    for _ in range(reps))
-    lo, hi = diffs[int(0.025 * reps)], diffs[int(0.975 * reps) - 1]
+    return mean(treatment) - mean(control), diffs[int(0.025 * reps)], diffs[int(0.975 * reps) - 1]
+
+
+def ab_difference(treatment, control, reps=10000, seed=67):
+    """difference_ci and the verdict of notebook 67's rule."""
+    d, lo, hi = difference_ci(treatment, control, reps, seed)
     verdict = "adopt (CI above 0)" if lo > 0 else ("worse (CI below 0)" if hi < 0 else "not resolved (CI contains 0)")
-    return mean(treatment) - mean(control), lo, hi, verdict
+    return d, lo, hi, verdict
 
 
 def finished_seeds(folder):
@@ -161,6 +182,12 @@ def main():
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
+        t_early = [p["early_tube"] for p in per if not math.isnan(p["early_tube"])]
+        c_early = [p["early_tube"] for p in base if not math.isnan(p["early_tube"])]
+        if t_early and c_early:
+            d, lo, hi = difference_ci(t_early, c_early)
+            print(f"Tube exits per race in training's first tenth: treatment {sum(t_early) / len(t_early):.3f}, "
+                  f"control {sum(c_early) / len(c_early):.3f}, difference {d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
 
 
 if __name__ == "__main__":
