@@ -515,6 +515,19 @@ TEST(Trainer, TailMembersAreTheRunsForksAndItsPolicyTheirEnsemble) {
   const RunPolicy p = load_run_policy(dir);
   EXPECT_EQ(p.hl_members.size(), 2u);
   EXPECT_EQ(p.name, fs::path(dir).filename().string());  // the run's name, not the members'
+  {  // A member's checkpoint damaged after the run ended: refused in one line naming its file,
+     // never an ensemble of the members that load.
+    const std::string m2 = dir + "/members/2/checkpoint/" + latest_checkpoint_name(dir + "/members/2") + "/hl.pt";
+    std::ofstream(m2, std::ios::trunc) << "not a checkpoint";
+    try {
+      load_run_policy(dir);
+      ADD_FAILURE() << "a run with a damaged member was loaded";
+    } catch (const io::InputError& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind(m2 + ": cannot load the policy (", 0), 0u) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
 
   // Stopped two updates after the fork, resumed: the same members, forked once.
   std::size_t k = 0;
