@@ -15,8 +15,16 @@ resampled within each arm, 10 000 resamples, random seed 67) and notebook 67's v
 when the CI lies above 0, worse when below, else not resolved; and, as notebook 71's secondary
 measure, the arms' tube exits per race in training's first tenth of updates (metrics.csv's
 `term_tube` weighted by `races`) with the same CI. Standard library.
+
+    scripts/pilot_seeds_table.py --keep EXPERIMENT_DIR SEED KEEP_DIR
+
+writes KEEP_DIR/sSEED.json: the seed's row and measures, the CPU, the binary and the training
+wall time. A folder of such files reads as an EXPERIMENT_DIR (a seed's kept file stands for its
+run and tournament), so an A/B whose seeds ran on several machines, and whose run folders are
+gone, is still read from the repository.
 """
 import csv
+import json
 import math
 import os
 import random
@@ -90,11 +98,24 @@ def first_tenth_per_race(path, col):
 
 
 def fmt_ci(w, n):
+    if n == 0:
+        return "n/a"
     lo, hi = wilson(w, n)
     return f"{w / n:.3f} [{max(lo, 0.0):.3f}, {min(hi, 1.0):.3f}]"
 
 
 def seed_row(folder, s, show=True):
+    kept = os.path.join(folder, f"s{s}.json")
+    if os.path.exists(kept):
+        m = json.load(open(kept))
+        (print if show else (lambda *a: None))(m["row"])
+        return m
+    m = measure_seed(folder, s)
+    (print if show else (lambda *a: None))(m["row"])
+    return m
+
+
+def measure_seed(folder, s):
     rows = list(csv.DictReader(open(os.path.join(folder, f"t_s{s}", "races.csv"))))
     me = f"s{s}"
     ap = head_to_head(rows, me, "autopilot")
@@ -102,12 +123,12 @@ def seed_row(folder, s, show=True):
     r = head_to_head(rows, me, me + "@random")
     v = last_tenth(os.path.join(folder, me, "metrics.csv"), "airspeed_ftps")
     lost = lambda d: ", ".join(f"{d[k]:.3f}" for k in ("team_collision", "collision", "tube", "envelope"))
-    (print if show else (lambda *a: None))(f"| {s} | {fmt_ci(ap['w'], ap['n'])} | {fmt_ci(c['w'], c['n'])} | {fmt_ci(r['w'], r['n'])} | {v:.0f} "
+    row = (f"| {s} | {fmt_ci(ap['w'], ap['n'])} | {fmt_ci(c['w'], c['n'])} | {fmt_ci(r['w'], r['n'])} | {v:.0f} "
           f"| {ap['median_s']:.1f} | {lost(ap['lost'])} | {lost(ap['opp_lost'])} "
           f"| {fmt_ci(ap['clean_w'], ap['clean_n'])} ({ap['clean_n']}) |")
     others = [k for k in CAUSES if k not in ("team_collision", "collision", "tube", "envelope")]
     early_tube = first_tenth_per_race(os.path.join(folder, me, "metrics.csv"), "term_tube")
-    return dict(ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
+    return dict(row=row, ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
                 early_tube=early_tube,
                 clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"],
                 other_lost=sum(ap["lost"][k] + ap["opp_lost"][k] for k in others))
@@ -149,7 +170,40 @@ def ab_difference(treatment, control, reps=10000, seed=67):
 
 
 def finished_seeds(folder):
-    return [s for s in range(1, 100) if os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt"))]
+    return [s for s in range(1, 100) if os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt"))
+            or os.path.exists(os.path.join(folder, f"s{s}.json"))]
+
+
+def cpu_model():
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return "unknown"
+
+
+def keep(folder, s, dest):
+    """Writes dest/sS.json: the seed's measures and where they came from (atomically: a stop
+    leaves the old file or the new one)."""
+    if not os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt")):
+        sys.exit(f"{folder}/t_s{s}: no done.txt; finish the seed's tournament first")
+    m = measure_seed(folder, s)
+    run = os.path.join(folder, f"s{s}", "checkpoint")
+    latest = os.path.join(run, open(os.path.join(run, "LATEST")).read().strip())
+    m["cpu"] = cpu_model()
+    m["meta"] = open(os.path.join(latest, "meta.yaml")).read()
+    m["train_wall_s"] = float(open(os.path.join(latest, "wall_s.txt")).read())
+    m["tournament"] = open(os.path.join(folder, f"t_s{s}", "done.txt")).read()
+    binary = os.environ.get("F16RACE")
+    if binary:
+        import subprocess
+        m["binary"] = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
+    os.makedirs(dest, exist_ok=True)
+    path = os.path.join(dest, f"s{s}.json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(m, f, indent=1, sort_keys=True)
+        f.write("\n")
+    os.replace(path + ".tmp", path)
+    print(f"kept {path}")
 
 
 def mean_ci(xs):
@@ -159,6 +213,10 @@ def mean_ci(xs):
 
 def main():
     args = sys.argv[1:]
+    if args[:1] == ["--keep"]:
+        if len(args) != 4 or not args[2].isdigit():
+            sys.exit("usage: scripts/pilot_seeds_table.py --keep EXPERIMENT_DIR SEED KEEP_DIR")
+        return keep(args[1], int(args[2]), args[3])
     control = None
     if len(args) == 3 and args[1] == "--control":
         control = args[2]
@@ -168,7 +226,7 @@ def main():
     folder = args[0]
     seeds = finished_seeds(folder)
     if not seeds:
-        sys.exit(f"{folder}: no finished seed (t_sS/done.txt); run the tournaments first")
+        sys.exit(f"{folder}: no finished seed (t_sS/done.txt or sS.json); run the tournaments first")
     print("| seed | vs autopilot [95 % Wilson] | vs @center | vs @random | airspeed ft/s (last tenth) "
           "| median race s | run lost per race: team collision, collision, tube, envelope "
           "| autopilot lost per race: same causes | vs autopilot, races without losses (races) |")
@@ -178,7 +236,7 @@ def main():
     if control is not None:
         base = [seed_row(control, s, show=False) for s in finished_seeds(control)]
         if not base:
-            sys.exit(f"{control}: no finished seed (t_sS/done.txt)")
+            sys.exit(f"{control}: no finished seed (t_sS/done.txt or sS.json)")
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")

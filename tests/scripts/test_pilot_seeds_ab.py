@@ -3,6 +3,7 @@
 gain is adopted, a clear loss is called worse, overlapping arms are not resolved; and the
 difference is the difference of the means."""
 import importlib.util
+import json
 import sys
 
 spec = importlib.util.spec_from_file_location("pilot_seeds_table", sys.argv[1])
@@ -40,5 +41,51 @@ with tempfile.TemporaryDirectory() as tmp:
     check(abs(got - 1.25) < 1e-12, f"first tenth, race-weighted: {got} (expected (10 x 2 + 30 x 1) / 40 = 1.25)")
 d, lo, hi = table.difference_ci([1.0] * 8, [2.0] * 8)
 check(d == -1.0 and lo == hi == -1.0, f"difference_ci of constant arms: {d} [{lo}, {hi}]")
+
+
+# --keep: a seed's kept summary reads as its run and tournament did, so an A/B survives the machine
+# its runs were on. Two seeds of made-up races; seed 1 kept, then its raw folders removed.
+import shutil
+import subprocess
+
+
+def fake_seed(folder, s, wins):
+    me = f"s{s}"
+    os.makedirs(os.path.join(folder, me, "checkpoint", "step_1"))
+    open(os.path.join(folder, me, "checkpoint", "LATEST"), "w").write("step_1\n")
+    open(os.path.join(folder, me, "checkpoint", "step_1", "meta.yaml"), "w").write("env_steps: 1\n")
+    open(os.path.join(folder, me, "checkpoint", "step_1", "wall_s.txt"), "w").write("12.5\n")
+    open(os.path.join(folder, me, "metrics.csv"), "w").write(
+        "update,races,term_tube,airspeed_ftps\n" + "".join(f"{k},4,0.5,{600 + k}\n" for k in range(1, 21)))
+    os.makedirs(os.path.join(folder, f"t_{me}"))
+    open(os.path.join(folder, f"t_{me}", "done.txt"), "w").write("whole\n")
+    cols = ["blue", "red", "winner", "duration_s", "blue_terminated", "red_terminated"] + \
+        [f"{t}_out_{c}" for t in ("blue", "red") for c in table.CAUSES]
+    lines = [",".join(cols)]
+    for opp in ("autopilot", me + "@center", me + "@random"):
+        for k in range(10):
+            out = ["1" if (k == 0 and c == "tube") else "0" for t in ("blue", "red") for c in table.CAUSES]
+            lines.append(",".join([me, opp, me if k < wins else opp, str(40 + k), "1" if k == 0 else "0", "0"] + out))
+    open(os.path.join(folder, f"t_{me}", "races.csv"), "w").write("\n".join(lines) + "\n")
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    exp, kept = os.path.join(tmp, "exp"), os.path.join(tmp, "kept")
+    fake_seed(exp, 1, 7)
+    fake_seed(exp, 2, 4)
+    script = sys.argv[1]
+    before = subprocess.run([sys.executable, script, exp], capture_output=True, text=True).stdout
+    k = subprocess.run([sys.executable, script, "--keep", exp, "1", exp], capture_output=True, text=True)
+    check(k.returncode == 0 and os.path.exists(os.path.join(exp, "s1.json")), f"--keep writes s1.json: {k.stdout}{k.stderr}")
+    shutil.rmtree(os.path.join(exp, "s1"))
+    shutil.rmtree(os.path.join(exp, "t_s1"))
+    after = subprocess.run([sys.executable, script, exp], capture_output=True, text=True).stdout
+    check(before == after and "| 1 | 0.700" in after, "a kept seed prints the same table as its raw folders")
+    m = json.load(open(os.path.join(exp, "s1.json")))
+    check(m["train_wall_s"] == 12.5 and abs(m["lost"]["tube"] - 0.1) < 1e-12 and m["cpu"],
+          f"kept provenance and measures: wall {m['train_wall_s']}, tube {m['lost']['tube']}")
+    bad = subprocess.run([sys.executable, script, "--keep", exp, "3", kept], capture_output=True, text=True)
+    check(bad.returncode != 0 and "t_s3" in bad.stderr and not os.path.exists(kept),
+          f"an unfinished seed is refused in one line: {bad.stderr.strip()}")
 print(f"{len(failures)} failed" if failures else "pilot_seeds_ab: all checks passed")
 sys.exit(1 if failures else 0)
