@@ -2,6 +2,13 @@
 """Notebook 66's verdicts: the paper's high-level claims from a Fig. 3 study on one frozen pilot.
 
     scripts/study_verdicts.py STUDY_A [STUDY_B]
+    scripts/study_verdicts.py --keep-block BLOCK_STUDY KEEP_DIR
+
+With --keep-block, BLOCK_STUDY is a study of one seed (notebook 72's blocks: the four variants of
+seed S at both intervals, their round robin and each run's controls); its measures, CPU and binary
+go to KEEP_DIR/sS.json, small enough to commit. A STUDY_x folder holding such sS.json files is read
+as a blocked study: M(u, v) is the mean over seeds S of u_sS's winrate against v_sS, and its
+bootstrap resamples seeds (the same resampled seeds at both intervals, so (e2) is paired).
 
 STUDY_x is a `study --out` folder of configs/study_pilot.yaml: per interval dtD (8, 20) the runs
 `dtD/VARIANT_sS`, the round robin `dtD/tournament/pairings.csv`, and per run its controls
@@ -14,6 +21,7 @@ resampled, so each quantity's replicates do not depend on which others were comp
 library only.
 """
 import csv
+import json
 import os
 import random
 import sys
@@ -76,6 +84,114 @@ def match_replicates(w, us, vs, label):
     return point, reps
 
 
+def block_replicates(w, us, vs, label):
+    """M(u, v) over same-seed pairings (u_sS against v_sS) and its bootstrap replicates, seeds
+    resampled. The label names no interval, so both intervals resample the same seeds."""
+    seed = lambda run: int(run.rsplit("_s", 1)[1])
+    vs_by_seed = {seed(j): j for j in vs}
+    pairs = [(i, vs_by_seed[seed(i)]) for i in sorted(us, key=seed) if seed(i) in vs_by_seed]
+    if not pairs:
+        return float("nan"), [float("nan")]
+    x = [w[p] for p in pairs]
+    r = rng(label)
+    reps = [sum(x[r.randrange(len(x))] for _ in x) / len(x) for _ in range(REPS)]
+    return sum(x) / len(x), reps
+
+
+class StudyFolder:
+    """A `study --out` folder: one round robin over every run of an interval."""
+    blocked = False
+
+    def __init__(self, path):
+        self.path = path
+
+    def round_robin(self, dt):
+        return round_robin(self.path, dt)
+
+    def controls(self, dt):
+        folder = os.path.join(self.path, f"dt{dt}")
+        names = sorted(os.listdir(folder)) if os.path.isdir(folder) else []
+        return {d: read_controls(self.path, dt, d) for d in names if variant_of(d)}
+
+    def match(self, w, us, vs, tag, dt, u, v):
+        return match_replicates(w, us, vs, f"{tag}:{dt}:{u}:{v}")
+
+
+class KeptBlocks:
+    """A folder of sS.json files (--keep-block): one round robin per seed."""
+    blocked = True
+
+    def __init__(self, path):
+        self.blocks = [json.load(open(os.path.join(path, n))) for n in sorted(os.listdir(path))
+                       if n.startswith("s") and n.endswith(".json")]
+
+    def round_robin(self, dt):
+        w = {}
+        for b in self.blocks:
+            for a, c, x in b["intervals"][str(dt)]["pairings"]:
+                w[(a, c)] = x
+                w.setdefault((c, a), 1.0 - x)
+        return w or None
+
+    def controls(self, dt):
+        return {run: got for b in self.blocks for run, got in b["intervals"][str(dt)]["controls"].items()}
+
+    def match(self, w, us, vs, tag, dt, u, v):
+        return block_replicates(w, us, vs, f"{tag}:blocks:{u}:{v}")
+
+
+def open_study(path):
+    if not os.path.isdir(path):
+        sys.exit(f"{path}: not a study folder (give the --out folder of `f16race study`, or a folder of kept blocks)")
+    if any(n.startswith("s") and n.endswith(".json") for n in os.listdir(path)):
+        return KeptBlocks(path)
+    return StudyFolder(path)
+
+
+def keep_block(study, dest):
+    """Writes dest/sS.json from a finished one-seed study: its round robins' pairings and each run's
+    controls summary. Refuses, in one line, a block with another seed count or a missing piece."""
+    runs = {dt: sorted(d for d in (os.listdir(os.path.join(study, f"dt{dt}"))
+                                   if os.path.isdir(os.path.join(study, f"dt{dt}")) else []) if variant_of(d))
+            for dt in INTERVALS}
+    seeds = {r.rsplit("_s", 1)[1] for dt in INTERVALS for r in runs[dt]}
+    if len(seeds) != 1:
+        sys.exit(f"{study}: a block is one seed's study; found seeds {sorted(seeds) or 'none'}")
+    intervals = {}
+    for dt in INTERVALS:
+        path = os.path.join(study, f"dt{dt}", "tournament", "pairings.csv")
+        if not os.path.exists(os.path.join(study, f"dt{dt}", "tournament", "done.txt")):
+            sys.exit(f"{study}/dt{dt}/tournament: the round robin has not finished; run the study on")
+        with open(path) as f:
+            pairings = [[r["row_entry"], r["column_entry"], float(r["winrate"])] for r in csv.DictReader(f)
+                        if variant_of(r["row_entry"]) and variant_of(r["column_entry"])]
+        controls = {run: read_controls(study, dt, run) for run in runs[dt]}
+        for run, got in controls.items():
+            if got is None:
+                sys.exit(f"{study}/dt{dt}/controls/{run}: no done.txt; race the run's controls first")
+        intervals[str(dt)] = dict(pairings=pairings, controls=controls)
+    seed = seeds.pop()
+    block = dict(seed=int(seed), intervals=intervals, cpu=cpu_model())
+    binary = os.environ.get("F16RACE")
+    if binary:
+        import subprocess
+        block["binary"] = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
+    os.makedirs(dest, exist_ok=True)
+    path = os.path.join(dest, f"s{seed}.json")
+    with open(path + ".tmp", "w") as f:
+        json.dump(block, f, indent=1, sort_keys=True)
+        f.write("\n")
+    os.replace(path + ".tmp", path)
+    print(f"kept {path}")
+
+
+def cpu_model():
+    for line in open("/proc/cpuinfo"):
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return "unknown"
+
+
 def beats(point, reps):
     lo, hi = percentiles(reps)
     if lo > 0.5:
@@ -97,7 +213,8 @@ def all_of(words):
 
 
 def read_controls(study, dt, run):
-    """(winrate vs RUN@center, vs RUN@random, per-race block differences, @center's blocks) or None."""
+    """{vs_center, vs_random, block_diff_sum, center_blocks_sum, races} of RUN's controls tournament
+    (block sums over its races against RUN@center), or None if it has not finished."""
     folder = os.path.join(study, f"dt{dt}", "controls", run)
     if not os.path.exists(os.path.join(folder, "done.txt")):
         return None
@@ -108,14 +225,16 @@ def read_controls(study, dt, run):
             wins[(a, b)] = x
             wins[(b, a)] = 1.0 - x
     center, random_ = run + "@center", run + "@random"
-    diffs, center_blocks = [], []
+    out = dict(vs_center=wins[(run, center)], vs_random=wins[(run, random_)], block_diff_sum=0,
+               center_blocks_sum=0, races=0)
     with open(os.path.join(folder, "races.csv")) as f:
         for r in csv.DictReader(f):
             sides = {r["blue"]: int(r["blue_blocks"]), r["red"]: int(r["red_blocks"])}
             if set(sides) == {run, center}:
-                diffs.append(sides[run] - sides[center])
-                center_blocks.append(sides[center])
-    return wins[(run, center)], wins[(run, random_)], diffs, center_blocks
+                out["block_diff_sum"] += sides[run] - sides[center]
+                out["center_blocks_sum"] += sides[center]
+                out["races"] += 1
+    return out
 
 
 def mean_verdict(values_by_variant, label, lo_bar, hi_bar):
@@ -152,17 +271,18 @@ def mean_verdict(values_by_variant, label, lo_bar, hi_bar):
     return rows
 
 
-def pilot_verdicts(study, tag):
+def pilot_verdicts(source, tag):
     """Per claim and interval: the verdict, and the Markdown lines that support it."""
     out, lines, m_d3d2 = {}, [], {}
     for dt in INTERVALS:
-        w = round_robin(study, dt)
+        w = source.round_robin(dt)
         lines.append(f"\n### Pilot {tag}, Δt_HL = {dt} s\n")
         if w is None:
             lines.append("round robin not raced yet: (a), (b) missing")
         else:
             runs = runs_by_variant(w)
-            lines.append("runs per variant: " + ", ".join(f"{v} {len(runs[v])}" for v in VARIANTS) + "\n")
+            lines.append("runs per variant: " + ", ".join(f"{v} {len(runs[v])}" for v in VARIANTS)
+                         + ("; M(u, v) over same-seed pairings, seeds resampled" if source.blocked else "") + "\n")
             lines.append("| u beats v | M(u, v) | 95 % CI | reading |\n|---|---|---|---|")
             word = {}
             pairs = [("es_d3", "es"), ("es_d3", "es_d1"), ("es_d3", "es_d2"), ("es_d2", "es_d1"), ("es_d1", "es"),
@@ -171,28 +291,28 @@ def pilot_verdicts(study, tag):
                 if not runs[u] or not runs[v]:
                     word[(u, v)] = "?"
                     continue
-                point, reps = match_replicates(w, runs[u], runs[v], f"{tag}:{dt}:{u}:{v}")
+                point, reps = source.match(w, runs[u], runs[v], tag, dt, u, v)
                 word[(u, v)], lo, hi = beats(point, reps)
                 if (u, v) == ("es_d3", "es_d2"):
                     m_d3d2[dt] = reps
                 lines.append(f"| {u} > {v} | {point:.3f} | [{lo:.3f}, {hi:.3f}] | {word[(u, v)]} |")
             out[("a", dt)] = all_of([word[("es_d3", v)] for v in ("es", "es_d1", "es_d2")])
             out[("b", dt)] = all_of([word[("es_d3", "es_d2")], word[("es_d2", "es_d1")], word[("es_d1", "es")]])
-        c_center, c_random, b_diff, beta_all = {}, {}, {}, []
-        missing = 0
-        for v in VARIANTS:
-            for d in sorted(os.listdir(os.path.join(study, f"dt{dt}"))) if os.path.isdir(os.path.join(study, f"dt{dt}")) else []:
-                if variant_of(d) != v:
-                    continue
-                got = read_controls(study, dt, d)
-                if got is None:
-                    missing += 1
-                    continue
-                wc, wr, diffs, cb = got
-                c_center.setdefault(v, []).append(wc)
-                c_random.setdefault(v, []).append(wr)
-                b_diff.setdefault(v, []).append(sum(diffs) / len(diffs))
-                beta_all += cb
+        c_center, c_random, b_diff = {}, {}, {}
+        center_sum = center_races = missing = 0
+        controls = source.controls(dt)
+        for run in sorted(controls):
+            v, got = variant_of(run), controls[run]
+            if v is None:
+                continue
+            if got is None:
+                missing += 1
+                continue
+            c_center.setdefault(v, []).append(got["vs_center"])
+            c_random.setdefault(v, []).append(got["vs_random"])
+            b_diff.setdefault(v, []).append(got["block_diff_sum"] / got["races"])
+            center_sum += got["center_blocks_sum"]
+            center_races += got["races"]
         if missing:
             lines.append(f"\ncontrols tournaments missing for {missing} runs: (c), (d) read from the others")
         for claim, values, lo_bar, hi_bar, what in (
@@ -203,8 +323,8 @@ def pilot_verdicts(study, tag):
                 out[(claim, dt)] = rows[0][5]
                 lines.append(f"\n({claim}) {what}\n\n| runs | n | mean | 95 % CI | verdict |\n|---|---|---|---|---|")
                 lines += [f"| {r[0]} | {r[1]} | {r[2]:.3f} | [{r[3]:.3f}, {r[4]:.3f}] | {r[5]} |" for r in rows]
-        if beta_all:
-            beta = sum(beta_all) / len(beta_all)
+        if center_races:
+            beta = center_sum / center_races
             rows = mean_verdict(b_diff, f"{tag}:{dt}:d", 0.0, 0.10 * beta)
             out[("d", dt)] = rows[0][5]
             lines.append(f"\n(d) blocks per race minus its @center's (β = {beta:.3f}, δ_b = {0.1 * beta:.3f})\n\n"
@@ -234,14 +354,16 @@ def across(a, b):
 
 
 def main(argv):
+    if argv[1:2] == ["--keep-block"]:
+        if len(argv) != 4:
+            sys.exit("usage: study_verdicts.py --keep-block BLOCK_STUDY KEEP_DIR")
+        return keep_block(argv[2], argv[3])
     if len(argv) not in (2, 3):
         sys.exit("usage: study_verdicts.py STUDY_A [STUDY_B]")
     studies = argv[1:]
     results, text = [], []
     for tag, s in zip("AB", studies):
-        if not os.path.isdir(s):
-            sys.exit(f"{s}: not a study folder (give the --out folder of `f16race study`)")
-        out, lines = pilot_verdicts(s, tag)
+        out, lines = pilot_verdicts(open_study(s), tag)
         results.append(out)
         text += lines
     claims = [("a", "ES+D3 is the best variant"), ("b", "the order D3 > D2 > D1 > ES"),

@@ -18,9 +18,9 @@ SCRIPT = sys.argv[1]
 VARIANTS = ["es", "es_d1", "es_d2", "es_d3"]
 
 
-def write_study(root, strength, vs_center, vs_random, blocks, center_blocks, seeds=5):
+def write_study(root, strength, vs_center, vs_random, blocks, center_blocks, seeds=range(1, 6)):
     for dt in (8, 20):
-        runs = [f"{v}_s{s}" for v in VARIANTS for s in range(1, seeds + 1)]
+        runs = [f"{v}_s{s}" for v in VARIANTS for s in seeds]
         a = {r: strength[r.rsplit("_s", 1)[0]] + 0.004 * (int(r.rsplit("_s", 1)[1]) - 3) for r in runs}
         os.makedirs(f"{root}/dt{dt}/tournament")
         with open(f"{root}/dt{dt}/tournament/pairings.csv", "w", newline="") as f:
@@ -31,6 +31,7 @@ def write_study(root, strength, vs_center, vs_random, blocks, center_blocks, see
                 for j, y in enumerate(runs):
                     if i < j:
                         w.writerow([i, j, 0.5 + a[x] - a[y], 32, 0, 1, x, y])
+        open(f"{root}/dt{dt}/tournament/done.txt", "w").close()
         for r in runs:
             os.makedirs(f"{root}/dt{dt}/{r}")
             c = f"{root}/dt{dt}/controls/{r}"
@@ -84,4 +85,32 @@ with tempfile.TemporaryDirectory() as tmp:
     assert "round robin not raced yet" in part
     bad = subprocess.run([sys.executable, SCRIPT, f"{tmp}/nothing"], capture_output=True, text=True)
     assert bad.returncode != 0 and "not a study folder" in bad.stderr, bad
+
+# Notebook 72's blocks: one study per seed, kept as sS.json, read as a blocked study. Same
+# strengths as pilot A above, so the same verdicts; M(u, v) over same-seed pairings cancels the
+# seed's own offset, and (e2) resamples the same seeds at both intervals (a difference of 0 in
+# every replicate: "does not hold").
+with tempfile.TemporaryDirectory() as tmp:
+    strength = {"es": 0.0, "es_d1": 0.05, "es_d2": 0.12, "es_d3": 0.20}
+    for seed in range(1, 9):
+        write_study(f"{tmp}/block{seed}", strength, 0.70, 0.80, 2, 1, seeds=[seed])
+        subprocess.run([sys.executable, SCRIPT, "--keep-block", f"{tmp}/block{seed}", f"{tmp}/kept"],
+                       capture_output=True, text=True, check=True)
+    blocked = subprocess.run([sys.executable, SCRIPT, f"{tmp}/kept"], capture_output=True, text=True,
+                             check=True).stdout
+    for claim in ("a", "b", "c", "c'", "d"):
+        for dt in (8, 20):
+            assert row(blocked, claim, dt)[2] == "holds", (claim, dt, row(blocked, claim, dt))
+    assert "| es_d3 > es_d2 | 0.580 | [0.580, 0.580] |" in blocked, blocked
+    assert "same-seed pairings" in blocked and "runs per variant: es 8," in blocked, blocked
+    assert "(e2) ES+D2's shortfall against ES+D3, 8 s minus 20 s: 95 % CI [+0.000, +0.000]" in blocked, blocked
+    # A block is one seed, finished: two seeds, or a run without its controls, are refused in one line.
+    write_study(f"{tmp}/two", strength, 0.70, 0.80, 2, 1, seeds=[1, 2])
+    two = subprocess.run([sys.executable, SCRIPT, "--keep-block", f"{tmp}/two", f"{tmp}/k2"], capture_output=True,
+                         text=True)
+    assert two.returncode != 0 and "one seed's study" in two.stderr and not os.path.exists(f"{tmp}/k2"), two
+    os.remove(f"{tmp}/block1/dt20/controls/es_d2_s1/done.txt")
+    part = subprocess.run([sys.executable, SCRIPT, "--keep-block", f"{tmp}/block1", f"{tmp}/k3"],
+                          capture_output=True, text=True)
+    assert part.returncode != 0 and "dt20/controls/es_d2_s1: no done.txt" in part.stderr, part
 print("study_verdicts: all synthetic verdicts as constructed")

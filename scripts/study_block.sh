@@ -1,0 +1,40 @@
+#!/usr/bin/env bash
+# One block of the Fig. 3 study (notebook 72): seed S's four variants at both HL intervals on one
+# frozen pilot, their round robin, each run against its own controls, then the block's summary
+# kept in the repository (commit it): a machine's run folders do not outlive it.
+#
+#   scripts/study_block.sh PILOT_RUN OUT_DIR KEEP_DIR SEED
+#
+# OUT_DIR/sS is the block's study folder (resumable: rerun the same command after a stop), and
+# OUT_DIR/sS.yaml the config it was trained with (configs/study_pilot.yaml with the pilot, as a
+# path from the repository's root, and the seed filled in);
+# KEEP_DIR/sS.json its summary, which `scripts/study_verdicts.py KEEP_DIR` reads. F16RACE (default
+# build/f16race) and F16RACE_THREADS (default 2) choose the binary and threads.
+set -euo pipefail
+[ $# -eq 4 ] && [[ "$4" =~ ^[0-9]+$ ]] ||
+  { echo "usage: scripts/study_block.sh PILOT_RUN OUT_DIR KEEP_DIR SEED" >&2; exit 2; }
+here="$(cd "$(dirname "$0")/.." && pwd)"
+pilot="$1" seed="$4"
+bin="${F16RACE:-$here/build/f16race}"
+threads="${F16RACE_THREADS:-2}"
+[ -f "$pilot/checkpoint/LATEST" ] || { echo "$pilot: not a trained run (no checkpoint/LATEST)" >&2; exit 2; }
+mkdir -p "$2" "$3"
+root="$(cd "$2" && pwd)" keep="$(cd "$3" && pwd)"
+out="$root/s$seed" config="$root/s$seed.yaml"  # the config beside the study folder, which `study` owns
+sed "s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#BLOCK_SEED#$seed#" "$here/configs/study_pilot.yaml" > "$config.new"
+if [ -f "$config" ] && ! cmp -s "$config" "$config.new"; then
+  rm "$config.new"
+  echo "$config: this block was started with another pilot or config; give another OUT_DIR" >&2
+  exit 2
+fi
+mv "$config.new" "$config"
+cd "$here"
+"$bin" --threads "$threads" study --config "$config" --out "$out"
+for dt in 8 20; do
+  for run in "$out/dt$dt"/es_s"$seed" "$out/dt$dt"/es_d[123]_s"$seed"; do
+    o="$out/dt$dt/controls/$(basename "$run")"
+    [ -f "$o/done.txt" ] || "$bin" --threads "$threads" tournament --runs "$run" --controls --no-untrained \
+      --races 512 --seed 1 --tracks configs/long.yaml --out "$o"
+  done
+done
+F16RACE="$bin" python3 scripts/study_verdicts.py --keep-block "$out" "$keep"
