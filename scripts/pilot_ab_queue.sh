@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Issue 49's pre-registered pilot A/Bs, in order, two seeds at a time (one thread each): every
+# seed whose summary is not yet kept in docs/notebook/data/ is trained and raced by
+# scripts/seed_arm.sh; kept seeds are skipped, so the same command continues after a stop or on
+# another machine. Commit the kept files as they come (git status shows them).
+#
+#   scripts/pilot_ab_queue.sh [ENTRY ...]     # default: 69 70 71 67
+#
+# Arms: 69 off (the control of 69, 70, 71, 67) and on (train.ll_both_teams); 70 ll.normalize_returns;
+# 71 ll.init_at_trim; 67 ll.gamma 0.995. Runs go to runs/nbN/ARM/sS (not kept).
+set -uo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$here"
+entries=("$@")
+[ ${#entries[@]} -gt 0 ] || entries=(69 70 71 67)
+
+jobs=()  # "entry arm seed set-args"
+for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdicts come in order
+  for s in 1 2 3 4 5 6 7 8; do
+    case "$e" in
+      69) jobs+=("69 off $s" "69 on $s --set train.ll_both_teams=true") ;;
+      70) jobs+=("70 on $s --set ll.normalize_returns=true") ;;
+      71) jobs+=("71 on $s --set ll.init_at_trim=true") ;;
+      67) jobs+=("67 on $s --set ll.gamma=0.995") ;;
+      *) echo "pilot_ab_queue: no pre-registered A/B $e (69, 70, 71 or 67)" >&2; exit 2 ;;
+    esac
+  done
+done
+
+run_job() {
+  local e="$1" arm="$2" s="$3"
+  shift 3
+  mkdir -p "runs/nb$e"
+  F16RACE_THREADS=1 scripts/seed_arm.sh "runs/nb$e/$arm" "docs/notebook/data/$e/$arm" "$s" "$@" \
+    > "runs/nb$e/${arm}_s$s.log" 2>&1 || echo "pilot_ab_queue: $e $arm s$s failed, see runs/nb$e/${arm}_s$s.log" >&2
+}
+
+running=0
+for j in "${jobs[@]}"; do
+  read -r e arm s rest <<< "$j"
+  [ -f "docs/notebook/data/$e/$arm/s$s.json" ] && continue
+  # shellcheck disable=SC2086  # rest is "--set KEY=VALUE" or empty
+  run_job "$e" "$arm" "$s" $rest &
+  running=$((running + 1))
+  if [ "$running" -ge 2 ]; then wait -n; running=$((running - 1)); fi
+done
+wait
+echo "pilot_ab_queue: every seed of ${entries[*]} kept"
