@@ -271,6 +271,47 @@ def mean_verdict(values_by_variant, label, lo_bar, hi_bar):
     return rows
 
 
+def trim_mean(xs):
+    """The interquartile mean as rliable computes it: floor(n / 4) values cut from each end."""
+    x = sorted(xs)
+    k = len(x) // 4
+    x = x[k:len(x) - k]
+    return sum(x) / len(x)
+
+
+def paper_panels(w, runs, label):
+    """Fig. 3's panels from same-seed pairings (they decide nothing): per variant the mean ± std
+    over its runs of a run's total winrate (mean over the other variants of its seed), the IQM of
+    its pairing winrates with a stratified bootstrap CI (runs resampled within each opposing
+    variant), and the variant-vs-variant matrix."""
+    seed = lambda run: run.rsplit("_s", 1)[1]
+    by_seed = {v: {seed(r): r for r in runs[v]} for v in VARIANTS}
+    lines = ["| variant | runs | total winrate, mean ± std | IQM of pairing winrates [95 % CI] |",
+             "|---|---|---|---|"]
+    for u in VARIANTS:
+        others = [v for v in VARIANTS if v != u]
+        seeds = sorted(sd for sd in by_seed[u] if all(sd in by_seed[v] for v in others))
+        if not seeds:
+            continue
+        scores = {v: [w[(by_seed[u][sd], by_seed[v][sd])] for sd in seeds] for v in others}
+        totals = [sum(scores[v][k] for v in others) / len(others) for k in range(len(seeds))]
+        m = sum(totals) / len(totals)
+        sd_ = (sum((t - m) ** 2 for t in totals) / (len(totals) - 1)) ** 0.5 if len(totals) > 1 else 0.0
+        point = trim_mean([x for v in others for x in scores[v]])
+        r = rng(f"{label}:iqm:{u}")
+        reps = [trim_mean([scores[v][r.randrange(len(seeds))] for v in others for _ in seeds]) for _ in range(REPS)]
+        lo, hi = percentiles(reps)
+        lines.append(f"| {u} | {len(seeds)} | {m:.3f} ± {sd_:.3f} | {point:.3f} [{lo:.3f}, {hi:.3f}] |")
+    lines += ["", "| row beats column | " + " | ".join(VARIANTS) + " |", "|---|" + "---|" * len(VARIANTS)]
+    for u in VARIANTS:
+        cells = []
+        for v in VARIANTS:
+            pairs = [w[(by_seed[u][sd], by_seed[v][sd])] for sd in by_seed[u] if sd in by_seed[v]] if u != v else []
+            cells.append(f"{sum(pairs) / len(pairs):.3f}" if pairs else "")
+        lines.append(f"| {u} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def pilot_verdicts(source, tag):
     """Per claim and interval: the verdict, and the Markdown lines that support it."""
     out, lines, m_d3d2 = {}, [], {}
@@ -296,6 +337,8 @@ def pilot_verdicts(source, tag):
                 if (u, v) == ("es_d3", "es_d2"):
                     m_d3d2[dt] = reps
                 lines.append(f"| {u} > {v} | {point:.3f} | [{lo:.3f}, {hi:.3f}] | {word[(u, v)]} |")
+            if source.blocked:
+                lines += ["", "The paper's panels (deciding nothing):", ""] + paper_panels(w, runs, f"{tag}:{dt}") + [""]
             out[("a", dt)] = all_of([word[("es_d3", v)] for v in ("es", "es_d1", "es_d2")])
             out[("b", dt)] = all_of([word[("es_d3", "es_d2")], word[("es_d2", "es_d1")], word[("es_d1", "es")]])
         c_center, c_random, b_diff = {}, {}, {}

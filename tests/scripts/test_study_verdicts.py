@@ -102,6 +102,11 @@ with tempfile.TemporaryDirectory() as tmp:
         for dt in (8, 20):
             assert row(blocked, claim, dt)[2] == "holds", (claim, dt, row(blocked, claim, dt))
     assert "| es_d3 > es_d2 | 0.580 | [0.580, 0.580] |" in blocked, blocked
+    # Panels: es_d3's pairings are 0.5 + 0.20 - a_v (0.70, 0.65, 0.58) in every seed, so its IQM over
+    # 8 seeds x 3 = 24 values cuts 6 from each end, leaving two 0.58, eight 0.65 and two 0.70:
+    # 7.76 / 12 = 0.647; its total winrate is the plain mean, 0.643.
+    assert "| es_d3 | 8 | 0.643 ± 0.000 | 0.647 [0.647, 0.647] |" in blocked, blocked
+    assert "| es_d3 | 0.700 | 0.650 | 0.580 |  |" in blocked, blocked
     assert "same-seed pairings" in blocked and "runs per variant: es 8," in blocked, blocked
     assert "(e2) ES+D2's shortfall against ES+D3, 8 s minus 20 s: 95 % CI [+0.000, +0.000]" in blocked, blocked
     # A block is one seed, finished: two seeds, or a run without its controls, are refused in one line.
