@@ -121,6 +121,8 @@ def measure_seed(folder, s):
     ap = head_to_head(rows, me, "autopilot")
     c = head_to_head(rows, me, me + "@center")
     r = head_to_head(rows, me, me + "@random")
+    # The low level alone: both teams on the center line, the learned pilot against the autopilot.
+    lc = head_to_head(rows, me + "@center", "autopilot")
     v = last_tenth(os.path.join(folder, me, "metrics.csv"), "airspeed_ftps")
     lost = lambda d: ", ".join(f"{d[k]:.3f}" for k in ("team_collision", "collision", "tube", "envelope"))
     row = (f"| {s} | {fmt_ci(ap['w'], ap['n'])} | {fmt_ci(c['w'], c['n'])} | {fmt_ci(r['w'], r['n'])} | {v:.0f} "
@@ -129,7 +131,7 @@ def measure_seed(folder, s):
     others = [k for k in CAUSES if k not in ("team_collision", "collision", "tube", "envelope")]
     early_tube = first_tenth_per_race(os.path.join(folder, me, "metrics.csv"), "term_tube")
     return dict(row=row, ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
-                early_tube=early_tube,
+                early_tube=early_tube, ll_center_vs_ap=lc["w"] / lc["n"] if lc["n"] else None,
                 clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"],
                 other_lost=sum(ap["lost"][k] + ap["opp_lost"][k] for k in others))
 
@@ -142,8 +144,11 @@ def summary(per):
     m, b = mean_ci([p["lost"]["team_collision"] for p in per])
     print(f"Claim B, teammate collisions per race vs the autopilot: mean {m:.3f} bootstrap 95% [{b[0]:.3f}, {b[1]:.3f}]")
     for key, name in (("ap", "vs autopilot"), ("clean", "vs autopilot, races without losses"), ("c", "vs @center"),
-                      ("r", "vs @random"), ("v", "airspeed ft/s")):
-        xs = [p[key] for p in per]
+                      ("r", "vs @random"), ("v", "airspeed ft/s"),
+                      ("ll_center_vs_ap", "its low level on the center line (@center) vs the autopilot")):
+        xs = [p[key] for p in per if p.get(key) is not None]
+        if not xs:
+            continue
         m, b = mean_ci(xs)
         sd = math.sqrt(sum((x - m) ** 2 for x in xs) / (len(xs) - 1)) if len(xs) > 1 else 0.0
         print(f"{name}: mean {m:.3f} std {sd:.3f} bootstrap 95% [{b[0]:.3f}, {b[1]:.3f}]")
