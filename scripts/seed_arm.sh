@@ -12,11 +12,11 @@
 set -euo pipefail
 [ $# -ge 3 ] || { echo "usage: scripts/seed_arm.sh RUNS_DIR KEEP_DIR SEED [--set KEY=VALUE ...]" >&2; exit 2; }
 here="$(cd "$(dirname "$0")/.." && pwd)"
-runs="$1" keep="$2" seed="$3"
+mkdir -p "$1" "$2"
+runs="$(cd "$1" && pwd)" keep="$(cd "$2" && pwd)" seed="$3"  # absolute: the script changes folder
 shift 3
-bin="${F16RACE:-$here/build/f16race}"
+bin="$(realpath "${F16RACE:-$here/build/f16race}")"
 threads="${F16RACE_THREADS:-2}"
-mkdir -p "$runs" "$keep"
 cd "$runs"
 if [ -d "s$seed/checkpoint" ]; then
   "$bin" --threads "$threads" train --resume "s$seed" --quiet
@@ -28,4 +28,4 @@ if [ ! -f "t_s$seed/done.txt" ]; then
   "$bin" --threads "$threads" tournament --runs "s$seed" --no-untrained --with-autopilot --controls \
     --races 512 --out "t_s$seed"
 fi
-python3 "$here/scripts/pilot_seeds_table.py" --keep "$runs" "$seed" "$keep"
+F16RACE="$bin" python3 "$here/scripts/pilot_seeds_table.py" --keep "$runs" "$seed" "$keep"

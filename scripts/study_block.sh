@@ -15,7 +15,7 @@ set -euo pipefail
   { echo "usage: scripts/study_block.sh PILOT_RUN OUT_DIR KEEP_DIR SEED" >&2; exit 2; }
 here="$(cd "$(dirname "$0")/.." && pwd)"
 pilot="$1" seed="$4"
-bin="${F16RACE:-$here/build/f16race}"
+bin="$(realpath "${F16RACE:-$here/build/f16race}")"
 threads="${F16RACE_THREADS:-2}"
 [ -f "$pilot/checkpoint/LATEST" ] || { echo "$pilot: not a trained run (no checkpoint/LATEST)" >&2; exit 2; }
 mkdir -p "$2" "$3"
