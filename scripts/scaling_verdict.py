@@ -2,6 +2,12 @@
 """Notebook 68's verdict: does the high level's margin over its own center line grow with data?
 
     scripts/scaling_verdict.py MULT=STUDY [MULT=STUDY ...]
+    scripts/scaling_verdict.py --keep STUDY KEEP_FILE
+
+--keep writes the controls of a budget's runs (each run's summary, as study_verdicts.py keeps
+them) to KEEP_FILE (xMULT.json), small enough to commit; MULT=KEEP_FILE then stands for the
+study folder. MULT=FOLDER may also be a folder of the Fig. 3 study's kept blocks (notebook 72),
+whose seed 1-3 runs at 8 s are the x2 budget.
 
 Each STUDY is a `study --out` folder trained on one pilot at MULT x 1.75 M HL-only env steps
 (configs/study_scaling.yaml; the Fig. 3 study's own folder stands for MULT 2), with its runs'
@@ -13,13 +19,14 @@ Holds if lo > 0; does not hold if hi < 0.0125 per doubling (0.05 over x16, the s
 otherwise cannot tell at this power. Missing controls are reported as missing, never guessed.
 Standard library only.
 """
+import json
 import math
 import os
 import random
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from study_verdicts import HOLDS, NOT, CANNOT, percentiles, read_controls  # noqa: E402
+from study_verdicts import HOLDS, NOT, CANNOT, KeptBlocks, percentiles, read_controls  # noqa: E402
 
 RUNS = [f"{v}_s{s}" for v in ("es_d2", "es_d3") for s in (1, 2, 3)]
 BASE_STEPS = 1_750_000
@@ -35,16 +42,41 @@ def slope(points):
     return sum((x - mx) * (y - my) for x, y in points) / sum((x - mx) ** 2 for x in xs)
 
 
+def controls_of(path):
+    """{run: controls summary or None} at 8 s, from a study folder, a kept budget or kept blocks."""
+    if os.path.isfile(path):
+        kept = json.load(open(path))
+    elif any(n.startswith("s") and n.endswith(".json") for n in os.listdir(path)):
+        kept = KeptBlocks(path).controls(8)
+    else:
+        kept = {run: read_controls(path, 8, run) for run in RUNS}
+    return {run: kept.get(run) for run in RUNS}
+
+
+def keep(study, dest):
+    got = {run: read_controls(study, 8, run) for run in RUNS}
+    absent = [run for run, g in got.items() if g is None]
+    if absent:
+        sys.exit(f"{study}/dt8/controls/{absent[0]}: no done.txt; race the run's controls first")
+    os.makedirs(os.path.dirname(os.path.abspath(dest)), exist_ok=True)
+    with open(dest + ".tmp", "w") as f:
+        json.dump(got, f, indent=1, sort_keys=True)
+        f.write("\n")
+    os.replace(dest + ".tmp", dest)
+    print(f"kept {dest}")
+
+
 def cells_of(studies):
     """{(mult, variant): [c_i]} and the runs whose controls are missing."""
     cells, missing = {}, []
     for mult, folder in studies:
+        controls = controls_of(folder)
         for run in RUNS:
-            got = read_controls(folder, 8, run)
+            got = controls[run]
             if got is None:
                 missing.append(f"x{mult:g} {run}")
                 continue
-            cells.setdefault((mult, run.rsplit("_s", 1)[0]), []).append(got[0])
+            cells.setdefault((mult, run.rsplit("_s", 1)[0]), []).append(got["vs_center"])
     return cells, missing
 
 
@@ -57,11 +89,15 @@ def points_of(cells):
 
 
 def main(argv):
+    if argv[:1] == ["--keep"]:
+        if len(argv) != 3:
+            sys.exit("usage: scaling_verdict.py --keep STUDY KEEP_FILE")
+        return keep(argv[1], argv[2])
     studies = []
     for a in argv:
         mult, _, folder = a.partition("=")
-        if not folder or not os.path.isdir(folder):
-            sys.exit(f"scaling_verdict: {a}: want MULT=STUDY_FOLDER with an existing folder")
+        if not folder or not os.path.exists(folder):
+            sys.exit(f"scaling_verdict: {a}: want MULT=STUDY_FOLDER (or a kept xMULT.json) that exists")
         studies.append((float(mult), folder))
     cells, missing = cells_of(studies)
     print("| budget | HL env steps | runs | mean vs @center | 95 % CI |\n|---|---|---|---|---|")

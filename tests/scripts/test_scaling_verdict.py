@@ -64,4 +64,14 @@ with tempfile.TemporaryDirectory() as tmp:
     expect("| x4 | 7 M | 0 | missing |" in text and "missing (6)" in text and "cannot be computed" in text, "missing", text)
     bad = subprocess.run([sys.executable, SCRIPT, f"4={tmp}/nowhere"], capture_output=True, text=True)
     expect(bad.returncode != 0 and "nowhere: want MULT=STUDY_FOLDER" in bad.stderr, "a missing folder", bad.stderr)
+    # Kept budgets (--keep) read as their folders did, so the verdict outlives the machine.
+    kept = []
+    for m in (1, 2, 4, 16):
+        run(["--keep", f"{tmp}/grow_x{m}", f"{tmp}/kept/x{m}.json"])
+        kept.append(f"{m}={tmp}/kept/x{m}.json")
+    expect(run(kept) == run(grow), "kept budgets give the folders' table", run(kept))
+    part = subprocess.run([sys.executable, SCRIPT, "--keep", f"{tmp}/empty", f"{tmp}/kept/x3.json"],
+                          capture_output=True, text=True)
+    expect(part.returncode != 0 and "es_d2_s1: no done.txt" in part.stderr and not os.path.exists(f"{tmp}/kept/x3.json"),
+           "an unfinished budget is refused", part.stderr)
 print("scaling_verdict: growing holds, flat does not, missing pieces reported")
