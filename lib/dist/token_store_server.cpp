@@ -23,9 +23,9 @@
 
 namespace f16race::dist {
 
-// Named, not anonymous: Loop (a class with external linkage) holds these types, which GCC flags
-// when the file is part of a unity build.
-namespace store_server_detail {
+// Anonymous: this file is left out of the unity batch (CMakeLists.txt), so these names stay its
+// own, and GCC accepts Loop (external linkage) holding their types only in a file of its own.
+namespace {
 
 using Clock = SteadyClock;
 using wire::Op;
@@ -106,9 +106,7 @@ class DropLog {
   long unnamed_ = 0;
 };
 
-}  // namespace store_server_detail
-
-using namespace store_server_detail;
+}  // namespace
 
 class TokenStoreServer::Loop {
  public:
