@@ -30,6 +30,9 @@ import os
 import random
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import kept_json  # noqa: E402
+
 CAUSES = ["team_collision", "collision", "tube", "altitude", "load", "turn_rate", "simulator", "envelope"]
 
 
@@ -179,13 +182,6 @@ def finished_seeds(folder):
             or os.path.exists(os.path.join(folder, f"s{s}.json"))]
 
 
-def cpu_model():
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown"
-
-
 def keep(folder, s, dest):
     """Writes dest/sS.json: the seed's measures and where they came from (atomically: a stop
     leaves the old file or the new one)."""
@@ -194,21 +190,11 @@ def keep(folder, s, dest):
     m = measure_seed(folder, s)
     run = os.path.join(folder, f"s{s}", "checkpoint")
     latest = os.path.join(run, open(os.path.join(run, "LATEST")).read().strip())
-    m["cpu"] = cpu_model()
+    m.update(kept_json.provenance())
     m["meta"] = open(os.path.join(latest, "meta.yaml")).read()
     m["train_wall_s"] = float(open(os.path.join(latest, "wall_s.txt")).read())
     m["tournament"] = open(os.path.join(folder, f"t_s{s}", "done.txt")).read()
-    binary = os.environ.get("F16RACE")
-    if binary:
-        import subprocess
-        m["binary"] = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
-    os.makedirs(dest, exist_ok=True)
-    path = os.path.join(dest, f"s{s}.json")
-    with open(path + ".tmp", "w") as f:
-        json.dump(m, f, indent=1, sort_keys=True)
-        f.write("\n")
-    os.replace(path + ".tmp", path)
-    print(f"kept {path}")
+    kept_json.write(os.path.join(dest, f"s{s}.json"), m)
 
 
 def mean_ci(xs):

@@ -26,6 +26,7 @@ import random
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import kept_json  # noqa: E402
 from study_verdicts import HOLDS, NOT, CANNOT, KeptBlocks, percentiles, read_controls  # noqa: E402
 
 RUNS = [f"{v}_s{s}" for v in ("es_d2", "es_d3") for s in (1, 2, 3)]
@@ -45,7 +46,7 @@ def slope(points):
 def controls_of(path):
     """{run: controls summary or None} at 8 s, from a study folder, a kept budget or kept blocks."""
     if os.path.isfile(path):
-        kept = json.load(open(path))
+        kept = json.load(open(path))["runs"]
     elif any(n.startswith("s") and n.endswith(".json") for n in os.listdir(path)):
         kept = KeptBlocks(path).controls(8)
     else:
@@ -58,12 +59,7 @@ def keep(study, dest):
     absent = [run for run, g in got.items() if g is None]
     if absent:
         sys.exit(f"{study}/dt8/controls/{absent[0]}: no done.txt; race the run's controls first")
-    os.makedirs(os.path.dirname(os.path.abspath(dest)), exist_ok=True)
-    with open(dest + ".tmp", "w") as f:
-        json.dump(got, f, indent=1, sort_keys=True)
-        f.write("\n")
-    os.replace(dest + ".tmp", dest)
-    print(f"kept {dest}")
+    kept_json.write(dest, dict(runs=got, **kept_json.provenance()))
 
 
 def cells_of(studies):

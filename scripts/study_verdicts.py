@@ -26,6 +26,9 @@ import os
 import random
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import kept_json  # noqa: E402
+
 VARIANTS = ["es", "es_d1", "es_d2", "es_d3"]
 INTERVALS = [8, 20]
 DELTA = 0.05  # the smallest difference of pairing winrate the study resolves
@@ -171,25 +174,8 @@ def keep_block(study, dest):
                 sys.exit(f"{study}/dt{dt}/controls/{run}: no done.txt; race the run's controls first")
         intervals[str(dt)] = dict(pairings=pairings, controls=controls)
     seed = seeds.pop()
-    block = dict(seed=int(seed), intervals=intervals, cpu=cpu_model())
-    binary = os.environ.get("F16RACE")
-    if binary:
-        import subprocess
-        block["binary"] = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
-    os.makedirs(dest, exist_ok=True)
-    path = os.path.join(dest, f"s{seed}.json")
-    with open(path + ".tmp", "w") as f:
-        json.dump(block, f, indent=1, sort_keys=True)
-        f.write("\n")
-    os.replace(path + ".tmp", path)
-    print(f"kept {path}")
-
-
-def cpu_model():
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown"
+    block = dict(seed=int(seed), intervals=intervals, **kept_json.provenance())
+    kept_json.write(os.path.join(dest, f"s{seed}.json"), block)
 
 
 def beats(point, reps):
