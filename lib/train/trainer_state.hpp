@@ -83,9 +83,10 @@ struct Trainer::State {
   SnapshotPool pool{"", 0, false};  // set up by build()
   std::vector<int> side;       // [n_env] learner team
   // [n_env] who the opponent is: kVsSelf the current policy, kVsPool the pool snapshot,
-  // kVsCenter the current low level with a center-line high level (pool.p_center_tail).
+  // kVsCenter the current low level with a center-line high level (pool.p_center_tail),
+  // kVsAutopilot AeroBench's autopilot (pool.p_autopilot).
   std::vector<std::uint8_t> vs_pool;
-  enum : std::uint8_t { kVsSelf = 0, kVsPool = 1, kVsCenter = 2 };
+  enum : std::uint8_t { kVsSelf = 0, kVsPool = 1, kVsCenter = 2, kVsAutopilot = 3 };
 
   // HL transitions.
   OpenHl open;
@@ -153,7 +154,9 @@ struct Trainer::State {
   // The aircraft whose LL samples the rollout buffer holds, one column each: the learner team's
   // (learner_index), or with train.ll_both_teams every aircraft, valid where the learner flies it.
   torch::Tensor sample_index() const;
-  bool learner_flies_ll(int e, int agent) const { return is_learner(e, agent) || vs_pool[e] != kVsPool; }
+  bool learner_flies_ll(int e, int agent) const {
+    return is_learner(e, agent) || (vs_pool[e] != kVsPool && vs_pool[e] != kVsAutopilot);
+  }
   models::LlObs ll_view(bool final_obs) const { return ll_obs_view(*env, final_obs); }
   models::HlObs hl_view(bool final_obs) const { return hl_obs_view(*env, final_obs); }
   void hl_decisions();
@@ -162,6 +165,8 @@ struct Trainer::State {
   // Of ll_step: every aircraft's LL actions [n_env * n_agent, kActionDim]; `act` the learner's
   // policy output (empty under the autopilot).
   torch::Tensor ll_actions(bool learn, agents::PpoAction* act);
+  // The autopilot's actions for the other team of pool.p_autopilot's races, into actions [n_env * n_agent, 4].
+  void autopilot_opponents(float* actions) const;
   // Of ll_step, after env->step: rewards, returns and race causes of the learner aircraft, and
   // (learning) their samples committed to the rollout buffer.
   // `samples`: sample_index() when learning, undefined otherwise.

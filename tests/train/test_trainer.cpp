@@ -14,6 +14,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iterator>
 #include <sstream>
 #include <string>
@@ -42,11 +43,13 @@ train: {total_env_steps: 600, ll_phase_updates: 2, hl_phase_updates: 1, checkpoi
 pool: {snapshot_every_updates: 2, max_snapshots: 2}
 )";
 
-TrainConfig smoke(const std::string& extra = "") {
+TrainConfig smoke(std::initializer_list<std::string> overrides) {
   YAML::Node root = YAML::Load(kSmoke);
-  if (!extra.empty()) io::apply_override(root, extra);
+  for (const std::string& o : overrides) io::apply_override(root, o);
   return read_train_config(root, "smoke.yaml");
 }
+
+TrainConfig smoke(const std::string& extra = "") { return extra.empty() ? smoke({}) : smoke({extra}); }
 
 std::string fresh_dir(const std::string& name) { return test_support::fresh_temp_path("train_test_" + name); }
 
@@ -74,6 +77,18 @@ void expect_resumed_run_ends_as_unbroken(const std::string& override, const std:
   EXPECT_EQ(resumed->updates(), full.updates);
   EXPECT_EQ(resumed->ll_parameters(), w.ll_parameters());
   EXPECT_EQ(resumed->hl_parameters(), w.hl_parameters());
+}
+
+TEST(TrainConfig, AutopilotShareFitsInEveryRaceAndNeedsALearnedLowLevel) {
+  EXPECT_NE(error_of("pool: {p_autopilot: 0.8, p_center_tail: 0.3}")
+                .find("cfg.yaml: pool.p_autopilot + pool.p_center_tail = 1.1 is more than every race"),
+            std::string::npos);
+  EXPECT_NE(error_of("pool: {p_autopilot: 0.5}\ntrain: {ll_pilot: autopilot}")
+                .find("cfg.yaml: pool.p_autopilot = 0.5 races the learner against the autopilot"),
+            std::string::npos);
+  EXPECT_NE(error_of("pool: {p_autopilot: 1.5}").find("pool.p_autopilot: value 1.5 is out of range; allowed [0, 1]"),
+            std::string::npos);
+  EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"), "");
 }
 
 TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
@@ -187,6 +202,35 @@ TEST(Trainer, BothTeamsSamplesDoubleTheFirstUpdatesRowsAndResumeExactly) {
   EXPECT_NE(a.ll_parameters(), b.ll_parameters());
 
   expect_resumed_run_ends_as_unbroken("train.ll_both_teams=true", "both");
+}
+
+// pool.p_autopilot: the other team of those races is AeroBench's autopilot, which no network flies,
+// so none of its aircraft is a PPO sample even with both teams' samples on: with every race
+// against it, the first update trains on the learner team's rows alone (half of both teams').
+// Untrained aircraft leave the tube within seconds while the autopilot flies on, so the learner
+// loses nearly every race it ends; in self-play it wins half by symmetry. A stopped and resumed
+// run ends with the unbroken run's weights.
+TEST(Trainer, AutopilotOpponentsAreNoSamplesAndWinAndResumeExactly) {
+  // Eight envs and a longer budget, so that enough races end.
+  const std::string both = "train.ll_both_teams=true", envs = "race.n_env=8", budget = "train.total_env_steps=4000";
+  Trainer self(smoke({both, envs, budget}), fresh_dir("autopilot_off")),
+      ap(smoke({both, envs, budget, "pool.p_autopilot=1"}), fresh_dir("autopilot_on"));
+  const TrainSummary rs = self.run(nullptr, 1), ra = ap.run(nullptr, 1);
+  ASSERT_GT(rs.work.ll_train_rows, 0);
+  EXPECT_EQ(2 * ra.work.ll_train_rows, rs.work.ll_train_rows);
+  const auto won = [](Trainer& t) {
+    double wins = 0.0, races = 0.0;
+    for (const MetricsRow& r : t.run(nullptr, 20).rows)
+      if (r.races > 0) wins += r.winrate * r.races, races += r.races;  // no race ended: winrate NaN
+    return std::make_pair(wins, races);
+  };
+  const auto [self_wins, self_races] = won(self);
+  const auto [ap_wins, ap_races] = won(ap);
+  ASSERT_GE(self_races, 8.0);
+  ASSERT_GE(ap_races, 8.0);
+  EXPECT_NEAR(self_wins / self_races, 0.5, 0.2);
+  EXPECT_LT(ap_wins / ap_races, 0.2);
+  expect_resumed_run_ends_as_unbroken("pool.p_autopilot=0.5", "autopilot");
 }
 
 // ll.normalize_returns: LL rewards divided by the spread of their discounted return, so the run
@@ -1178,6 +1222,41 @@ TEST(SelfPlay, CenterControlShareComesFirstAndSplitsTheRest) {
   EXPECT_NEAR(center / double(n), 0.8, 0.01);
   EXPECT_EQ(before_center, 0);
   EXPECT_NEAR(before_pool / double(n), 0.5, 0.01);
+}
+
+TEST(SelfPlay, AutopilotShareComesFirstAndZeroKeepsThePapersDraws) {
+  PoolConfig p;
+  p.p_self_play = 0.5;
+  p.p_center_tail = 0.3;
+  p.p_autopilot = 0.2;
+  RandomStream s(11, 3);
+  const int n = 40000;
+  int ap = 0, center = 0, pool = 0, overlap = 0, ap_before = 0, center_before = 0;
+  for (int k = 0; k < n; ++k) {
+    const Matchup m = draw_matchup(s, p, true, /*in_tail=*/true);
+    ap += m.vs_autopilot, center += m.vs_center, pool += m.vs_pool;
+    overlap += (m.vs_autopilot + m.vs_center + m.vs_pool) > 1;
+    const Matchup b = draw_matchup(s, p, true, /*in_tail=*/false);
+    ap_before += b.vs_autopilot, center_before += b.vs_center;
+  }
+  EXPECT_EQ(overlap, 0);
+  EXPECT_NEAR(ap / double(n), 0.2, 0.01);
+  EXPECT_NEAR(center / double(n), 0.3, 0.01);
+  EXPECT_NEAR(pool / double(n), 0.25, 0.01);  // half of the other 50 %
+  EXPECT_NEAR(ap_before / double(n), 0.2, 0.01);
+  EXPECT_EQ(center_before, 0);
+  // p_autopilot 0: the same matchups, draw for draw, as the rule without it.
+  p.p_autopilot = 0.0;
+  RandomStream t1(6, 1), t2(6, 1);
+  for (int k = 0; k < 2000; ++k) {
+    const Matchup m = draw_matchup(t1, p, true, k % 2 == 0);
+    const double u_side = t2.uniform(), u_pool = t2.uniform();
+    const double c = k % 2 == 0 ? p.p_center_tail : 0.0;
+    EXPECT_FALSE(m.vs_autopilot);
+    EXPECT_EQ(m.learner_side, u_side < 0.5 ? 1 : 0);
+    EXPECT_EQ(m.vs_center, u_pool < c);
+    EXPECT_EQ(m.vs_pool, u_pool >= c && u_pool >= c + (1.0 - c) * p.p_self_play);
+  }
 }
 
 }  // namespace
