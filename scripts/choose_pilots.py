@@ -2,16 +2,18 @@
 """Notebook 66's pilot rule, as notebook 72 applies it: choose the Fig. 3 study's two pilots and
 keep their low levels in the repository.
 
-    scripts/choose_pilots.py KEEP_DIR RUNS_DIR OUT_DIR
+    scripts/choose_pilots.py KEEP_DIR RUNS_DIR OUT_DIR [NAMES]
 
 KEEP_DIR holds the candidate seeds' kept summaries (sS.json, scripts/seed_arm.sh), RUNS_DIR their
 run folders (sS). Seeds are ranked by the Wilson 95 % lower bound of their winrate against the
 tuned autopilot (`ap_lo`); in that order each is raced on the long tracks (`tournament --runs sS
 --no-untrained --with-autopilot --controls --races 256 --tracks configs/long.yaml`, into
 RUNS_DIR/pilotcheck_sS) until two finish at least 95 % of all their races at the finish line.
-Pilot A is the first, pilot B the second: OUT_DIR/pilot_A and pilot_B receive what
-`train.ll_from` reads (config.yaml, checkpoint/LATEST, and that checkpoint's ll.pt and meta.yaml),
-and OUT_DIR/pilotcheck_sS the check's pairings.csv and summary.md. F16RACE names the binary
+NAMES (default AB) are the pilots to fill, in order: the first seed that passes becomes
+pilot NAMES[0], the next NAMES[1]; notebook 72 fills B only (pilot A survived). OUT_DIR/pilot_X
+receives what
+`train.ll_from` reads (config.yaml, checkpoint/LATEST, and that checkpoint's ll.pt and
+meta.yaml), and OUT_DIR/pilotcheck_sS the check's pairings.csv and summary.md. F16RACE names the binary
 (default build/f16race); F16RACE_THREADS the threads (default 2). Standard library only.
 """
 import csv
@@ -61,9 +63,10 @@ def keep_pilot(run, dest):
 
 
 def main(argv):
-    if len(argv) != 4:
-        sys.exit("usage: scripts/choose_pilots.py KEEP_DIR RUNS_DIR OUT_DIR")
-    keep, runs, out = (os.path.abspath(a) for a in argv[1:])
+    if len(argv) not in (4, 5) or (len(argv) == 5 and not set(argv[4]) <= set("AB")):
+        sys.exit("usage: scripts/choose_pilots.py KEEP_DIR RUNS_DIR OUT_DIR [NAMES, e.g. AB or B]")
+    keep, runs, out = (os.path.abspath(a) for a in argv[1:4])
+    names = argv[4] if len(argv) == 5 else "AB"
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     binary = os.path.abspath(os.environ.get("F16RACE", os.path.join(here, "build", "f16race")))
     threads = os.environ.get("F16RACE_THREADS", "2")
@@ -80,12 +83,13 @@ def main(argv):
         for f in ("pairings.csv", "summary.md"):
             shutil.copy(os.path.join(folder, f), dest)
         if passed:
+            name = names[len(chosen)]
             chosen.append(seed)
-            keep_pilot(os.path.join(runs, f"s{seed}"), os.path.join(out, "pilot_" + "AB"[len(chosen) - 1]))
-            print(f"pilot {'AB'[len(chosen) - 1]} = s{seed}")
-        if len(chosen) == 2:
+            keep_pilot(os.path.join(runs, f"s{seed}"), os.path.join(out, "pilot_" + name))
+            print(f"pilot {name} = s{seed}")
+        if len(chosen) == len(names):
             return
-    sys.exit(f"only {len(chosen)} of {len(order)} seeds pass the long-race check")
+    sys.exit(f"only {len(chosen)} of {len(order)} seeds pass the long-race check; {len(names)} pilots wanted")
 
 
 if __name__ == "__main__":

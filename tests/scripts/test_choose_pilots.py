@@ -49,4 +49,13 @@ with tempfile.TemporaryDirectory() as tmp:
     assert files == ["checkpoint/LATEST", "checkpoint/step_9/ll.pt", "checkpoint/step_9/meta.yaml", "config.yaml"], files
     assert open(os.path.join(out, "pilot_B", "checkpoint", "step_9", "ll.pt")).read() == "ll.pt of s4\n"
     assert sorted(os.listdir(os.path.join(out, "pilotcheck_s3"))) == ["pairings.csv", "summary.md"]
+    # NAMES B: the first seed that passes is pilot B, and the rule stops there (s4 not raced).
+    os.remove(os.path.join(runs, "raced.txt"))
+    for seed in (1, 3, 4):
+        subprocess.run(["rm", "-r", os.path.join(runs, f"pilotcheck_s{seed}")], check=True)
+    r = subprocess.run([sys.executable, SCRIPT, keep, runs, os.path.join(tmp, "outB"), "B"], capture_output=True,
+                       text=True, env=dict(os.environ, F16RACE=fake))
+    assert r.returncode == 0 and "pilot B = s1" in r.stdout, r.stdout + r.stderr
+    assert open(os.path.join(runs, "raced.txt")).read().split() == ["s3", "s1"]
+    assert sorted(n for n in os.listdir(os.path.join(tmp, "outB")) if n.startswith("pilot_")) == ["pilot_B"]
 print("choose_pilots: the rule's order, the 95 % bar and the kept files as constructed")
