@@ -107,6 +107,7 @@ with tempfile.TemporaryDirectory() as tmp:
     # 7.76 / 12 = 0.647; its total winrate is the plain mean, 0.643.
     assert "| es_d3 | 8 | 0.643 ± 0.000 | 0.647 [0.647, 0.647] |" in blocked, blocked
     assert "| es_d3 | 0.700 | 0.650 | 0.580 |  |" in blocked, blocked
+    assert "**Provisional**: pilot A has 8 of the 24 pre-registered blocks" in blocked, blocked
     assert "same-seed pairings" in blocked and "runs per variant: es 8," in blocked, blocked
     assert "(e2) ES+D2's shortfall against ES+D3, 8 s minus 20 s: 95 % CI [+0.000, +0.000]" in blocked, blocked
     # A block is one seed, finished: two seeds, or a run without its controls, are refused in one line.
