@@ -104,8 +104,9 @@ std::vector<TrainSummary> train_tail_members(const std::string& run_dir, const s
     const std::string dir = member_dir(run_dir, m);
     if (!fs::is_directory(dir))
       throw io::InputError(dir + ": missing, so tail member " + std::to_string(m) +
-                           " was never forked (the run has not reached its tail, or the folder was removed); "
-                           "continue the run with --resume " + run_dir + ", or train it again");
+                           " was never forked: the run's HL-only tail (the last train.hl_tail_share of its env "
+                           "steps) began and ended inside its last update, or the folder was removed; train the "
+                           "run again, with a larger train.total_env_steps or train.hl_tail_share");
     auto member = Trainer::resume(dir);
     out.push_back(member->run(stop, -1, [&](const MetricsRow& r) {
       if (on_row) on_row(m, r);

@@ -522,6 +522,25 @@ TEST(Trainer, TailMemberStreamsBeginAfterTheLastLowLevelUpdate) {
   EXPECT_NE(hl[1], hl[0]);
 }
 
+// A tail shorter than one update: the budget ends inside the update that enters it, no update
+// starts in it, so no member is forked; training the members then says why, in one line, and
+// what to change (resuming would not help: the run is finished).
+TEST(Trainer, ATailInsideOneUpdateForksNoMemberAndSaysWhy) {
+  TrainConfig c = smoke("train.hl_tail_share=0.005");  // 3 of 600 env steps: less than one update (24)
+  c.loop.hl_tail_members = 3;
+  const std::string dir = fresh_dir("members_none");
+  Trainer(c, dir).run();
+  EXPECT_FALSE(fs::exists(dir + "/members/1"));
+  try {
+    train_tail_members(dir);
+    ADD_FAILURE() << "expected a refusal";
+  } catch (const io::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("members/1: missing, so tail member 1 was never forked"), std::string::npos) << what;
+    EXPECT_NE(what.find("a larger train.total_env_steps or train.hl_tail_share"), std::string::npos) << what;
+  }
+}
+
 // train.hl_tail_members: the run forks its tail members at its tail's first update; each member,
 // trained after the run, is the run of its config with tail_member m (bit for bit), the run's
 // own tail is the plain run's, a run stopped after the fork resumes without forking twice, and
