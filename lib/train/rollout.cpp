@@ -148,9 +148,10 @@ torch::Tensor Trainer::State::ll_actions(bool learn, agents::PpoAction* act) {
   return actions;
 }
 
-void Trainer::State::autopilot_opponents(float* actions) const {
+void Trainer::State::autopilot_opponents(float* actions) {
   if (cfg.pool.p_autopilot == 0.0) return;
-  std::vector<std::int64_t> rows;
+  std::vector<std::int64_t>& rows = autopilot_rows;  // reused: no allocation per step once grown
+  rows.clear();
   for (int e = 0; e < n_env; ++e)
     if (vs_pool[e] == kVsAutopilot)
       for (int a = 0; a < n_agent; ++a)

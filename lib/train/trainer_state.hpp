@@ -166,7 +166,8 @@ struct Trainer::State {
   // policy output (empty under the autopilot).
   torch::Tensor ll_actions(bool learn, agents::PpoAction* act);
   // The autopilot's actions for the other team of pool.p_autopilot's races, into actions [n_env * n_agent, 4].
-  void autopilot_opponents(float* actions) const;
+  void autopilot_opponents(float* actions);
+  std::vector<std::int64_t> autopilot_rows;  // its rows of the step, kept between steps
   // Of ll_step, after env->step: rewards, returns and race causes of the learner aircraft, and
   // (learning) their samples committed to the rollout buffer.
   // `samples`: sample_index() when learning, undefined otherwise.
