@@ -258,9 +258,6 @@ void ConfigReader::read(const char* key, std::vector<std::string>* value, const 
 }
 
 namespace {
-// The commit that removed the keys ConfigReader::retired names (issue 51).
-constexpr const char* kKeysRetiredIn = "06d4cb7";
-
 // `n` holds `value`: the same text, or the same number (0 and 0.0) or boolean (false and no).
 bool holds(const YAML::Node& n, const char* value) {
   if (!n.IsScalar()) return false;
@@ -278,14 +275,14 @@ bool holds(const YAML::Node& n, const char* value) {
 }
 }  // namespace
 
-void ConfigReader::retired(const char* key, const char* value) {
+void ConfigReader::retired(const char* key, const char* value, const Retirement& why) {
   used_.insert(key);
   retired_.insert(key);
   if (!has(key)) return;
   const YAML::Node n = node_[key];
   if (holds(n, value)) return;
   throw ConfigError(origin(n) + ": " + key_path(key) + ": " + (n.IsScalar() ? n.Scalar() : scalar_text(n)) +
-                    " was removed in " + kKeysRetiredIn + "; build commit " + kLastCommitWithRetiredKeys + " to use it");
+                    " was removed " + why.removed + "; build commit " + why.last_commit + " to use it");
 }
 
 ConfigReader ConfigReader::child(const char* key) {

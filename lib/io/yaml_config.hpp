@@ -33,9 +33,15 @@ inline constexpr const char* kOverrideTag = "!f16race-set:";
 // load_yaml_file(path), then every override in order (what `--config F --set k=v ...` means).
 YAML::Node load_yaml_with_overrides(const std::string& path, const std::vector<std::string>& overrides);
 
-// Keys retired by issue 51 (experiment switches measured not to help, a test hook): the last
-// commit that reads them all (ConfigReader::retired).
-inline constexpr const char* kLastCommitWithRetiredKeys = "b8c9f8c";
+// Why a key is gone (ConfigReader::retired's error): what removed it and the last commit that reads it.
+struct Retirement {
+  const char* removed;      // "removed <removed>": a commit, or the notebook entry whose verdict it was
+  const char* last_commit;  // build this commit to use the key
+};
+// Issue 51's keys (experiment switches measured not to help, a test hook).
+inline constexpr Retirement kIssue51Keys{"in 06d4cb7", "b8c9f8c"};
+// train.ll_both_teams: measured not to help (docs/notebook/69-both-teams-samples.md).
+inline constexpr Retirement kNotebook69Keys{"after docs/notebook/69's verdict", "c8c67be"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {
@@ -56,7 +62,7 @@ class ConfigReader {
   // wrote it, so older runs still name it: at `value`, what this build behaves as (a number or
   // boolean compares as one: 0 and 0.0), it is consumed and changes nothing; at any other value
   // the config asks for code that is gone, and the error names the key, the value and the commits.
-  void retired(const char* key, const char* value);
+  void retired(const char* key, const char* value, const Retirement& why = kIssue51Keys);
   // A key another reader of this mapping takes care of: not an unknown key here.
   void skip(const char* key) { used_.insert(key); }
 
@@ -91,7 +97,7 @@ class ConfigWriter {
   void read(const char* key, std::uint64_t* value) { node_[key] = *value; }
   void read(const char* key, bool* value) { node_[key] = *value; }
   void read(const char* key, std::string* value, const std::vector<std::string>&) { node_[key] = *value; }
-  void retired(const char*, const char*) {}  // never written again
+  void retired(const char*, const char*, const Retirement& = kIssue51Keys) {}  // never written again
   void skip(const char*) {}
   void read(const char* key, std::vector<int>* value, int, int) {
     YAML::Node seq(YAML::NodeType::Sequence);

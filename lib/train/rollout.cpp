@@ -45,11 +45,6 @@ torch::Tensor Trainer::State::learner_index() const {
   return idx;
 }
 
-torch::Tensor Trainer::State::sample_index() const {
-  if (!cfg.loop.ll_both_teams) return learner_index();
-  return torch::arange(static_cast<std::int64_t>(n_env) * n_agent, torch::kInt64);
-}
-
 void Trainer::State::close_open(int e, bool done, const HlObs& next_rows, const torch::Tensor& next_active) {
   if (!open.open[e]) return;
   done_obs.push_back(HlObs{open.obs.ego[e].clone(), open.obs.prev_action[e].clone(), open.obs.ado[e].clone(),
@@ -168,18 +163,13 @@ void Trainer::State::ll_step(bool learn) {
   agents::PpoAction act;
   const torch::Tensor actions = ll_actions(learn, &act);
   const auto learner = learner_index();  // before the step: sides change at resets
-  // Samples (sample_index), taken before the env overwrites its buffers (act.obs may view them),
-  // gathered straight into the buffer's next slot: aircraft k's row in act's outputs. A pool
-  // snapshot's aircraft has no row there: any row stands in, and record_step marks it invalid.
-  const torch::Tensor samples = learn ? sample_index() : torch::Tensor();
+  // Samples of the learner team, taken before the env overwrites its buffers (act.obs may view
+  // them), gathered straight into the buffer's next slot: aircraft k's row in act's outputs.
   if (learn) {
-    auto pos = torch::empty_like(samples);
-    const std::int64_t* si = samples.data_ptr<std::int64_t>();
+    auto pos = torch::empty_like(learner);
+    const std::int64_t* li = learner.data_ptr<std::int64_t>();
     std::int64_t* pi = pos.data_ptr<std::int64_t>();
-    for (std::int64_t k = 0; k < samples.numel(); ++k) {
-      const int i = static_cast<int>(si[k]);
-      pi[k] = learner_flies_ll(i / n_agent, i % n_agent) ? ll_rows.position(i) : 0;
-    }
+    for (std::int64_t k = 0; k < learner.numel(); ++k) pi[k] = ll_rows.position(static_cast<int>(li[k]));
     buffer->stage_picked(act.obs, act.action, act.log_prob, act.value, pos);
   }
   {  // airspeed of the learner's aircraft still racing, before the step (a finished race resets)
@@ -193,11 +183,11 @@ void Trainer::State::ll_step(bool learn) {
   timing.env += since(t_env);
   env_steps += n_env;  // a group sums its ranks' steps after each update (Trainer::run)
   rank_env_steps += n_env;
-  record_step(learner, samples);
+  record_step(learner, learn);
   end_races(learner);
 }
 
-void Trainer::State::record_step(const torch::Tensor& learner, const torch::Tensor& samples) {
+void Trainer::State::record_step(const torch::Tensor& learner, bool learn) {
   // Per-sample bookkeeping through raw pointers: one torch op per element would cost more
   // than the simulator.
   const std::int64_t* li = learner.data_ptr<std::int64_t>();
@@ -223,11 +213,11 @@ void Trainer::State::record_step(const torch::Tensor& learner, const torch::Tens
       }
     }
   }
-  if (samples.defined()) commit_samples(samples);
+  if (learn) commit_samples(learner);
 }
 
-void Trainer::State::commit_samples(const torch::Tensor& samples) {
-  const std::int64_t n = samples.numel();
+void Trainer::State::commit_samples(const torch::Tensor& learner) {
+  const std::int64_t n = learner.numel();
   auto reward = torch::empty({n});
   auto terminated = torch::empty({n}, torch::kBool), truncated = torch::empty({n}, torch::kBool);
   auto valid = torch::empty({n}, torch::kBool);
@@ -235,19 +225,19 @@ void Trainer::State::commit_samples(const torch::Tensor& samples) {
   bool* te = terminated.data_ptr<bool>();
   bool* tr = truncated.data_ptr<bool>();
   bool* va = valid.data_ptr<bool>();
-  const std::int64_t* si = samples.data_ptr<std::int64_t>();
+  const std::int64_t* li = learner.data_ptr<std::int64_t>();
   bool any_trunc = false;
   for (std::int64_t k = 0; k < n; ++k) {
-    const int i = static_cast<int>(si[k]);
+    const int i = static_cast<int>(li[k]);
     rw[k] = env->ll_reward()[i];
     te[k] = env->terminated()[i] != 0;
     tr[k] = env->truncated()[i] != 0;
-    va[k] = env->acted()[i] != 0 && learner_flies_ll(i / n_agent, i % n_agent);
+    va[k] = env->acted()[i] != 0;
     if (cfg.ll.normalize_returns) return_scaler.observe(k, rw[k], va[k], te[k] || tr[k]);
     any_trunc = any_trunc || env->truncated()[i];
   }
   torch::Tensor bootstrap;
-  if (any_trunc) bootstrap = ppo->value(models::index_rows(ll_view(true), samples));
+  if (any_trunc) bootstrap = ppo->value(models::index_rows(ll_view(true), learner));
   buffer->commit(reward, terminated, truncated, bootstrap, valid);
 }
 

@@ -110,7 +110,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.skip("tail_member");  // read_tail_member's, from run folders only
   r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
   r.read("ll_from", &c->ll_from, {});
-  r.read("ll_both_teams", &c->ll_both_teams);
+  r.retired("ll_both_teams", "false", io::kNotebook69Keys);
   r.finish();
 }
 

@@ -49,10 +49,6 @@ struct LoopConfig {
   // that races (the Fig. 3 study); the run copies the weights into its own checkpoints, so it
   // never reads the folder again after it started. Empty: the run learns its own low level.
   std::string ll_from;
-  // PPO learns from every aircraft the learner's low level flies: its own team, and the other team
-  // in self-play and center-line races (their LL is the learner's current policy, so their samples
-  // are on-policy). false: the learner team's aircraft only, as before (docs/notebook/69).
-  bool ll_both_teams = false;
 };
 
 struct PoolConfig {

@@ -90,8 +90,8 @@ void Trainer::State::build_learners() {
   es = std::make_unique<agents::EsAgent>(cfg.hl);
   opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
-  buffer = std::make_unique<agents::RolloutBuffer>(
-      cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * (cfg.loop.ll_both_teams ? n_agent : ts), dims, race::kActionDim);
+  buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
+                                                   race::kActionDim);
   if (cfg.ll.normalize_returns) {
     // Each rank's statistics would differ, and so would its rewards' scale.
     if (world > 1)

@@ -150,13 +150,8 @@ struct Trainer::State {
   // its env's flag is down (an HL decision only for the envs that are due), and for the high
   // level of a center-line opponent (its rows keep the middle bin).
   std::vector<int> owners(const std::uint8_t* only = nullptr, bool high_level = false) const;
+  // The learner team's aircraft, [n_env * ts]: the rollout buffer's columns (PPO's samples).
   torch::Tensor learner_index() const;
-  // The aircraft whose LL samples the rollout buffer holds, one column each: the learner team's
-  // (learner_index), or with train.ll_both_teams every aircraft, valid where the learner flies it.
-  torch::Tensor sample_index() const;
-  bool learner_flies_ll(int e, int agent) const {
-    return is_learner(e, agent) || (vs_pool[e] != kVsPool && vs_pool[e] != kVsAutopilot);
-  }
   models::LlObs ll_view(bool final_obs) const { return ll_obs_view(*env, final_obs); }
   models::HlObs hl_view(bool final_obs) const { return hl_obs_view(*env, final_obs); }
   void hl_decisions();
@@ -170,11 +165,10 @@ struct Trainer::State {
   std::vector<std::int64_t> autopilot_rows;  // its rows of the step, kept between steps
   // Of ll_step, after env->step: rewards, returns and race causes of the learner aircraft, and
   // (learning) their samples committed to the rollout buffer.
-  // `samples`: sample_index() when learning, undefined otherwise.
-  void record_step(const torch::Tensor& learner, const torch::Tensor& samples);
-  // Of record_step: this step's rewards, ends and validity of the sample_index aircraft into the
-  // rollout buffer (valid: the aircraft acted and the learner's low level flew it).
-  void commit_samples(const torch::Tensor& samples);
+  void record_step(const torch::Tensor& learner, bool learn);
+  // Of record_step: this step's rewards, ends and validity (the aircraft acted) of the learner
+  // team's aircraft into the rollout buffer.
+  void commit_samples(const torch::Tensor& learner);
   // Of ll_step: the races that ended, their results and HL transitions closed; new matchups.
   void end_races(const torch::Tensor& learner);
 

@@ -105,21 +105,22 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
 }
 
-// The keys issue 51 retired (io::ConfigReader::retired), as a run folder's config.yaml from an older
-// build lists them: at the value this build behaves as they change nothing; at another value the
-// config is refused in one line naming the key, the value and the commit to build.
+// The keys issue 51 and notebook 69 retired (io::ConfigReader::retired), as a run folder's
+// config.yaml from an older build lists them: at the value this build behaves as they change
+// nothing; at another value the config is refused in one line naming the key, the value and the
+// commit to build.
 TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
   const char* old_defaults = R"(
 race: {goal_origin: center, observe_team_lanes: false}
 ll: {inference: eigen}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
-train: {hl_average_share: 0, tail_member: 0}
+train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
 pool: {p_center: 0.0}
 )";
   const std::string plain = train_config_yaml(read_train_config(YAML::Load("{}"), "cfg.yaml"));
   EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
   for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
-                          "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:"})
+                          "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -136,9 +137,12 @@ pool: {p_center: 0.0}
            {"pool: {p_center: 0.25}", "pool.p_center: 0.25"}}) {
     const std::string e = error_of(yaml);
     EXPECT_EQ(e.rfind("cfg.yaml: " + line + " was removed in ", 0), 0u) << yaml << " -> " << e;
-    EXPECT_NE(e.find("; build commit " + std::string(io::kLastCommitWithRetiredKeys) + " to use it"), std::string::npos) << e;
+    EXPECT_NE(e.find("; build commit " + std::string(io::kIssue51Keys.last_commit) + " to use it"), std::string::npos) << e;
     EXPECT_EQ(e.find('\n'), std::string::npos) << e;
   }
+  EXPECT_EQ(error_of("train: {ll_both_teams: true}"),
+            "cfg.yaml: train.ll_both_teams: true was removed after docs/notebook/69's verdict; build commit c8c67be "
+            "to use it");
   // A key never known is still an unknown key, not a retired one.
   EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
 }
@@ -189,35 +193,20 @@ TEST(Trainer, SameSeedSameWeightsDifferentSeedDifferentWeights) {
   EXPECT_NE(a.ll_parameters(), c.ll_parameters());
 }
 
-// train.ll_both_teams: PPO also learns from the other team where the learner's low level flies
-// it. The first update's races are all self-play (the pool is still empty) and its 8 steps too
-// short for anyone to be out, so PPO sees exactly twice the rows of the same rollout. The run
-// stays deterministic, and a stopped and resumed one ends with the unbroken run's weights.
-TEST(Trainer, BothTeamsSamplesDoubleTheFirstUpdatesRowsAndResumeExactly) {
-  Trainer a(smoke(), fresh_dir("both_off")), b(smoke("train.ll_both_teams=true"), fresh_dir("both_on"));
-  const TrainSummary ra = a.run(nullptr, 1), rb = b.run(nullptr, 1);
-  ASSERT_GT(ra.work.ll_train_rows, 0);
-  EXPECT_EQ(rb.work.ll_train_rows, 2 * ra.work.ll_train_rows);
-  EXPECT_EQ(rb.env_steps, ra.env_steps);
-  EXPECT_NE(a.ll_parameters(), b.ll_parameters());
-
-  expect_resumed_run_ends_as_unbroken("train.ll_both_teams=true", "both");
-}
-
 // pool.p_autopilot: the other team of those races is AeroBench's autopilot, which no network flies,
-// so none of its aircraft is a PPO sample even with both teams' samples on: with every race
-// against it, the first update trains on the learner team's rows alone (half of both teams').
+// so none of its aircraft is a PPO sample: with every race against it, the first update trains on
+// as many rows as in self-play (the learner team's).
 // Untrained aircraft leave the tube within seconds while the autopilot flies on, so the learner
 // loses nearly every race it ends; in self-play it wins half by symmetry. A stopped and resumed
 // run ends with the unbroken run's weights.
 TEST(Trainer, AutopilotOpponentsAreNoSamplesAndWinAndResumeExactly) {
   // Eight envs and a longer budget, so that enough races end.
-  const std::string both = "train.ll_both_teams=true", envs = "race.n_env=8", budget = "train.total_env_steps=4000";
-  Trainer self(smoke({both, envs, budget}), fresh_dir("autopilot_off")),
-      ap(smoke({both, envs, budget, "pool.p_autopilot=1"}), fresh_dir("autopilot_on"));
+  const std::string envs = "race.n_env=8", budget = "train.total_env_steps=4000";
+  Trainer self(smoke({envs, budget}), fresh_dir("autopilot_off")),
+      ap(smoke({envs, budget, "pool.p_autopilot=1"}), fresh_dir("autopilot_on"));
   const TrainSummary rs = self.run(nullptr, 1), ra = ap.run(nullptr, 1);
   ASSERT_GT(rs.work.ll_train_rows, 0);
-  EXPECT_EQ(2 * ra.work.ll_train_rows, rs.work.ll_train_rows);
+  EXPECT_EQ(ra.work.ll_train_rows, rs.work.ll_train_rows);
   const auto won = [](Trainer& t) {
     double wins = 0.0, races = 0.0;
     for (const MetricsRow& r : t.run(nullptr, 20).rows)
@@ -739,7 +728,7 @@ TEST(Trainer, RunFromBeforeTheRetiredKeysResumesLoadsOrIsRefused) {
     } catch (const io::ConfigError& e) {
       const std::string what = e.what();
       EXPECT_EQ(what.rfind(want, 0), 0u) << what;
-      EXPECT_NE(what.find("; build commit " + std::string(io::kLastCommitWithRetiredKeys) + " to use it"),
+      EXPECT_NE(what.find("; build commit " + std::string(io::kIssue51Keys.last_commit) + " to use it"),
                 std::string::npos) << what;
     }
   }
