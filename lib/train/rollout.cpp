@@ -31,7 +31,6 @@ std::vector<int> Trainer::State::owners(const std::uint8_t* only, bool high_leve
       if (only && !only[e]) who = -1;
       else if (!is_learner(e, a) && vs_pool[e] == kVsPool) who = 1;
       else if (!is_learner(e, a) && vs_pool[e] == kVsCenter) who = high_level ? -1 : 0;
-      else if (!is_learner(e, a) && vs_pool[e] == kVsAutopilot) who = -1;  // no network: its goals stay centred
       o[e * n_agent + a] = who;
     }
   return o;
@@ -137,22 +136,9 @@ torch::Tensor Trainer::State::ll_actions(bool learn, agents::PpoAction* act) {
     work.ll_forward_alive += models::count_alive(obs.ado_alive, ll_rows.owns_all(0) ? torch::Tensor() : mine) +
                             (ll_rows.rows(1).numel() > 0 ? models::count_alive(obs.ado_alive, ll_rows.rows(1)) : 0);
     work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
-    autopilot_opponents(actions.data_ptr<float>());
   }
   timing.inference += since(t_act);
   return actions;
-}
-
-void Trainer::State::autopilot_opponents(float* actions) {
-  if (cfg.pool.p_autopilot == 0.0) return;
-  std::vector<std::int64_t>& rows = autopilot_rows;  // reused: no allocation per step once grown
-  rows.clear();
-  for (int e = 0; e < n_env; ++e)
-    if (vs_pool[e] == kVsAutopilot)
-      for (int a = 0; a < n_agent; ++a)
-        if (!is_learner(e, a)) rows.push_back(static_cast<std::int64_t>(e) * n_agent + a);
-  if (!rows.empty())
-    race::autopilot_actions(*env, opponent_autopilot(cfg), actions, rows.data(), static_cast<std::int64_t>(rows.size()));
 }
 
 void Trainer::State::ll_step(bool learn) {

@@ -18,14 +18,11 @@ Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_ava
   // Both numbers are always drawn, so the stream advances the same way whatever the settings.
   const double u_side = stream.uniform(), u_pool = stream.uniform();
   m.learner_side = pool.randomize_sides && u_side < 0.5 ? 1 : 0;
-  // u_pool below p_autopilot: the autopilot; then below + p_center: the center-line control; above
-  // both, self-play or pool in the odds p_self_play gives (p_autopilot 0 and, outside the tail,
-  // p_center 0: the paper's draws).
-  const double p_auto = pool.p_autopilot, p_center = in_tail ? pool.p_center_tail : 0.0;
-  m.vs_autopilot = u_pool < p_auto;
-  m.vs_center = !m.vs_autopilot && u_pool < p_auto + p_center;
-  m.vs_pool = !m.vs_autopilot && !m.vs_center && pool_available &&
-              u_pool >= p_auto + p_center + (1.0 - p_auto - p_center) * pool.p_self_play;
+  // u_pool below p_center: the center-line control; above it, self-play or pool in the odds
+  // p_self_play gives (outside the tail, p_center 0: the paper's draws).
+  const double p_center = in_tail ? pool.p_center_tail : 0.0;
+  m.vs_center = u_pool < p_center;
+  m.vs_pool = !m.vs_center && pool_available && u_pool >= p_center + (1.0 - p_center) * pool.p_self_play;
   return m;
 }
 
@@ -38,7 +35,7 @@ void Trainer::State::draw_matchup(int e) {
   // crosses the switch inside an update): its last update keeps the bilevel part's matchups.
   const Matchup m = train::draw_matchup(stream, cfg.pool, opponent >= 0, in_frozen_tail());
   side[e] = m.learner_side;
-  vs_pool[e] = m.vs_autopilot ? kVsAutopilot : (m.vs_center ? kVsCenter : (m.vs_pool ? kVsPool : kVsSelf));
+  vs_pool[e] = m.vs_center ? kVsCenter : (m.vs_pool ? kVsPool : kVsSelf);
 }
 
 void Trainer::State::snapshot_pool() {

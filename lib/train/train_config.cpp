@@ -119,7 +119,7 @@ void bind_pool(R& r, PoolConfig* c) {
   r.read("p_self_play", &c->p_self_play, 0.0, 1.0);
   r.retired("p_center", "0");  // docs/notebook/18, 23
   r.read("p_center_tail", &c->p_center_tail, 0.0, 1.0);
-  r.read("p_autopilot", &c->p_autopilot, 0.0, 1.0);
+  r.retired("p_autopilot", "0", io::kNotebook73Keys);
   r.read("snapshot_every_updates", &c->snapshot_every_updates, 1, 1000000);
   r.read("max_snapshots", &c->max_snapshots, 1, 100000);
   r.read("randomize_sides", &c->randomize_sides);
@@ -141,12 +141,6 @@ race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& c) {
   race::AutopilotPilotConfig pilot;
   pilot.follow_goal = true;
   pilot.airspeed_ftps = c.loop.autopilot_airspeed_ftps > 0.0 ? c.loop.autopilot_airspeed_ftps : c.race.autopilot_airspeed();
-  return pilot;
-}
-
-race::AutopilotPilotConfig opponent_autopilot(const TrainConfig& c) {
-  race::AutopilotPilotConfig pilot;
-  pilot.airspeed_ftps = c.race.autopilot_airspeed();
   return pilot;
 }
 
@@ -194,14 +188,6 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
   if (!c.loop.ll_from.empty() && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.ll_from freezes the low level, so only the high level learns: "
                           "train.hl_phase_updates must be > 0");
-  if (c.pool.p_autopilot > 0.0 && c.loop.ll_pilot == LowLevelPilot::kAutopilot)
-    throw io::ConfigError(source + ": pool.p_autopilot = " + io::format_double(c.pool.p_autopilot) +
-                          " races the learner against the autopilot, and train.ll_pilot is autopilot (every aircraft "
-                          "flies it already): set one of the two");
-  if (c.pool.p_autopilot + c.pool.p_center_tail > 1.0)
-    throw io::ConfigError(source + ": pool.p_autopilot + pool.p_center_tail = " +
-                          io::format_double(c.pool.p_autopilot + c.pool.p_center_tail) +
-                          " is more than every race: make their sum at most 1");
   if (c.pool.p_center_tail > 0.0 && c.loop.hl_tail_share == 0.0)
     throw io::ConfigError(source + ": pool.p_center_tail = " + io::format_double(c.pool.p_center_tail) +
                           " applies to the HL-only tail, and train.hl_tail_share is 0 (no tail): set "

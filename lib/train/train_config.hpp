@@ -59,10 +59,6 @@ struct PoolConfig {
   // learns to beat the formation its final low level flies (docs/learning.md, "The center line
   // in the tail"). The bilevel part before the tail has the paper's pool only.
   double p_center_tail = 0.0;
-  // Share of all races, bilevel and tail, against AeroBench's autopilot at the race's set point
-  // (race.autopilot_airspeed_ftps): a tournament's `autopilot` entry as an opponent to learn from,
-  // drawn before the tail's center line (docs/notebook/73). 0: the paper's pool only.
-  double p_autopilot = 0.0;
   int snapshot_every_updates = 40; // PPO+ES updates between pool snapshots
   int max_snapshots = 20;          // oldest snapshots are removed beyond this
   bool randomize_sides = true;     // learner plays blue or red at random per race
@@ -93,9 +89,6 @@ struct TrainConfig {
 // The low level of a train.ll_pilot autopilot run, in training, tournaments and replays alike:
 // AeroBench's waypoint autopilot flying each aircraft's goal lane at the configured airspeed.
 race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& config);
-// The opponent of pool.p_autopilot's races: the tournament's `autopilot` entry (its start lane,
-// the race's set point).
-race::AutopilotPilotConfig opponent_autopilot(const TrainConfig& config);
 
 // Who wrote a config: a user (a file and --set), or train (a run folder's config.yaml, which may
 // also list the internal train.tail_member).

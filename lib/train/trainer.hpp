@@ -62,7 +62,6 @@ struct Matchup {
   int learner_side = 0;   // 0 blue, 1 red
   bool vs_pool = false;   // opponent is the current pool snapshot (else the current policy)
   bool vs_center = false; // opponent is the learner's low level under a center-line high level
-  bool vs_autopilot = false;  // opponent is AeroBench's autopilot (pool.p_autopilot)
 };
 // in_tail: the race starts in the HL-only tail, where pool.p_center_tail of them are against the center line.
 Matchup draw_matchup(RandomStream& stream, const PoolConfig& pool, bool pool_available, bool in_tail = false);

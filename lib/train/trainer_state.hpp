@@ -83,10 +83,9 @@ struct Trainer::State {
   SnapshotPool pool{"", 0, false};  // set up by build()
   std::vector<int> side;       // [n_env] learner team
   // [n_env] who the opponent is: kVsSelf the current policy, kVsPool the pool snapshot,
-  // kVsCenter the current low level with a center-line high level (pool.p_center_tail),
-  // kVsAutopilot AeroBench's autopilot (pool.p_autopilot).
+  // kVsCenter the current low level with a center-line high level (pool.p_center_tail).
   std::vector<std::uint8_t> vs_pool;
-  enum : std::uint8_t { kVsSelf = 0, kVsPool = 1, kVsCenter = 2, kVsAutopilot = 3 };
+  enum : std::uint8_t { kVsSelf = 0, kVsPool = 1, kVsCenter = 2 };
 
   // HL transitions.
   OpenHl open;
@@ -160,9 +159,6 @@ struct Trainer::State {
   // Of ll_step: every aircraft's LL actions [n_env * n_agent, kActionDim]; `act` the learner's
   // policy output (empty under the autopilot).
   torch::Tensor ll_actions(bool learn, agents::PpoAction* act);
-  // The autopilot's actions for the other team of pool.p_autopilot's races, into actions [n_env * n_agent, 4].
-  void autopilot_opponents(float* actions);
-  std::vector<std::int64_t> autopilot_rows;  // its rows of the step, kept between steps
   // Of ll_step, after env->step: rewards, returns and race causes of the learner aircraft, and
   // (learning) their samples committed to the rollout buffer.
   void record_step(const torch::Tensor& learner, bool learn);

@@ -79,18 +79,6 @@ void expect_resumed_run_ends_as_unbroken(const std::string& override, const std:
   EXPECT_EQ(resumed->hl_parameters(), w.hl_parameters());
 }
 
-TEST(TrainConfig, AutopilotShareFitsInEveryRaceAndNeedsALearnedLowLevel) {
-  EXPECT_NE(error_of("pool: {p_autopilot: 0.8, p_center_tail: 0.3}")
-                .find("cfg.yaml: pool.p_autopilot + pool.p_center_tail = 1.1 is more than every race"),
-            std::string::npos);
-  EXPECT_NE(error_of("pool: {p_autopilot: 0.5}\ntrain: {ll_pilot: autopilot}")
-                .find("cfg.yaml: pool.p_autopilot = 0.5 races the learner against the autopilot"),
-            std::string::npos);
-  EXPECT_NE(error_of("pool: {p_autopilot: 1.5}").find("pool.p_autopilot: value 1.5 is out of range; allowed [0, 1]"),
-            std::string::npos);
-  EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"), "");
-}
-
 TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_NE(error_of("ll: {n_stepz: 4}").find("cfg.yaml: unknown key 'll.n_stepz'"), std::string::npos);
   EXPECT_NE(error_of("optimizer: {}").find("unknown key 'optimizer'"), std::string::npos);
@@ -115,12 +103,13 @@ race: {goal_origin: center, observe_team_lanes: false}
 ll: {inference: eigen}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
 train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
-pool: {p_center: 0.0}
+pool: {p_center: 0.0, p_autopilot: 0}
 )";
   const std::string plain = train_config_yaml(read_train_config(YAML::Load("{}"), "cfg.yaml"));
   EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
   for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
-                          "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams"})
+                          "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
+                          "p_autopilot"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -142,6 +131,9 @@ pool: {p_center: 0.0}
   }
   EXPECT_EQ(error_of("train: {ll_both_teams: true}"),
             "cfg.yaml: train.ll_both_teams: true was removed after docs/notebook/69's verdict; build commit c8c67be "
+            "to use it");
+  EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"),
+            "cfg.yaml: pool.p_autopilot: 0.25 was removed after docs/notebook/73's verdict; build commit e9c8edf "
             "to use it");
   // A key never known is still an unknown key, not a retired one.
   EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
@@ -191,35 +183,6 @@ TEST(Trainer, SameSeedSameWeightsDifferentSeedDifferentWeights) {
   EXPECT_EQ(a.ll_parameters(), b.ll_parameters());
   EXPECT_EQ(a.hl_parameters(), b.hl_parameters());
   EXPECT_NE(a.ll_parameters(), c.ll_parameters());
-}
-
-// pool.p_autopilot: the other team of those races is AeroBench's autopilot, which no network flies,
-// so none of its aircraft is a PPO sample: with every race against it, the first update trains on
-// as many rows as in self-play (the learner team's).
-// Untrained aircraft leave the tube within seconds while the autopilot flies on, so the learner
-// loses nearly every race it ends; in self-play it wins half by symmetry. A stopped and resumed
-// run ends with the unbroken run's weights.
-TEST(Trainer, AutopilotOpponentsAreNoSamplesAndWinAndResumeExactly) {
-  // Eight envs and a longer budget, so that enough races end.
-  const std::string envs = "race.n_env=8", budget = "train.total_env_steps=4000";
-  Trainer self(smoke({envs, budget}), fresh_dir("autopilot_off")),
-      ap(smoke({envs, budget, "pool.p_autopilot=1"}), fresh_dir("autopilot_on"));
-  const TrainSummary rs = self.run(nullptr, 1), ra = ap.run(nullptr, 1);
-  ASSERT_GT(rs.work.ll_train_rows, 0);
-  EXPECT_EQ(ra.work.ll_train_rows, rs.work.ll_train_rows);
-  const auto won = [](Trainer& t) {
-    double wins = 0.0, races = 0.0;
-    for (const MetricsRow& r : t.run(nullptr, 20).rows)
-      if (r.races > 0) wins += r.winrate * r.races, races += r.races;  // no race ended: winrate NaN
-    return std::make_pair(wins, races);
-  };
-  const auto [self_wins, self_races] = won(self);
-  const auto [ap_wins, ap_races] = won(ap);
-  ASSERT_GE(self_races, 8.0);
-  ASSERT_GE(ap_races, 8.0);
-  EXPECT_NEAR(self_wins / self_races, 0.5, 0.2);
-  EXPECT_LT(ap_wins / ap_races, 0.2);
-  expect_resumed_run_ends_as_unbroken("pool.p_autopilot=0.5", "autopilot");
 }
 
 // ll.normalize_returns: LL rewards divided by the spread of their discounted return, so the run
@@ -1230,41 +1193,6 @@ TEST(SelfPlay, CenterControlShareComesFirstAndSplitsTheRest) {
   EXPECT_NEAR(center / double(n), 0.8, 0.01);
   EXPECT_EQ(before_center, 0);
   EXPECT_NEAR(before_pool / double(n), 0.5, 0.01);
-}
-
-TEST(SelfPlay, AutopilotShareComesFirstAndZeroKeepsThePapersDraws) {
-  PoolConfig p;
-  p.p_self_play = 0.5;
-  p.p_center_tail = 0.3;
-  p.p_autopilot = 0.2;
-  RandomStream s(11, 3);
-  const int n = 40000;
-  int ap = 0, center = 0, pool = 0, overlap = 0, ap_before = 0, center_before = 0;
-  for (int k = 0; k < n; ++k) {
-    const Matchup m = draw_matchup(s, p, true, /*in_tail=*/true);
-    ap += m.vs_autopilot, center += m.vs_center, pool += m.vs_pool;
-    overlap += (m.vs_autopilot + m.vs_center + m.vs_pool) > 1;
-    const Matchup b = draw_matchup(s, p, true, /*in_tail=*/false);
-    ap_before += b.vs_autopilot, center_before += b.vs_center;
-  }
-  EXPECT_EQ(overlap, 0);
-  EXPECT_NEAR(ap / double(n), 0.2, 0.01);
-  EXPECT_NEAR(center / double(n), 0.3, 0.01);
-  EXPECT_NEAR(pool / double(n), 0.25, 0.01);  // half of the other 50 %
-  EXPECT_NEAR(ap_before / double(n), 0.2, 0.01);
-  EXPECT_EQ(center_before, 0);
-  // p_autopilot 0: the same matchups, draw for draw, as the rule without it.
-  p.p_autopilot = 0.0;
-  RandomStream t1(6, 1), t2(6, 1);
-  for (int k = 0; k < 2000; ++k) {
-    const Matchup m = draw_matchup(t1, p, true, k % 2 == 0);
-    const double u_side = t2.uniform(), u_pool = t2.uniform();
-    const double c = k % 2 == 0 ? p.p_center_tail : 0.0;
-    EXPECT_FALSE(m.vs_autopilot);
-    EXPECT_EQ(m.learner_side, u_side < 0.5 ? 1 : 0);
-    EXPECT_EQ(m.vs_center, u_pool < c);
-    EXPECT_EQ(m.vs_pool, u_pool >= c && u_pool >= c + (1.0 - c) * p.p_self_play);
-  }
 }
 
 }  // namespace
