@@ -4,16 +4,17 @@
 # scripts/seed_arm.sh; kept seeds are skipped, so the same command continues after a stop or on
 # another machine. Commit the kept files as they come (git status shows them).
 #
-#   scripts/pilot_ab_queue.sh [ENTRY ...]     # default: 70 71 67
+#   scripts/pilot_ab_queue.sh [ENTRY ...]     # default: 70 74 71 67
 #
 # Arms: 69 off (the control of them all, kept; the switches of 69's `on` arm and of 73 were
-# removed after their verdicts); 70 ll.normalize_returns; 71 ll.init_at_trim; 67 ll.gamma 0.995.
+# removed after their verdicts); 70 ll.normalize_returns; 71 ll.init_at_trim; 67 ll.gamma 0.995;
+# 74 race.lane_error_average_s 8.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$here"
 entries=("$@")
-[ ${#entries[@]} -gt 0 ] || entries=(70 71 67)
+[ ${#entries[@]} -gt 0 ] || entries=(70 74 71 67)
 
 jobs=()  # "entry arm seed set-args"
 for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdicts come in order
@@ -23,7 +24,8 @@ for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdi
       70) jobs+=("70 on $s --set ll.normalize_returns=true") ;;
       71) jobs+=("71 on $s --set ll.init_at_trim=true") ;;
       67) jobs+=("67 on $s --set ll.gamma=0.995") ;;
-      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71 or 67)" >&2; exit 2 ;;
+      74) jobs+=("74 on $s --set race.lane_error_average_s=8") ;;
+      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67 or 74)" >&2; exit 2 ;;
     esac
   done
 done

@@ -224,7 +224,11 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
     << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
     << field_list(race::kPreviewFields, 0) << "; then "
-    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points) << ".\n\n";
+    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points);
+  if (rc.lane_error_average_s > 0.0)
+    o << "; then " << field_list(race::kTaskLaneFields, race::kPreviewWidth * rc.preview_points + race::kTaskTailWidth)
+      << " (over " << rc.lane_error_average_s << " s)";
+  o << ".\n\n";
   o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
     << "| bins | [B, 3] int64 | greedy goal bin per axis ("
