@@ -18,7 +18,7 @@ shift 3
 bin="$(realpath "${F16RACE:-$here/build/f16race}")"
 threads="${F16RACE_THREADS:-2}"
 cd "$runs"
-if [ -d "s$seed/checkpoint" ]; then
+if [ -f "s$seed/checkpoint/LATEST" ]; then
   "$bin" --threads "$threads" train --resume "s$seed" --quiet
 else  # a folder without a checkpoint was stopped before its first one: start it afresh
   [ -d "s$seed" ] && set -- "$@" --overwrite
