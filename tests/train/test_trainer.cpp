@@ -244,6 +244,16 @@ TEST(Trainer, TrimInitStartsTheMeanActionAtLevelFlightAndResumesExactly) {
   expect_resumed_run_ends_as_unbroken("ll.init_at_trim=true", "trim");
 }
 
+// race.lane_error_average_s: both networks read two more task entries (more input weights), and
+// the averages are env state of their own: a stopped and resumed run ends with the unbroken run's
+// weights.
+TEST(Trainer, LaneAverageWidensTheTaskRowAndResumesExactly) {
+  Trainer plain(smoke(), fresh_dir("lane_off")), lane(smoke("race.lane_error_average_s=2"), fresh_dir("lane_on"));
+  EXPECT_GT(lane.ll_parameters().size(), plain.ll_parameters().size());
+  EXPECT_GT(lane.hl_parameters().size(), plain.hl_parameters().size());
+  expect_resumed_run_ends_as_unbroken("race.lane_error_average_s=2", "lane");
+}
+
 // train.ll_pilot autopilot: AeroBench's waypoint autopilot flies the goal lanes, so every update
 // is an ES update, the low level's network never moves, the high level's does, and a stopped
 // and resumed run ends where an uninterrupted one does.
