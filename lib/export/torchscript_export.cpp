@@ -173,6 +173,24 @@ std::string field_list(const race::ObsField (&fields)[N], int base) {
   return o.str();
 }
 
+// The README's entry lists, from the one observation spec (race/observation_spec.hpp).
+std::string observation_entries(const race::RaceConfig& rc) {
+  std::ostringstream o;
+  o << "ego: " << field_list(race::kEgoFields, 0) << ".\n\n"
+    << "goal: " << field_list(race::kGoalFields, 0) << " (the goal distance is " << rc.goal_ahead() << " ft).\n\n"
+    << "ado row: " << field_list(race::kAdoFields, 0) << ".\n\n"
+    << "task: for p = 0.." << rc.preview_points - 1 << ", entries " << race::kPreviewWidth << "p.."
+    << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
+    << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
+    << field_list(race::kPreviewFields, 0) << "; then "
+    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points);
+  if (rc.lane_error_average_s > 0.0)
+    o << "; then " << field_list(race::kTaskLaneFields, race::kPreviewWidth * rc.preview_points + race::kTaskTailWidth)
+      << " (over " << rc.lane_error_average_s << " s)";
+  o << ".\n\n";
+  return o.str();
+}
+
 std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
   const auto& d = p.dims;
   const auto& rc = p.config.race;
@@ -216,19 +234,7 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "] | float32 | one row per other aircraft, in agent order with self skipped (teammates first for blue) |\n"
     << "| ado_alive | [B, " << d.n_other << "] | bool | false = that aircraft is out (its row is ignored) |\n"
     << "| task | [B, " << d.d_task << "] | float32 | track preview and tube offsets |\n\n";
-  // Entry lists from the one observation spec (race/observation_spec.hpp).
-  o << "ego: " << field_list(race::kEgoFields, 0) << ".\n\n"
-    << "goal: " << field_list(race::kGoalFields, 0) << " (the goal distance is " << rc.goal_ahead() << " ft).\n\n"
-    << "ado row: " << field_list(race::kAdoFields, 0) << ".\n\n"
-    << "task: for p = 0.." << rc.preview_points - 1 << ", entries " << race::kPreviewWidth << "p.."
-    << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
-    << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
-    << field_list(race::kPreviewFields, 0) << "; then "
-    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points);
-  if (rc.lane_error_average_s > 0.0)
-    o << "; then " << field_list(race::kTaskLaneFields, race::kPreviewWidth * rc.preview_points + race::kTaskTailWidth)
-      << " (over " << rc.lane_error_average_s << " s)";
-  o << ".\n\n";
+  o << observation_entries(rc);
   o << "## hl_policy.pt: forward(ego, prev_action, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
     << "| bins | [B, 3] int64 | greedy goal bin per axis ("
