@@ -14,7 +14,9 @@ difference of the arms' mean winrates against the autopilot, its bootstrap 95 % 
 resampled within each arm, 10 000 resamples, random seed 67) and notebook 67's verdict: adopt
 when the CI lies above 0, worse when below, else not resolved; and, as notebook 71's secondary
 measure, the arms' tube exits per race in training's first tenth of updates (metrics.csv's
-`term_tube` weighted by `races`) with the same CI. Standard library.
+`term_tube` weighted by `races`) with the same CI; and, where the kept files have it
+(`scripts/lane_offset.py --add`, notebook 74), the low level's steady offset from its lane.
+Standard library.
 
     scripts/pilot_seeds_table.py --keep EXPERIMENT_DIR SEED KEEP_DIR
 
@@ -158,6 +160,11 @@ def summary(per):
     for c in CAUSES:
         m, b = mean_ci([p["lost"][c] for p in per])
         print(f"run's team lost per race vs the autopilot, {c}: mean {m:.3f} [{b[0]:.3f}, {b[1]:.3f}]")
+    offsets = [p["center_offset"]["size"] for p in per if "center_offset" in p]
+    if offsets:  # scripts/lane_offset.py --add (notebook 74's mechanism)
+        m, b = mean_ci(offsets)
+        print(f"its low level's steady offset from the lane (@center, / R), {len(offsets)} seeds: mean {m:.3f} "
+              f"[{b[0]:.3f}, {b[1]:.3f}]")
 
 
 def difference_ci(treatment, control, reps=10000, seed=67):
@@ -231,6 +238,12 @@ def main():
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
+        t_off = [p["center_offset"]["size"] for p in per if "center_offset" in p]
+        c_off = [p["center_offset"]["size"] for p in base if "center_offset" in p]
+        if t_off and c_off:
+            d, lo, hi = difference_ci(t_off, c_off)
+            print(f"Steady offset from the lane (@center, / R): treatment {sum(t_off) / len(t_off):.3f}, control "
+                  f"{sum(c_off) / len(c_off):.3f}, difference {d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
         t_early = [p["early_tube"] for p in per if not math.isnan(p["early_tube"])]
         c_early = [p["early_tube"] for p in base if not math.isnan(p["early_tube"])]
         if t_early and c_early:

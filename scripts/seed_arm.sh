@@ -29,3 +29,5 @@ if [ ! -f "t_s$seed/done.txt" ]; then
     --races 512 --out "t_s$seed"
 fi
 F16RACE="$bin" python3 "$here/scripts/pilot_seeds_table.py" --keep "$runs" "$seed" "$keep"
+# The low level's steady offset from its lane (notebook 74's mechanism), added to the kept file.
+F16RACE="$bin" python3 "$here/scripts/lane_offset.py" --add "$keep/s$seed.json" "s$seed"
