@@ -84,7 +84,10 @@ def main():
         kept, run = args[1], args[2]
         if not os.path.isfile(kept):
             sys.exit(f"{kept}: no kept seed file; run pilot_seeds_table.py --keep first")
-        m = json.load(open(kept))
+        try:
+            m = json.load(open(kept))
+        except json.JSONDecodeError as e:
+            sys.exit(f"{kept}: not a kept seed file ({e}); write it again with pilot_seeds_table.py --keep")
         m["center_offset"] = center_offset(run, races)
         kept_json.write(kept, m)
         return

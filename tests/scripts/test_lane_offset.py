@@ -57,5 +57,10 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([sys.executable, SCRIPT, "--add", os.path.join(tmp, "none.json"), "runs/x"],
                        capture_output=True, text=True, env=env)
     assert r.returncode != 0 and "no kept seed file" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    bad = os.path.join(tmp, "bad.json")
+    open(bad, "w").write('{"ap": 0.5,')  # cut short
+    r = subprocess.run([sys.executable, SCRIPT, "--add", bad, "runs/x"], capture_output=True, text=True, env=env)
+    assert r.returncode != 0 and "not a kept seed file" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert open(bad).read() == '{"ap": 0.5,', "a corrupt kept file is left as it was"
     r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--races", "0"], capture_output=True, text=True, env=env)
     assert r.returncode != 0 and "at least 1" in r.stderr, r.stderr
