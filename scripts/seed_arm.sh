@@ -28,6 +28,11 @@ if [ ! -f "t_s$seed/done.txt" ]; then
   "$bin" --threads "$threads" tournament --runs "s$seed" --no-untrained --with-autopilot --controls \
     --races 512 --out "t_s$seed"
 fi
-F16RACE="$bin" python3 "$here/scripts/pilot_seeds_table.py" --keep "$runs" "$seed" "$keep"
-# The low level's steady offset from its lane (notebook 74's mechanism), added to the kept file.
-F16RACE="$bin" python3 "$here/scripts/lane_offset.py" --add "$keep/s$seed.json" "s$seed"
+# The summary, with the low level's steady offset from its lane (notebook 74's mechanism), is
+# written aside and moved in whole: a stop between the two steps leaves no kept file without it
+# (the queue skips seeds whose file exists).
+pending="$keep/.pending"
+F16RACE="$bin" python3 "$here/scripts/pilot_seeds_table.py" --keep "$runs" "$seed" "$pending"
+F16RACE="$bin" python3 "$here/scripts/lane_offset.py" --add "$pending/s$seed.json" "s$seed"
+mv "$pending/s$seed.json" "$keep/s$seed.json"
+echo "kept $keep/s$seed.json"
