@@ -42,6 +42,8 @@ struct Retirement {
 inline constexpr Retirement kIssue51Keys{"in 06d4cb7", "b8c9f8c"};
 // train.ll_both_teams: measured not to help (docs/notebook/69-both-teams-samples.md).
 inline constexpr Retirement kNotebook69Keys{"after docs/notebook/69's verdict", "c8c67be"};
+// ll.normalize_returns: measured not to help (docs/notebook/70-return-normalisation.md).
+inline constexpr Retirement kNotebook70Keys{"after docs/notebook/70's verdict", "c8c67be"};
 // pool.p_autopilot: measured not to help (docs/notebook/73-the-autopilot-in-the-pool.md).
 inline constexpr Retirement kNotebook73Keys{"after docs/notebook/73's verdict", "e9c8edf"};
 

@@ -14,7 +14,6 @@ using models::LlObs;
 void Trainer::State::ppo_update() {
   const auto t = Clock::now();
   const LlObs last = models::index_rows(ll_view(false), learner_index());
-  if (cfg.ll.normalize_returns) buffer->rewards.mul_(static_cast<float>(return_scaler.end_rollout()));
   buffer->finish(ppo->value(last), cfg.ll.gamma, cfg.ll.gae_lambda);
   last_ppo = ppo->update(*buffer);
   timing.ppo_chunk_wait += last_ppo.chunk_wait_s;

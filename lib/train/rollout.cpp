@@ -219,7 +219,6 @@ void Trainer::State::commit_samples(const torch::Tensor& learner) {
     te[k] = env->terminated()[i] != 0;
     tr[k] = env->truncated()[i] != 0;
     va[k] = env->acted()[i] != 0;
-    if (cfg.ll.normalize_returns) return_scaler.observe(k, rw[k], va[k], te[k] || tr[k]);
     any_trunc = any_trunc || env->truncated()[i];
   }
   torch::Tensor bootstrap;

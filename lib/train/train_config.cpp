@@ -51,10 +51,10 @@ void bind_ll(R& r, agents::PpoConfig* c) {
   r.read("learning_rate", &c->learning_rate, 0.0, 1.0);
   r.read("anneal_lr", &c->anneal_lr);
   r.read("normalize_advantages", &c->normalize_advantages);
-  r.read("normalize_returns", &c->normalize_returns);
   r.read("normalize_obs", &c->normalize_obs);
   r.read("init_at_trim", &c->init_at_trim);
   r.retired("inference", "eigen");  // a test hook: PpoConfig::eigen_inference
+  r.retired("normalize_returns", "false", io::kNotebook70Keys);
   r.finish();
 }
 

@@ -92,13 +92,6 @@ void Trainer::State::build_learners() {
   opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
   buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
                                                    race::kActionDim);
-  if (cfg.ll.normalize_returns) {
-    // Each rank's statistics would differ, and so would its rewards' scale.
-    if (world > 1)
-      throw io::InputError("ll.normalize_returns: true is for one process; set it to false to train over " +
-                           std::to_string(world) + " ranks");
-    return_scaler = agents::ReturnScaler(buffer->n_samples(), cfg.ll.gamma);
-  }
 }
 
 void Trainer::State::load_frozen_low_level() {

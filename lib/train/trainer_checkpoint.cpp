@@ -47,12 +47,6 @@ void Trainer::State::visit_checkpoint(V& v, std::uint64_t& stream_state) {
           last_es.q_spread, last_es.greedy_entropy, last_es.off_center_share, last_es.loss_before);
   // Added after the key above was fixed: checkpoints written before it resume with nan here.
   v.optional_reals("last_middle_share", last_es.middle_share[0], last_es.middle_share[1], last_es.middle_share[2]);
-  // Only with the switch, so the checkpoints of every other run keep their bytes.
-  if (cfg.ll.normalize_returns) {
-    agents::ReturnScaler::Stats& r = return_scaler.stats();
-    v.real_list("return_scale_g", r.g);
-    v.reals("return_scale", r.count, r.mean, r.m2, r.batch_count, r.batch_mean, r.batch_m2);
-  }
   // Only with tail members, so the checkpoints of every other run keep their bytes.
   if (has_tail_members()) {
     double started = tail_started ? 1.0 : 0.0;

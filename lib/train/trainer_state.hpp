@@ -20,7 +20,6 @@
 #include <string>
 #include <vector>
 
-#include "agents/return_scaler.hpp"
 #include "io/input_error.hpp"
 #include "io/learning_curves.hpp"
 #include "io/run_folder.hpp"
@@ -63,7 +62,6 @@ struct Trainer::State {
   std::unique_ptr<agents::PpoAgent> ppo, opp_ppo;
   std::unique_ptr<agents::EsAgent> es, opp_es;
   std::unique_ptr<agents::RolloutBuffer> buffer;
-  agents::ReturnScaler return_scaler;  // per buffer column; used with ll.normalize_returns only
   PolicyRows ll_rows{2, 0}, hl_rows{2, 0};  // [n_env * n_agent] learner (0) and pool (1) rows
   at::Generator gen;
   RandomStream stream{1, 0xC0FFEE};

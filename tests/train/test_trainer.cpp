@@ -93,14 +93,14 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
 }
 
-// The keys issue 51 and notebook 69 retired (io::ConfigReader::retired), as a run folder's
+// The keys issue 51 and notebooks 69, 70 and 73 retired (io::ConfigReader::retired), as a run folder's
 // config.yaml from an older build lists them: at the value this build behaves as they change
 // nothing; at another value the config is refused in one line naming the key, the value and the
 // commit to build.
 TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
   const char* old_defaults = R"(
 race: {goal_origin: center, observe_team_lanes: false}
-ll: {inference: eigen}
+ll: {inference: eigen, normalize_returns: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
 train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
 pool: {p_center: 0.0, p_autopilot: 0}
@@ -109,7 +109,7 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
   for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
                           "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
-                          "p_autopilot"})
+                          "p_autopilot", "normalize_returns"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -134,6 +134,9 @@ pool: {p_center: 0.0, p_autopilot: 0}
             "to use it");
   EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"),
             "cfg.yaml: pool.p_autopilot: 0.25 was removed after docs/notebook/73's verdict; build commit e9c8edf "
+            "to use it");
+  EXPECT_EQ(error_of("ll: {normalize_returns: true}"),
+            "cfg.yaml: ll.normalize_returns: true was removed after docs/notebook/70's verdict; build commit c8c67be "
             "to use it");
   // A key never known is still an unknown key, not a retired one.
   EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
@@ -183,44 +186,6 @@ TEST(Trainer, SameSeedSameWeightsDifferentSeedDifferentWeights) {
   EXPECT_EQ(a.ll_parameters(), b.ll_parameters());
   EXPECT_EQ(a.hl_parameters(), b.hl_parameters());
   EXPECT_NE(a.ll_parameters(), c.ll_parameters());
-}
-
-// ll.normalize_returns: LL rewards divided by the spread of their discounted return, so the run
-// no longer depends on the rewards' unit. Every LL reward weight x10 (the reward x10, up to its
-// float rounding) leaves the trained low level where it was with the switch on, and moves it
-// without. A stopped and resumed run ends with the unbroken run's weights.
-TEST(Trainer, ReturnScalingMakesTheLowLevelBlindToTheRewardsUnitAndResumesExactly) {
-  auto config = [](bool on, double k) {
-    YAML::Node root = YAML::Load(kSmoke);
-    io::apply_override(root, std::string("ll.normalize_returns=") + (on ? "true" : "false"));
-    const race::RaceConfig d;  // the defaults kSmoke keeps
-    const std::pair<const char*, double> weights[] = {
-        {"w_goal_progress", d.w_goal_progress}, {"w_goal_proximity", d.w_goal_proximity},
-        {"w_goal_lane", d.w_goal_lane},         {"w_separation", d.w_separation},
-        {"w_tube", d.w_tube},                   {"w_collision", d.w_collision},
-        {"w_termination", d.w_termination},     {"w_action_change", d.w_action_change},
-        {"w_rates", d.w_rates}};
-    for (const auto& [key, base] : weights)
-      io::apply_override(root, std::string("race.") + key + "=" + std::to_string(k * base));
-    return read_train_config(root, "smoke.yaml");
-  };
-  auto max_diff = [](const std::vector<float>& a, const std::vector<float>& b) {
-    double m = 0.0;
-    for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, static_cast<double>(std::fabs(a[i] - b[i])));
-    return m;
-  };
-  std::vector<std::vector<float>> ll;
-  for (bool on : {false, true})
-    for (double k : {1.0, 10.0}) {
-      Trainer t(config(on, k), fresh_dir(std::string("retscale_") + (on ? "on" : "off") + (k > 1 ? "10" : "1")));
-      t.run(nullptr, 2);
-      ll.push_back(t.ll_parameters());
-    }
-  EXPECT_GT(max_diff(ll[0], ll[1]), 1e-3) << "without the switch the reward's unit moves the low level";
-  EXPECT_LT(max_diff(ll[2], ll[3]), 1e-5) << "with it, only float rounding does";
-  EXPECT_GT(max_diff(ll[0], ll[2]), 1e-3) << "the switch changes the update";
-
-  expect_resumed_run_ends_as_unbroken("ll.normalize_returns=true", "retscale");
 }
 
 // ll.init_at_trim: a fresh run's low level differs from the default's in three numbers, the
