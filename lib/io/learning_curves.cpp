@@ -149,6 +149,118 @@ std::string run_name(const std::string& run_dir) {
 
 std::string rgba(const char* color, const char* alpha) { return std::string("#") + alpha + (color + 1); }
 
+// The data file's columns: env_steps_M first, then each plotted metric's raw and smoothed values.
+struct CurveData {
+  std::vector<std::string> header = {"env_steps_M"};
+  std::vector<std::vector<double>> columns = std::vector<std::vector<double>>(1);
+};
+
+// Rows of metrics.csv with a finite env_steps, and what the panels need of them.
+struct CurveRows {
+  std::vector<std::size_t> rows;
+  std::vector<double> phase_hl;  // per table row; 1 everywhere without the column (every row is HL)
+  double x_min = std::numeric_limits<double>::infinity(), x_max = -std::numeric_limits<double>::infinity();
+};
+
+CurveRows curve_rows(const CsvTable& table, CurveData* data) {
+  CurveRows c;
+  const std::vector<double> steps = column_values(table, "env_steps");
+  for (std::size_t r = 0; r < steps.size(); ++r)
+    if (!std::isnan(steps[r])) c.rows.push_back(r);
+  c.phase_hl = table.has_column("phase_hl") ? column_values(table, "phase_hl") : std::vector<double>(table.rows(), 1.0);
+  for (std::size_t r : c.rows) {  // the x axis in millions
+    data->columns[0].push_back(steps[r] / 1e6);
+    c.x_min = std::min(c.x_min, steps[r] / 1e6);
+    c.x_max = std::max(c.x_max, steps[r] / 1e6);
+  }
+  return c;
+}
+
+// A panel's metrics that have data: appended to `data` (raw, then smoothed); with the 1-based
+// gnuplot column of each one's raw values.
+struct PresentMetrics {
+  std::vector<const Metric*> metrics;
+  std::vector<std::size_t> raw_col;
+};
+
+PresentMetrics add_panel_columns(const PanelDef& def, const CsvTable& table, const CurveRows& c, CurveData* data) {
+  PresentMetrics p;
+  for (const Metric& m : def.metrics) {
+    if (!table.has_column(m.column)) continue;
+    const std::vector<double> all = column_values(table, m.column);
+    std::vector<double> raw;
+    bool any = false;
+    for (std::size_t r : c.rows) {
+      const bool eligible = !m.hl_only || c.phase_hl[r] == 1.0;
+      raw.push_back(eligible ? all[r] : kNaN);
+      any = any || !std::isnan(raw.back());
+    }
+    if (!any) continue;
+    data->header.push_back(m.column);
+    data->header.push_back(std::string(m.column) + "_smooth");
+    data->columns.push_back(raw);
+    data->columns.push_back(running_mean(raw, kLearningCurveWindow));
+    p.metrics.push_back(&m);
+    p.raw_col.push_back(data->columns.size() - 1);  // raw is 0-based columns.size() - 2
+  }
+  return p;
+}
+
+// Every panel sets all it uses (settings carry over between the panels of a multiplot), with the
+// same margins everywhere so the x axes of a column line up.
+constexpr const char* kPanelReset =
+    "set datafile missing NaN\nset offsets 0,0,0,0\nunset y2tics\nunset y2label\nset ytics mirror autofreq\n"
+    "set lmargin 10\nset rmargin 11\nset format x '% h'\nset format y '% h'\n";
+
+PlotPanel empty_panel(const PanelDef& def, PlotPanel panel) {
+  std::string names;
+  for (const Metric& m : def.metrics) names += (names.empty() ? "" : ", ") + std::string(m.column);
+  panel.extra = std::string(kPanelReset) + "unset key\nset format x ''\nset format y ''\n"
+                "set label 1 'no data yet' at graph 0.5,0.55 center\n"
+                "set label 2 '(" + names + ")' at graph 0.5,0.45 center";
+  return panel;  // no series: render_plot draws an empty frame
+}
+
+PlotPanel curve_panel(const PanelDef& def, const PresentMetrics& p, const CurveRows& c, const std::string& data_file) {
+  PlotPanel panel;
+  panel.title = def.title;
+  panel.xlabel = "env steps [millions]";
+  panel.ylabel = def.ylabel;
+  if (p.metrics.empty()) return empty_panel(def, panel);
+  bool any_y1 = false;
+  for (const Metric* m : p.metrics) any_y1 = any_y1 || !m->y2;
+  // Without a left-axis metric the right-axis ones move to the left axis (gnuplot needs one).
+  const bool use_y2 = any_y1 && def.y2label[0] != '\0' &&
+                      std::any_of(p.metrics.begin(), p.metrics.end(), [](const Metric* m) { return m->y2; });
+  std::string extra = kPanelReset;
+  if (c.x_min < c.x_max) extra += "set xrange [" + format_double(c.x_min) + ":" + format_double(c.x_max) + "]\n";
+  const bool key = p.metrics.size() > 1;
+  // Fixed 0..1 ranges get headroom above 1 for the legend; autoscaled ones an offset.
+  const bool two_rows = p.metrics.size() > 2;  // the legend wraps
+  const std::string unit = !key ? "[-0.02:1.02]" : two_rows ? "[-0.02:1.4]" : "[-0.02:1.22]";
+  const bool moved = !any_y1;
+  if (def.range == YRange::kUnit || moved) {
+    extra += "set yrange " + unit + "\nset ytics 0,0.2,1\n";
+  } else {
+    if (def.range == YRange::kFromZero) extra += "set yrange [0:*]\n";
+    if (key) extra += two_rows ? "set offsets 0,0,graph 0.35,0\n" : "set offsets 0,0,graph 0.18,0\n";
+  }
+  if (moved) panel.ylabel = def.y2label;
+  if (use_y2)
+    extra += "set ytics nomirror\nset y2tics 0,0.2,1\nset y2range " + unit + "\nset y2label '" +
+             std::string(def.y2label) + "'\n";
+  panel.extra = extra + (key ? "set key inside top left horizontal opaque samplen 2" : "unset key");
+  for (std::size_t k = 0; k < p.metrics.size(); ++k) {
+    const Metric& m = *p.metrics[k];
+    const std::string axes = use_y2 && m.y2 ? " axes x1y2" : "";
+    const std::string raw = "1:" + std::to_string(p.raw_col[k]), smooth = "1:" + std::to_string(p.raw_col[k] + 1);
+    panel.series.push_back({data_file, raw, "points pt 7 ps 0.35 lc rgb '" + rgba(m.color, "B0") + "'" + axes, "", ""});
+    panel.series.push_back({data_file, smooth, std::string("lines lw 2 lc rgb '") + m.color + "'" + axes,
+                            !key ? "" : use_y2 ? m.label : m.column, ""});  // (L)/(R) only with two axes
+  }
+  return panel;
+}
+
 }  // namespace
 
 bool write_learning_curves(const std::string& run_dir, std::string* message) {
@@ -158,23 +270,8 @@ bool write_learning_curves(const std::string& run_dir, std::string* message) {
   drop_partial_last_line(&text);
   const CsvTable table = CsvTable::parse(text, metrics_path);
 
-  // Rows with a finite env_steps; the x axis in millions.
-  const std::vector<double> steps = column_values(table, "env_steps");
-  std::vector<std::size_t> rows;
-  for (std::size_t r = 0; r < steps.size(); ++r)
-    if (!std::isnan(steps[r])) rows.push_back(r);
-  std::vector<double> phase_hl(table.rows(), 1.0);  // without the column every row counts as HL
-  if (table.has_column("phase_hl")) phase_hl = column_values(table, "phase_hl");
-
-  std::vector<std::string> header = {"env_steps_M"};
-  std::vector<std::vector<double>> columns(1);
-  double x_min = std::numeric_limits<double>::infinity(), x_max = -x_min;
-  for (std::size_t r : rows) {
-    columns[0].push_back(steps[r] / 1e6);
-    x_min = std::min(x_min, steps[r] / 1e6);
-    x_max = std::max(x_max, steps[r] / 1e6);
-  }
-
+  CurveData data;
+  const CurveRows rows = curve_rows(table, &data);
   PlotSpec spec;
   spec.output = (dir / "curves.png").string();
   spec.width_px = 1600;
@@ -184,84 +281,10 @@ bool write_learning_curves(const std::string& run_dir, std::string* message) {
   spec.title = run_name(run_dir);
   spec.atomic_output = true;
   const std::string data_file = "curves_data.csv";
+  for (const PanelDef& def : panel_defs())
+    spec.panels.push_back(curve_panel(def, add_panel_columns(def, table, rows, &data), rows, data_file));
 
-  for (const PanelDef& def : panel_defs()) {
-    PlotPanel panel;
-    panel.title = def.title;
-    panel.xlabel = "env steps [millions]";
-    panel.ylabel = def.ylabel;
-    std::vector<const Metric*> present;
-    std::vector<std::size_t> raw_col;  // 1-based gnuplot column of each present metric's raw values
-    for (const Metric& m : def.metrics) {
-      if (!table.has_column(m.column)) continue;
-      const std::vector<double> all = column_values(table, m.column);
-      std::vector<double> raw;
-      bool any = false;
-      for (std::size_t r : rows) {
-        const bool eligible = !m.hl_only || phase_hl[r] == 1.0;
-        raw.push_back(eligible ? all[r] : kNaN);
-        any = any || !std::isnan(raw.back());
-      }
-      if (!any) continue;
-      header.push_back(m.column);
-      header.push_back(std::string(m.column) + "_smooth");
-      columns.push_back(raw);
-      columns.push_back(running_mean(raw, kLearningCurveWindow));
-      present.push_back(&m);
-      raw_col.push_back(columns.size() - 1);  // raw is 0-based columns.size() - 2
-    }
-    bool any_y1 = false;
-    for (const Metric* m : present) any_y1 = any_y1 || !m->y2;
-    // Without a left-axis metric the right-axis ones move to the left axis (gnuplot needs one).
-    const bool use_y2 = any_y1 && def.y2label[0] != '\0' &&
-                        std::any_of(present.begin(), present.end(), [](const Metric* m) { return m->y2; });
-
-    // Every panel sets all it uses (settings carry over between the panels of a multiplot), with
-    // the same margins everywhere so the x axes of a column line up.
-    std::string extra =
-        "set datafile missing NaN\nset offsets 0,0,0,0\nunset y2tics\nunset y2label\nset ytics mirror autofreq\n"
-        "set lmargin 10\nset rmargin 11\nset format x '% h'\nset format y '% h'\n";
-    if (present.empty()) {
-      std::string names;
-      for (const Metric& m : def.metrics) names += (names.empty() ? "" : ", ") + std::string(m.column);
-      panel.extra = extra + "unset key\nset format x ''\nset format y ''\n"
-                    "set label 1 'no data yet' at graph 0.5,0.55 center\n"
-                    "set label 2 '(" + names + ")' at graph 0.5,0.45 center";
-      spec.panels.push_back(panel);  // no series: render_plot draws an empty frame
-      continue;
-    }
-    if (x_min < x_max) extra += "set xrange [" + format_double(x_min) + ":" + format_double(x_max) + "]\n";
-    const bool key = present.size() > 1;
-    // Fixed 0..1 ranges get headroom above 1 for the legend; autoscaled ones an offset.
-    const bool two_rows = present.size() > 2;  // the legend wraps
-    const std::string unit = !key ? "[-0.02:1.02]" : two_rows ? "[-0.02:1.4]" : "[-0.02:1.22]";
-    const bool moved = !any_y1;
-    if (def.range == YRange::kUnit || moved) {
-      extra += "set yrange " + unit + "\nset ytics 0,0.2,1\n";
-    } else {
-      if (def.range == YRange::kFromZero) extra += "set yrange [0:*]\n";
-      if (key) extra += two_rows ? "set offsets 0,0,graph 0.35,0\n" : "set offsets 0,0,graph 0.18,0\n";
-    }
-    if (moved) panel.ylabel = def.y2label;
-    if (use_y2) {
-      extra += "set ytics nomirror\nset y2tics 0,0.2,1\nset y2range " + unit + "\nset y2label '" +
-               std::string(def.y2label) + "'\n";
-    }
-    extra += key ? "set key inside top left horizontal opaque samplen 2" : "unset key";
-    panel.extra = extra;
-    for (std::size_t k = 0; k < present.size(); ++k) {
-      const Metric& m = *present[k];
-      const std::string axes = use_y2 && m.y2 ? " axes x1y2" : "";
-      const std::string raw = "1:" + std::to_string(raw_col[k]), smooth = "1:" + std::to_string(raw_col[k] + 1);
-      panel.series.push_back(
-          {data_file, raw, "points pt 7 ps 0.35 lc rgb '" + rgba(m.color, "B0") + "'" + axes, "", ""});
-      panel.series.push_back({data_file, smooth, std::string("lines lw 2 lc rgb '") + m.color + "'" + axes,
-                              !key ? "" : use_y2 ? m.label : m.column, ""});  // (L)/(R) only with two axes
-    }
-    spec.panels.push_back(panel);
-  }
-
-  write_csv((dir / data_file).string(), header, columns);
+  write_csv((dir / data_file).string(), data.header, data.columns);
   return render_plot(spec, (dir / "curves.gp").string(), message);
 }
 
