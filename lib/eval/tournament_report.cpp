@@ -72,6 +72,63 @@ std::string hl_description(const Entry& e) {
 
 }  // namespace
 
+namespace {
+
+// Per variant, over the entries counted in the statistics only (no controls; "untrained" only
+// with untrained_in_statistics): mean total winrate +- std over its runs (seeds), and the IQM of
+// its pairing winrates against every counted entry of the other variants with a
+// stratified-bootstrap 95 % CI. No row when no other variant is counted.
+void add_variant_row(const TournamentResult& r, const TournamentOptions& o, const std::string& variant,
+                     const std::vector<int>& members, TournamentStatistics* s) {
+  const int n = static_cast<int>(r.entries.size());
+  std::vector<int> opponents;
+  for (int j = 0; j < n; ++j)
+    if (s->counted[j] && r.entries[j].variant != variant) opponents.push_back(j);
+  if (opponents.empty()) return;
+  std::vector<double> totals;
+  std::vector<std::vector<double>> scores;
+  double races = 0, member_blocks = 0, member_races = 0;
+  for (int i : members) {
+    double w = 0, g = 0;
+    std::vector<double> sc;
+    for (int j : opponents) {
+      w += r.wins[i][j];
+      g += r.games[i][j];
+      sc.push_back(r.games[i][j] > 0 ? r.wins[i][j] / r.games[i][j] : 0.5);
+    }
+    totals.push_back(g > 0 ? w / g : std::nan(""));
+    scores.push_back(sc);
+    races += g;
+    member_blocks += s->entry_blocks[i];
+    member_races += s->entry_races[i];
+  }
+  s->rows.push_back(VariantRow{variant, static_cast<int>(members.size()), mean(totals), stddev(totals),
+                               iqm_with_ci(scores, o.bootstrap_replicates, 0.05, o.seed), races,
+                               per_race(member_blocks, member_races)});
+}
+
+// Variant vs variant (the paper's Fig. 3, right): mean winrate of the row variant's counted
+// entries against the column variant's over all their pairings. Same variant: pairs of different
+// entries (0.5 by symmetry when both sides played equally often); none: NaN.
+void fill_variant_matrix(const TournamentResult& r, const std::map<std::string, std::vector<int>>& by_variant,
+                         TournamentStatistics* s) {
+  for (const auto& kv : by_variant) s->variants.push_back(kv.first);
+  const std::size_t nv = s->variants.size();
+  s->variant_rate.assign(nv, std::vector<double>(nv, std::nan("")));
+  s->variant_pairs.assign(nv, std::vector<int>(nv, 0));
+  for (std::size_t a = 0; a < nv; ++a)
+    for (std::size_t b = 0; b < nv; ++b) {
+      std::vector<double> x;
+      for (int i : by_variant.at(s->variants[a]))
+        for (int j : by_variant.at(s->variants[b]))
+          if (i != j && r.games[i][j] > 0) x.push_back(s->rate[i][j]);
+      s->variant_pairs[a][b] = static_cast<int>(x.size());
+      if (!x.empty()) s->variant_rate[a][b] = mean(x);
+    }
+}
+
+}  // namespace
+
 TournamentStatistics tournament_statistics(const TournamentResult& r, const TournamentOptions& o) {
   TournamentStatistics s;
   const int n = static_cast<int>(r.entries.size());
@@ -99,58 +156,11 @@ TournamentStatistics tournament_statistics(const TournamentResult& r, const Tour
     s.counted[i] = in_variant_statistics(r.entries[i], o);
     if (!s.counted[i]) s.excluded.push_back(r.entries[i].name);
   }
-  // Per variant, over the entries counted in the statistics only (no controls; "untrained" only
-  // with untrained_in_statistics): mean total winrate +- std over its runs (seeds), and the IQM
-  // of its pairing winrates against every counted entry of the other variants with a
-  // stratified-bootstrap 95 % CI.
   std::map<std::string, std::vector<int>> by_variant;
   for (int i = 0; i < n; ++i)
     if (s.counted[i]) by_variant[r.entries[i].variant].push_back(i);
-  for (const auto& [variant, members] : by_variant) {
-    std::vector<int> opponents;
-    for (int j = 0; j < n; ++j)
-      if (s.counted[j] && r.entries[j].variant != variant) opponents.push_back(j);
-    if (opponents.empty()) continue;
-    std::vector<double> totals;
-    std::vector<std::vector<double>> scores;
-    double races = 0;
-    for (int i : members) {
-      double w = 0, g = 0;
-      std::vector<double> sc;
-      for (int j : opponents) {
-        w += r.wins[i][j];
-        g += r.games[i][j];
-        sc.push_back(r.games[i][j] > 0 ? r.wins[i][j] / r.games[i][j] : 0.5);
-      }
-      totals.push_back(g > 0 ? w / g : std::nan(""));
-      scores.push_back(sc);
-      races += g;
-    }
-    double member_blocks = 0, member_races = 0;
-    for (int i : members) {
-      member_blocks += s.entry_blocks[i];
-      member_races += s.entry_races[i];
-    }
-    s.rows.push_back(VariantRow{variant, static_cast<int>(members.size()), mean(totals), stddev(totals),
-                       iqm_with_ci(scores, o.bootstrap_replicates, 0.05, o.seed), races,
-                       per_race(member_blocks, member_races)});
-  }
-  // Variant vs variant (the paper's Fig. 3, right): mean winrate of the row variant's counted
-  // entries against the column variant's over all their pairings. Same variant: pairs of
-  // different entries (0.5 by symmetry when both sides played equally often); none: NaN.
-  for (const auto& kv : by_variant) s.variants.push_back(kv.first);
-  const std::size_t nv = s.variants.size();
-  s.variant_rate.assign(nv, std::vector<double>(nv, std::nan("")));
-  s.variant_pairs.assign(nv, std::vector<int>(nv, 0));
-  for (std::size_t a = 0; a < nv; ++a)
-    for (std::size_t b = 0; b < nv; ++b) {
-      std::vector<double> x;
-      for (int i : by_variant[s.variants[a]])
-        for (int j : by_variant[s.variants[b]])
-          if (i != j && r.games[i][j] > 0) x.push_back(s.rate[i][j]);
-      s.variant_pairs[a][b] = static_cast<int>(x.size());
-      if (!x.empty()) s.variant_rate[a][b] = mean(x);
-    }
+  for (const auto& [variant, members] : by_variant) add_variant_row(r, o, variant, members, &s);
+  fill_variant_matrix(r, by_variant, &s);
   return s;
 }
 
@@ -273,13 +283,11 @@ void write_summary_json(const TournamentResult& r, const TournamentStatistics& s
   io::write_file_atomic(path, js.str());
 }
 
-std::string summary_markdown(const TournamentResult& r, const TournamentStatistics& s, const TournamentOptions& o) {
-  const int n = static_cast<int>(r.entries.size());
-  const std::size_t nv = s.variants.size();
-  std::ostringstream md;
-  md << "# Tournament\n\n" << o.races_per_pair << " races per pair (race r on track r / 2: each track from both sides), HL epsilon " << o.epsilon
-     << ", " << r.races.size() << " races in all.\n\n"
-     << "| variant | runs | races | total winrate (mean +- std over runs) | IQM of pairing winrates [95% CI] "
+namespace {
+
+// The variant table (mean +- std, IQM with its CI, blocks) and how to read it.
+void variant_table_md(const TournamentStatistics& s, std::ostringstream& md) {
+  md << "| variant | runs | races | total winrate (mean +- std over runs) | IQM of pairing winrates [95% CI] "
         "| blocks per race |\n"
      << "|---|---|---|---|---|---|\n";
   char buf[512];
@@ -297,32 +305,42 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
         "sat in front of an opponent (<= 1000 ft ahead along the track, <= 300 ft away in the tube's cross-section) "
         "and within 5 s that opponent was taken out or passed by a teammate while still behind the blocker (docs/race.md, "
         "\"Blocks\"), counted per team and race.\n\n";
+}
+
+// Which entries the variant statistics leave out, and what the special ones are.
+void excluded_md(const TournamentResult& r, const TournamentStatistics& s, const TournamentOptions& o,
+                 std::ostringstream& md) {
   if (s.excluded.empty()) {
     md << "Every entry counts in the variant statistics.\n\n";
-  } else {
-    md << "Excluded from the variant statistics and the variant-vs-variant table (listed below, and in "
-          "pairings.csv and pairings.png):";
-    for (std::size_t k = 0; k < s.excluded.size(); ++k) md << (k ? ", " : " ") << s.excluded[k];
-    md << ".";
-    bool has_untrained = false, has_control = false, has_autopilot = false;
-    for (int i = 0; i < n; ++i) {
-      has_untrained = has_untrained || (!s.counted[i] && is_untrained(r.entries[i]));
-      has_control = has_control || is_control(r.entries[i]);
-      has_autopilot = has_autopilot || is_autopilot(r.entries[i]);
-    }
-    if (has_untrained) md << " `untrained` is the networks before any update (`--with-untrained` counts it).";
-    if (has_autopilot)
-      md << " `autopilot` is classic control, no learning: AeroBench's waypoint autopilot (its gains) chasing a "
-            "point "
-         << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at "
-         << (o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : r.race.autopilot_airspeed())
-         << " ft/s (its set point, race.autopilot_airspeed_ftps or --autopilot-airspeed).";
-    if (has_control)
-      md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "
-            "(the middle bin on every axis, or uniform random bins at every HL decision); `RUN@center_x`, `_y`, `_z` "
-            "fly the run's own high level with that goal axis held on the middle bin.";
-    md << "\n\n";
+    return;
   }
+  md << "Excluded from the variant statistics and the variant-vs-variant table (listed below, and in "
+        "pairings.csv and pairings.png):";
+  for (std::size_t k = 0; k < s.excluded.size(); ++k) md << (k ? ", " : " ") << s.excluded[k];
+  md << ".";
+  bool has_untrained = false, has_control = false, has_autopilot = false;
+  for (std::size_t i = 0; i < r.entries.size(); ++i) {
+    has_untrained = has_untrained || (!s.counted[i] && is_untrained(r.entries[i]));
+    has_control = has_control || is_control(r.entries[i]);
+    has_autopilot = has_autopilot || is_autopilot(r.entries[i]);
+  }
+  if (has_untrained) md << " `untrained` is the networks before any update (`--with-untrained` counts it).";
+  if (has_autopilot)
+    md << " `autopilot` is classic control, no learning: AeroBench's waypoint autopilot (its gains) chasing a "
+          "point "
+       << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at "
+       << (o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : r.race.autopilot_airspeed())
+       << " ft/s (its set point, race.autopilot_airspeed_ftps or --autopilot-airspeed).";
+  if (has_control)
+    md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "
+          "(the middle bin on every axis, or uniform random bins at every HL decision); `RUN@center_x`, `_y`, `_z` "
+          "fly the run's own high level with that goal axis held on the middle bin.";
+  md << "\n\n";
+}
+
+// Variant vs variant (the paper's Fig. 3, right), then every entry with its Wilson interval.
+void matrix_and_entries_md(const TournamentResult& r, const TournamentStatistics& s, std::ostringstream& md) {
+  const std::size_t nv = s.variants.size();
   md << "Variant vs variant: mean winrate of the row variant's entries against the column variant's over all "
         "their pairings.\n\n| row vs column |";
   for (const std::string& v : s.variants) md << " " << v << " |";
@@ -337,53 +355,73 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   }
   md << "\n| entry | variant | seed | races | winrate vs all other entries [95% Wilson CI] | blocks per race | HL "
         "| in variant statistics |\n|---|---|---|---|---|---|---|---|\n";
-  for (int i = 0; i < n; ++i) {
+  char buf[512];
+  for (std::size_t i = 0; i < r.entries.size(); ++i) {
     std::snprintf(buf, sizeof buf, "| %s | %s | %llu | %.0f | %.4f [%.4f, %.4f] | %.3f | %s | %s |\n",
                   r.entries[i].name.c_str(), r.entries[i].variant.c_str(),
                   static_cast<unsigned long long>(r.entries[i].seed), s.entry_races[i], s.entry_rate[i].point,
                   s.entry_rate[i].lo, s.entry_rate[i].hi, per_race(s.entry_blocks[i], s.entry_races[i]),
-                  hl_description(r.entries[i]).c_str(),
-                  s.counted[i] ? "yes" : "no");
+                  hl_description(r.entries[i]).c_str(), s.counted[i] ? "yes" : "no");
     md << buf;
   }
-  // What the trained high level adds: each run against its own controls, head to head.
+}
+
+// One row of the controls table: run i against each of its own controls (one cell per rule).
+void control_row_md(const TournamentResult& r, int i, const std::vector<HlOverride>& rules, std::ostringstream& md) {
+  const int n = static_cast<int>(r.entries.size());
+  std::vector<std::string> cells(rules.size());
+  double races = 0.0;
+  bool any = false;
+  char buf[512];
+  for (int j = 0; j < n; ++j) {
+    if (!is_control(r.entries[j]) || r.entries[j].policy != r.entries[i].policy || r.games[i][j] == 0) continue;
+    const Interval ci = wilson_interval(r.wins[i][j], r.games[i][j]);
+    std::snprintf(buf, sizeof buf, "%.3f [%.3f, %.3f]", ci.point, ci.lo, ci.hi);
+    const auto at = std::find(rules.begin(), rules.end(), r.entries[j].hl) - rules.begin();
+    cells[static_cast<std::size_t>(at)] = buf;
+    races = r.games[i][j];
+    any = true;
+  }
+  if (!any) return;
+  std::snprintf(buf, sizeof buf, "| %s | %.0f |", r.entries[i].name.c_str(), races);
+  md << buf;
+  for (const std::string& c : cells) md << " " << (c.empty() ? "-" : c) << " |";
+  md << "\n";
+}
+
+// What the trained high level adds: each run against its own controls, head to head.
+void controls_md(const TournamentResult& r, std::ostringstream& md) {
+  const int n = static_cast<int>(r.entries.size());
   bool any_control = false;
   for (int i = 0; i < n; ++i) any_control = any_control || is_control(r.entries[i]);
-  if (any_control) {
-    // One column per rule that some entry has, in the order of the enum.
-    std::vector<HlOverride> rules;
-    for (HlOverride rule : hl_override_rules())
-      for (int i = 0; i < n; ++i)
-        if (r.entries[i].hl == rule) {
-          rules.push_back(rule);
-          break;
-        }
-    md << "\nTrained high level vs its own controls (same low level), head to head [95% Wilson CI]:\n\n| run | races |";
-    for (HlOverride rule : rules) md << " vs RUN@" << hl_override_name(rule) << " |";
-    md << "\n|---|---|";
-    for (std::size_t k = 0; k < rules.size(); ++k) md << "---|";
-    md << "\n";
-    for (int i = 0; i < n; ++i) {
-      if (is_control(r.entries[i])) continue;
-      std::vector<std::string> cells(rules.size());
-      double races = 0.0;
-      bool any = false;
-      for (int j = 0; j < n; ++j) {
-        if (!is_control(r.entries[j]) || r.entries[j].policy != r.entries[i].policy || r.games[i][j] == 0) continue;
-        const Interval ci = wilson_interval(r.wins[i][j], r.games[i][j]);
-        std::snprintf(buf, sizeof buf, "%.3f [%.3f, %.3f]", ci.point, ci.lo, ci.hi);
-        const auto at = std::find(rules.begin(), rules.end(), r.entries[j].hl) - rules.begin();
-        cells[static_cast<std::size_t>(at)] = buf;
-        races = r.games[i][j];
-        any = true;
+  if (!any_control) return;
+  // One column per rule that some entry has, in the order of the enum.
+  std::vector<HlOverride> rules;
+  for (HlOverride rule : hl_override_rules())
+    for (int i = 0; i < n; ++i)
+      if (r.entries[i].hl == rule) {
+        rules.push_back(rule);
+        break;
       }
-      if (!any) continue;
-      std::snprintf(buf, sizeof buf, "| %s | %.0f |", r.entries[i].name.c_str(), races);
-      md << buf;
-      for (const std::string& c : cells) md << " " << (c.empty() ? "-" : c) << " |";
-      md << "\n";
-    }
-  }
+  md << "\nTrained high level vs its own controls (same low level), head to head [95% Wilson CI]:\n\n| run | races |";
+  for (HlOverride rule : rules) md << " vs RUN@" << hl_override_name(rule) << " |";
+  md << "\n|---|---|";
+  for (std::size_t k = 0; k < rules.size(); ++k) md << "---|";
+  md << "\n";
+  for (int i = 0; i < n; ++i)
+    if (!is_control(r.entries[i])) control_row_md(r, i, rules, md);
+}
+
+}  // namespace
+
+std::string summary_markdown(const TournamentResult& r, const TournamentStatistics& s, const TournamentOptions& o) {
+  std::ostringstream md;
+  md << "# Tournament\n\n" << o.races_per_pair << " races per pair (race r on track r / 2: each track from both sides), HL epsilon " << o.epsilon
+     << ", " << r.races.size() << " races in all.\n\n";
+  variant_table_md(s, md);
+  excluded_md(r, s, o, md);
+  matrix_and_entries_md(r, s, md);
+  controls_md(r, md);
   return md.str();
 }
 
