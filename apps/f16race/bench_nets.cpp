@@ -43,17 +43,9 @@ struct NetCase {
   std::int64_t flops_per_sample;           // forward
 };
 
-void run_bench_nets(const NetsBenchOptions& o) {
+// The networks of the default race, each with a forward returning a scalar to backpropagate.
+std::vector<NetCase> net_cases(const models::ObsDims& dims, const models::HlObs& hl, const models::LlObs& ll) {
   using namespace f16race::models;
-  using namespace f16race::bench;
-  torch::set_num_threads(omp_get_max_threads());
-  const ObsDims dims{o.d_ego, o.d_ado, o.d_task, o.n_other};
-  const int64_t b = o.samples;
-  auto gen = make_generator(1);
-  torch::manual_seed(1);
-  const HlObs hl = random_hl_obs(dims, b, gen);
-  const LlObs ll{hl.ego, hl.prev_action, hl.ado, hl.ado_alive, hl.task};
-
   std::vector<NetCase> cases;
   AttentionEncoder encoder(AttentionEncoderConfig{dims.d_ego, dims.d_ado, dims.n_other, 64, 4});
   cases.push_back({"attention_encoder", [=]() mutable { return encoder(hl.ego, hl.ado, hl.ado_alive).sum(); },
@@ -81,60 +73,58 @@ void run_bench_nets(const NetsBenchOptions& o) {
                      return out.mean.sum() + out.value.sum() + out.log_std.sum();
                    },
                    ll_net->parameters(), ll_net->flops_per_sample()});
+  return cases;
+}
 
-  // The reference: what this LibTorch's float matrix product reaches here at these threads.
-  const double peak_gflops = matmul_gflops(o.repeats);
-  const std::string blas = io::blas_core();
-  if (!o.json) {
-    std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads\n", o.samples, o.repeats,
-                torch::get_num_threads());
-    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s)\n", peak_gflops,
-                blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str());
-    std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
-                "fwd+bwd us", "x peak");
+// One network's forward and forward+backward medians, as a table row or a JSON line.
+void time_case(NetCase& c, const NetsBenchOptions& o, double peak_gflops, const std::string& blas) {
+  const double fwd_s = bench::time_median_s(
+      [&]() {
+        torch::NoGradGuard no_grad;
+        c.forward();
+      },
+      o.repeats);
+  const double fwd_bwd_s = bench::time_median_s(
+      [&]() {
+        for (auto& p : c.parameters) p.mutable_grad() = torch::Tensor();
+        c.forward().backward();
+      },
+      o.repeats);
+  const double fwd_us = 1e6 * fwd_s / o.samples, fwd_bwd_us = 1e6 * fwd_bwd_s / o.samples;
+  const double gflops = static_cast<double>(c.flops_per_sample) / (fwd_us * 1e3);
+  if (o.json) {
+    std::printf("{\"bench\": \"nets\", \"network\": %s, \"samples\": %d, \"threads\": %d, "
+                "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
+                "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
+                "\"blas_core\": %s}\n",
+                io::json_string(c.name).c_str(), o.samples, torch::get_num_threads(),
+                static_cast<long long>(c.flops_per_sample), fwd_us, fwd_bwd_us, gflops, peak_gflops,
+                io::json_string(blas).c_str());
+  } else {
+    std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
+                gflops, fwd_bwd_us, gflops / peak_gflops);
   }
-  for (auto& c : cases) {
-    const double fwd_s = time_median_s(
-        [&]() {
-          torch::NoGradGuard no_grad;
-          c.forward();
-        },
-        o.repeats);
-    const double fwd_bwd_s = time_median_s(
-        [&]() {
-          for (auto& p : c.parameters) p.mutable_grad() = torch::Tensor();
-          c.forward().backward();
-        },
-        o.repeats);
-    const double fwd_us = 1e6 * fwd_s / b, fwd_bwd_us = 1e6 * fwd_bwd_s / b;
-    const double gflops = static_cast<double>(c.flops_per_sample) / (fwd_us * 1e3);
-    if (o.json) {
-      std::printf("{\"bench\": \"nets\", \"network\": %s, \"samples\": %d, \"threads\": %d, "
-                  "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
-                  "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
-                  "\"blas_core\": %s}\n",
-                  io::json_string(c.name).c_str(), o.samples, torch::get_num_threads(),
-                  static_cast<long long>(c.flops_per_sample), fwd_us, fwd_bwd_us, gflops, peak_gflops,
-                  io::json_string(blas).c_str());
-    } else {
-      std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
-                  gflops, fwd_bwd_us, gflops / peak_gflops);
-    }
-    std::fflush(stdout);
-  }
-  // The forwards on the Eigen kernels (PpoConfig and EsConfig::eigen_inference, rollouts only):
-  // forward alone. The HL one for the shared es_d1/es_d2 critic.
-  hc.n_atoms = 1;
+  std::fflush(stdout);
+}
+
+// The forwards on the Eigen kernels (PpoConfig and EsConfig::eigen_inference, rollouts only):
+// forward alone. The HL one for the shared es_d1/es_d2 critic.
+void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims, double peak_gflops) {
+  models::LlActorCriticConfig lc;
+  lc.dims = dims;
+  models::HlCriticConfig hc;
+  hc.dims = dims;
+  hc.decoupled = true;
   const struct {
     const char* name;
     const char* short_name;
     std::int64_t flops;
     double us;
   } eigen_cases[] = {
-      {"ll_actor_critic_eigen", "ll_actor_critic_eig", ll_net->flops_per_sample(),
-       1e6 * measure_ll_cost(lc, b, o.repeats, /*eigen_forward=*/true).forward_s},
-      {"hl_critic_es_d1_d2_eigen", "hl_critic_d1_d2_eig", hl_decoupled->flops_per_sample(),
-       1e6 * measure_hl_cost(hc, b, o.repeats, 1, /*eigen_forward=*/true).forward_s},
+      {"ll_actor_critic_eigen", "ll_actor_critic_eig", models::LlActorCritic(lc)->flops_per_sample(),
+       1e6 * bench::measure_ll_cost(lc, o.samples, o.repeats, /*eigen_forward=*/true).forward_s},
+      {"hl_critic_es_d1_d2_eigen", "hl_critic_d1_d2_eig", models::HlCritic(hc)->flops_per_sample(),
+       1e6 * bench::measure_hl_cost(hc, o.samples, o.repeats, 1, /*eigen_forward=*/true).forward_s},
   };
   for (const auto& e : eigen_cases) {
     const double eigen_gflops = static_cast<double>(e.flops) / (e.us * 1e3);
@@ -148,6 +138,30 @@ void run_bench_nets(const NetsBenchOptions& o) {
       std::printf("%-20s %12.1f %12.4f %10.1f %12s %10.2f\n", e.short_name, 1e-3 * e.flops, e.us, eigen_gflops, "-",
                   eigen_gflops / peak_gflops);
   }
+}
+
+void run_bench_nets(const NetsBenchOptions& o) {
+  torch::set_num_threads(omp_get_max_threads());
+  const models::ObsDims dims{o.d_ego, o.d_ado, o.d_task, o.n_other};
+  auto gen = models::make_generator(1);
+  torch::manual_seed(1);
+  const models::HlObs hl = bench::random_hl_obs(dims, o.samples, gen);
+  const models::LlObs ll{hl.ego, hl.prev_action, hl.ado, hl.ado_alive, hl.task};
+  std::vector<NetCase> cases = net_cases(dims, hl, ll);
+
+  // The reference: what this LibTorch's float matrix product reaches here at these threads.
+  const double peak_gflops = bench::matmul_gflops(o.repeats);
+  const std::string blas = io::blas_core();
+  if (!o.json) {
+    std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads\n", o.samples, o.repeats,
+                torch::get_num_threads());
+    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s)\n", peak_gflops,
+                blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str());
+    std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
+                "fwd+bwd us", "x peak");
+  }
+  for (auto& c : cases) time_case(c, o, peak_gflops, blas);
+  time_eigen_forwards(o, dims, peak_gflops);
 }
 
 }  // namespace
