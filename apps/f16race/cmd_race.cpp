@@ -34,7 +34,8 @@ struct RaceOptions {
   std::vector<double> airspeeds;  // the pilots' set points: one for all, or blue's and red's
 };
 
-void run_race(const RaceOptions& o) {
+// The race config with the command line's overrides, checked before any race is flown.
+RaceConfig race_config(const RaceOptions& o) {
   YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
   RaceConfig cfg;
   io::ConfigReader top(root, o.config);
@@ -44,19 +45,19 @@ void run_race(const RaceOptions& o) {
   if (o.seed >= 0) cfg.seed = static_cast<std::uint64_t>(o.seed);
   if (o.policy != "scripted" && o.policy != "autopilot")
     throw io::InputError("--policy '" + o.policy + "': use scripted or autopilot (AeroBench's waypoint autopilot)");
-  if (o.plot_race >= cfg.n_env)  // checked before any race is flown: never a silent "no figure"
+  if (o.plot_race >= cfg.n_env)  // never a silent "no figure"
     throw io::InputError("--plot " + std::to_string(o.plot_race) + ": there are " + std::to_string(cfg.n_env) +
                          " races (0 to " + std::to_string(cfg.n_env - 1) + "); draw one of them, or -1 for none");
+  if (o.airspeeds.size() > 2) throw io::InputError("--airspeed: one set point for both teams, or blue's and red's");
+  return cfg;
+}
 
-  RaceEnv env(cfg);
+// Every race to its end, each team flown by the chosen pilot at its set point (the one given,
+// else the start speed for the scripted pilot and the autopilot's own).
+StepStats fly_races(RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, RaceRecorder& rec) {
   const int n = env.n_aircraft(), n_agent = env.n_agent();
-  std::filesystem::create_directories(o.out);
-  for (int e = 0; e < cfg.n_env; ++e) env.track(e).save_csv(o.out + "/race" + std::to_string(e) + "_track.csv");
-
   std::vector<float> actions(static_cast<std::size_t>(n) * kActionDim);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * kHlDims, cfg.hl_center_bin());
-  if (o.airspeeds.size() > 2) throw io::InputError("--airspeed: one set point for both teams, or blue's and red's");
-  // Each team's pilot: the set points given, else the start speed (scripted) and the autopilot's.
   ScriptedPilotConfig pilot[2];
   AutopilotPilotConfig autopilot[2];
   std::vector<std::int64_t> rows[2];
@@ -67,7 +68,6 @@ void run_race(const RaceOptions& o) {
     for (int i = 0; i < n; ++i)
       if (RaceEnv::team_of(i % n_agent, cfg.team_size) == team) rows[team].push_back(i);
   }
-  RaceRecorder rec(env);
   StepStats totals;
   while (rec.remaining() > 0) {
     env.set_hl_actions(bins.data());  // center-line goals; the built-in pilots ignore them (none recorded)
@@ -82,7 +82,13 @@ void run_race(const RaceOptions& o) {
     totals.races_by_finish_line += st.races_by_finish_line;
     for (int k = 0; k < kNumCauses; ++k) totals.terminations[k] += st.terminations[k];
   }
-  // Per-race summary (winner and end reason as the env decided them).
+  return totals;
+}
+
+// races.csv (winner and end reason as the env decided them) and the summary lines.
+void report_races(const RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, const RaceRecorder& rec,
+                  const StepStats& totals) {
+  const int n_agent = env.n_agent();
   std::vector<std::vector<double>> cols(5);
   std::vector<std::string> reasons;
   std::vector<std::vector<std::string>> scols(1);
@@ -113,17 +119,30 @@ void run_race(const RaceOptions& o) {
   std::printf("terminations:");
   for (int k = 1; k < kNumCauses; ++k) std::printf(" %s %d", cause_name(k), totals.terminations[k]);
   std::printf("\ntrajectories and tracks: %s/\n", o.out.c_str());
-  if (o.plot_race >= 0) {
-    const RaceTrace& t = rec.trace(o.plot_race);
-    const std::string prefix = "race" + std::to_string(o.plot_race);
-    write_trace_csv(t, o.out, prefix);
-    write_trace_acmi(t, o.out + "/" + prefix + ".acmi", prefix + " (" + o.policy + " pilots)");
-    std::string msg;
-    if (plot_trace(t, o.out, prefix, "Race " + std::to_string(o.plot_race) + ": " + end_reason_name(t.end), &msg))
-      std::printf("figure: %s\n", msg.c_str());
-    else
-      std::printf("figure not drawn: %s\n", msg.c_str());
-  }
+}
+
+// --plot: one race's trace as CSV, Tacview file and figure.
+void plot_race(const RaceOptions& o, const RaceRecorder& rec) {
+  const RaceTrace& t = rec.trace(o.plot_race);
+  const std::string prefix = "race" + std::to_string(o.plot_race);
+  write_trace_csv(t, o.out, prefix);
+  write_trace_acmi(t, o.out + "/" + prefix + ".acmi", prefix + " (" + o.policy + " pilots)");
+  std::string msg;
+  if (plot_trace(t, o.out, prefix, "Race " + std::to_string(o.plot_race) + ": " + end_reason_name(t.end), &msg))
+    std::printf("figure: %s\n", msg.c_str());
+  else
+    std::printf("figure not drawn: %s\n", msg.c_str());
+}
+
+void run_race(const RaceOptions& o) {
+  const RaceConfig cfg = race_config(o);
+  RaceEnv env(cfg);
+  std::filesystem::create_directories(o.out);
+  for (int e = 0; e < cfg.n_env; ++e) env.track(e).save_csv(o.out + "/race" + std::to_string(e) + "_track.csv");
+  RaceRecorder rec(env);
+  const StepStats totals = fly_races(env, cfg, o, rec);
+  report_races(env, cfg, o, rec, totals);
+  if (o.plot_race >= 0) plot_race(o, rec);
 }
 
 }  // namespace
