@@ -60,6 +60,25 @@ void check(const AutopilotBatchRequest& r) {
       throw std::invalid_argument("autopilot batch: output times must increase strictly");
 }
 
+// Flies the batch from t0 to t1 in equal steps no longer than dt that land exactly on t1 (as
+// replay_references), noting each aircraft's failure and when. `before` is scratch, [n].
+void advance_to(double t0, double t1, double dt_s, F16Batch* batch, std::vector<std::int32_t>* before,
+                AutopilotBatchResult* result) {
+  const int n = static_cast<int>(before->size());
+  const int steps = std::max(1, static_cast<int>(std::ceil((t1 - t0) / dt_s - 1e-9)));
+  const double h = (t1 - t0) / steps;
+  for (int s = 0; s < steps; ++s) {
+    std::copy(batch->status(), batch->status() + n, before->begin());
+    if (batch->step(h, 1) == 0) continue;
+    const double t_end = (s + 1 == steps) ? t1 : t0 + s * h + h;
+    for (int i = 0; i < n; ++i)
+      if ((*before)[static_cast<std::size_t>(i)] == kStatusOk && batch->status()[i] != kStatusOk) {
+        result->aircraft[static_cast<std::size_t>(i)].status = batch->status()[i];
+        result->aircraft[static_cast<std::size_t>(i)].failed_at_s = t_end;
+      }
+  }
+}
+
 }  // namespace
 
 AutopilotBatchResult fly_autopilot_batch(const AutopilotBatchRequest& r, const AutopilotSampleFn& on_sample) {
@@ -125,22 +144,8 @@ AutopilotBatchResult fly_autopilot_batch(const AutopilotBatchRequest& r, const A
 
   std::vector<std::int32_t> before(static_cast<std::size_t>(n));
   for (std::size_t k = 0; k + 1 < times.size(); ++k) {
-    const double t0 = times[k], t1 = times[k + 1];
-    // Equal steps no longer than dt that land exactly on the next output time (as replay_references).
-    const int steps = std::max(1, static_cast<int>(std::ceil((t1 - t0) / r.dt_s - 1e-9)));
-    const double h = (t1 - t0) / steps;
-    for (int s = 0; s < steps; ++s) {
-      std::copy(batch.status(), batch.status() + n, before.begin());
-      if (batch.step(h, 1) > 0) {
-        const double t_end = (s + 1 == steps) ? t1 : t0 + s * h + h;
-        for (int i = 0; i < n; ++i)
-          if (before[static_cast<std::size_t>(i)] == kStatusOk && batch.status()[i] != kStatusOk) {
-            result.aircraft[static_cast<std::size_t>(i)].status = batch.status()[i];
-            result.aircraft[static_cast<std::size_t>(i)].failed_at_s = t_end;
-          }
-      }
-    }
-    record(t1);
+    advance_to(times[k], times[k + 1], r.dt_s, &batch, &before, &result);
+    record(times[k + 1]);
     bool any_flying = false;
     for (int i = 0; i < n && !any_flying; ++i) any_flying = batch.status()[i] == kStatusOk;
     if (!any_flying) break;
