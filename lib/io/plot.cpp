@@ -80,46 +80,53 @@ std::string image_problem(const std::string& path) {
 
 bool gnuplot_available() { return std::system("command -v gnuplot >/dev/null 2>&1") == 0; }
 
-bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message) {
-  {
-    std::ostringstream gp;
-    const bool svg = spec.output.size() > 4 && spec.output.substr(spec.output.size() - 4) == ".svg";
-    gp << "# Written by f16race; run `gnuplot " << base_of(script_path) << "` in this folder to redraw.\n";
-    gp << "set terminal " << (svg ? "svg" : "pngcairo") << " size " << spec.width_px << "," << spec.height_px
-       << " font 'Sans,10'\n";
-    if (spec.atomic_output) {
-      // render_plot passes a temporary name through -e and renames it afterwards; run by hand,
-      // the script writes the image directly.
-      gp << "if (!exists(\"" << kOutputVar << "\")) " << kOutputVar << " = " << quote(base_of(spec.output)) << "\n";
-      gp << "set output " << kOutputVar << "\n";
-    } else {
-      gp << "set output " << quote(base_of(spec.output)) << "\n";
-    }
-    gp << "set datafile separator ','\n";
-    gp << "set termoption noenhanced\n";  // names like es_d3 are text, not subscripts
-    gp << "set grid lc rgb '#dddddd'\n";
-    gp << "set key outside right top\n";
-    gp << "set multiplot layout " << spec.rows << "," << spec.cols;
-    if (!spec.title.empty()) gp << " title " << quote(spec.title);
-    gp << "\n";
-    for (const PlotPanel& p : spec.panels) {
-      gp << "set title " << quote(p.title) << "\nset xlabel " << quote(p.xlabel) << "\nset ylabel " << quote(p.ylabel)
-         << "\n";
-      if (!p.extra.empty()) gp << p.extra << "\n";
-      if (p.series.empty()) gp << "plot [0:1] [0:1] -1 notitle";  // an empty frame, no error
-      else gp << "plot ";
-      for (std::size_t k = 0; k < p.series.size(); ++k) {
-        const PlotSeries& s = p.series[k];
-        gp << (k ? ", \\\n     " : "") << quote(s.data_file) << " every " << (s.every.empty() ? "::1" : s.every)
-           << " using " << s.using_expr << " with " << s.style << " "
-           << (s.title.empty() ? std::string("notitle") : "title " + quote(s.title));
-      }
-      gp << "\n";
-      if (!p.extra.empty()) gp << "unset arrow; unset label; unset object; set autoscale\n";
-    }
-    gp << "unset multiplot\n";
-    write_file_atomic(script_path, gp.str());
+namespace {
+
+// The gnuplot script that draws `spec` (run from the script's folder).
+std::string gnuplot_script(const PlotSpec& spec, const std::string& script_path) {
+  std::ostringstream gp;
+  const bool svg = spec.output.size() > 4 && spec.output.substr(spec.output.size() - 4) == ".svg";
+  gp << "# Written by f16race; run `gnuplot " << base_of(script_path) << "` in this folder to redraw.\n";
+  gp << "set terminal " << (svg ? "svg" : "pngcairo") << " size " << spec.width_px << "," << spec.height_px
+     << " font 'Sans,10'\n";
+  if (spec.atomic_output) {
+    // render_plot passes a temporary name through -e and renames it afterwards; run by hand,
+    // the script writes the image directly.
+    gp << "if (!exists(\"" << kOutputVar << "\")) " << kOutputVar << " = " << quote(base_of(spec.output)) << "\n";
+    gp << "set output " << kOutputVar << "\n";
+  } else {
+    gp << "set output " << quote(base_of(spec.output)) << "\n";
   }
+  gp << "set datafile separator ','\n";
+  gp << "set termoption noenhanced\n";  // names like es_d3 are text, not subscripts
+  gp << "set grid lc rgb '#dddddd'\n";
+  gp << "set key outside right top\n";
+  gp << "set multiplot layout " << spec.rows << "," << spec.cols;
+  if (!spec.title.empty()) gp << " title " << quote(spec.title);
+  gp << "\n";
+  for (const PlotPanel& p : spec.panels) {
+    gp << "set title " << quote(p.title) << "\nset xlabel " << quote(p.xlabel) << "\nset ylabel " << quote(p.ylabel)
+       << "\n";
+    if (!p.extra.empty()) gp << p.extra << "\n";
+    if (p.series.empty()) gp << "plot [0:1] [0:1] -1 notitle";  // an empty frame, no error
+    else gp << "plot ";
+    for (std::size_t k = 0; k < p.series.size(); ++k) {
+      const PlotSeries& s = p.series[k];
+      gp << (k ? ", \\\n     " : "") << quote(s.data_file) << " every " << (s.every.empty() ? "::1" : s.every)
+         << " using " << s.using_expr << " with " << s.style << " "
+         << (s.title.empty() ? std::string("notitle") : "title " + quote(s.title));
+    }
+    gp << "\n";
+    if (!p.extra.empty()) gp << "unset arrow; unset label; unset object; set autoscale\n";
+  }
+  gp << "unset multiplot\n";
+  return gp.str();
+}
+
+}  // namespace
+
+bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message) {
+  write_file_atomic(script_path, gnuplot_script(spec, script_path));
   if (!gnuplot_available()) {
     if (message) *message = "gnuplot not found (install gnuplot-nox); data and " + script_path + " were written";
     return false;
