@@ -1,0 +1,127 @@
+#!/usr/bin/env python3
+"""Where a clean race is won (issue 49): in replays of RUN against AeroBench's autopilot (seeds
+1..N), over the races in which no aircraft was taken out, each team's mean airspeed, its progress
+along the track's center line (ds/dt) and that progress per foot flown (ds / path length; above 1
+on the inside of bends), every aircraft after the race's first 5 s; and the lead at the end: the
+run's leading aircraft's distance along the track minus the autopilot's (the team of the leader
+wins). Both teams fly at the envelope's cap, so what is left to win with is a line.
+
+    scripts/race_lines.py RUN [RUN ...] [--races N]
+
+One line per run and team, then the run's team minus the autopilot's, averaged over the runs with
+a bootstrap 95 % interval over runs (10 000 resamples, random seed 49). N defaults to 12.
+F16RACE names the binary (default build/f16race). Standard library.
+"""
+import csv
+import math
+import os
+import random
+import re
+import subprocess
+import sys
+import tempfile
+
+SETTLE_S = 5.0  # the start's random offsets and speeds say nothing about a line
+FATE = re.compile(r"^\| (\d+) \| (blue|red) \| (.*?) \|", re.M)
+MEASURES = ("airspeed_ftps", "along_ftps", "along_per_path", "lead_ft")
+
+
+def fates(replay_md):
+    """{agent: (team, fate)} from the replay's first table (later tables cannot overwrite it)."""
+    out = {}
+    for agent, team, fate in FATE.findall(replay_md):
+        out.setdefault(int(agent), (team, fate))
+    return out
+
+
+def aircraft_line(csv_path):
+    """(mean airspeed, ds/dt, ds/path) of one aircraft after SETTLE_S, or None with too few rows;
+    and its distance along the track at the end."""
+    every = list(csv.DictReader(open(csv_path)))
+    rows = [r for r in every if float(r["t_s"]) >= SETTLE_S]
+    s_end = float(every[-1]["s_ft"])
+    if len(rows) < 2:
+        return None, s_end
+    point = [(float(r["pn_ft"]), float(r["pe_ft"]), float(r["alt_ft"])) for r in rows]
+    path = sum(math.dist(p, q) for p, q in zip(point, point[1:]))
+    ds = float(rows[-1]["s_ft"]) - float(rows[0]["s_ft"])
+    dt = float(rows[-1]["t_s"]) - float(rows[0]["t_s"])
+    if path <= 0.0 or dt <= 0.0:
+        return None, s_end
+    return (sum(float(r["vt_ftps"]) for r in rows) / len(rows), ds / dt, ds / path), s_end
+
+
+def run_lines(binary, run, races):
+    """{team: [sums of MEASURES..., aircraft]} over the clean races of `races` replays, and each clean
+    race's lead at the end (ft)."""
+    sums = {"blue": [0.0, 0.0, 0.0, 0], "red": [0.0, 0.0, 0.0, 0]}
+    leads = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in range(1, races + 1):
+            out = os.path.join(tmp, f"r{seed}")
+            done = subprocess.run([binary, "--threads", "1", "replay", "--run", run, "--opponent", "autopilot",
+                                   "--seed", str(seed), "--out", out], capture_output=True, text=True)
+            if done.returncode != 0:
+                sys.exit(f"{run}: replay --seed {seed} failed: {done.stderr.strip()}")
+            f = fates(open(os.path.join(out, "replay.md")).read())
+            if any("out at" in fate for _, fate in f.values()):
+                continue
+            best = {"blue": -math.inf, "red": -math.inf}
+            for agent, (team, _) in f.items():
+                line, s_end = aircraft_line(os.path.join(out, f"replay_agent{agent}.csv"))
+                best[team] = max(best[team], s_end)
+                if line is None:
+                    continue
+                s = sums[team]
+                for k, v in enumerate(line):
+                    s[k] += v
+                s[3] += 1
+            leads.append(best["blue"] - best["red"])
+    return sums, leads
+
+
+def bootstrap_mean(values, resamples=10000, seed=49):
+    rng = random.Random(seed)
+    means = sorted(sum(rng.choice(values) for _ in values) / len(values) for _ in range(resamples))
+    return means[int(0.025 * resamples)], means[int(0.975 * resamples) - 1]
+
+
+def main():
+    args = sys.argv[1:]
+    races = 12
+    if "--races" in args:
+        k = args.index("--races")
+        value = args[k + 1] if k + 1 < len(args) else ""
+        if not value.isdigit() or int(value) < 1:
+            sys.exit(f"--races {value}: give a whole number of races, at least 1")
+        races = int(value)
+        del args[k:k + 2]
+    if not args:
+        sys.exit("usage: scripts/race_lines.py RUN [RUN ...] [--races N]")
+    binary = os.environ.get("F16RACE", os.path.join(os.path.dirname(__file__), "..", "build", "f16race"))
+    diffs = []
+    for run in args:
+        sums, leads = run_lines(binary, run, races)
+        clean = len(leads)
+        if sums["blue"][3] == 0 or sums["red"][3] == 0:
+            print(f"{run}: no clean race in {races} replays")
+            continue
+        mean = {t: [s[k] / s[3] for k in range(3)] for t, s in sums.items()}
+        for team, who in (("blue", "run"), ("red", "autopilot")):
+            m = mean[team]
+            print(f"{run} {who:9} {clean:2} clean races: airspeed {m[0]:6.1f} ft/s, along the track {m[1]:6.1f} ft/s, "
+                  f"per foot flown {m[2]:.4f}")
+        lead = sum(leads) / clean
+        sd = math.sqrt(sum((x - lead) ** 2 for x in leads) / clean)
+        print(f"{run} lead at the end {lead:+7.1f} ft (sd {sd:.1f}), ahead in {sum(x > 0 for x in leads)} of {clean}")
+        diffs.append([mean["blue"][k] - mean["red"][k] for k in range(3)] + [lead])
+    if len(diffs) > 1:
+        for k, name in enumerate(MEASURES):
+            values = [d[k] for d in diffs]
+            lo, hi = bootstrap_mean(values)
+            print(f"run minus autopilot, {name}, {len(values)} runs: mean {sum(values) / len(values):+.4f} "
+                  f"bootstrap 95% [{lo:+.4f}, {hi:+.4f}]")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,60 @@
+#!/usr/bin/env python3
+"""scripts/race_lines.py on replays whose answer is known. A stand-in binary writes, per seed T,
+one blue and one red aircraft flying straight north, 0.2 s apart: blue at 600 ft/s with s
+growing 606 ft/s (1.01 per foot), red at 630 ft/s with s growing 630 ft/s; before 5 s both sit
+still with wild speeds (rows the measure skips). Seed 2 loses blue at 9 s (an unclean race: all
+of it skipped). So over 3 races: 2 clean, blue 600 / 606 / 1.01, red 630 / 630 / 1.0, and red
+leads at the end (12 s) by 7 x (630 - 606) = 168 ft."""
+import os
+import subprocess
+import sys
+import tempfile
+
+SCRIPT = sys.argv[1]
+FAKE = r'''#!/usr/bin/env python3
+import os, sys
+a = sys.argv
+out = a[a.index("--out") + 1]
+seed = int(a[a.index("--seed") + 1])
+assert a[a.index("--opponent") + 1] == "autopilot"
+os.makedirs(out)
+blue = "out at 9.00 s (tube)" if seed == 2 else "in the race at the end"
+open(os.path.join(out, "replay.md"), "w").write(
+    "| aircraft | team | fate | HL decisions |\n|---|---|---|---|\n"
+    f"| 0 | blue | {blue} | 2 |\n| 1 | red | in the race at the end | 0 |\n")
+def write(agent, v, ds):
+    with open(os.path.join(out, f"replay_agent{agent}.csv"), "w") as f:
+        f.write("t_s,s_ft,pn_ft,pe_ft,alt_ft,vt_ftps\n")
+        for k in range(61):
+            t = round(0.2 * k, 6)
+            fly = max(0.0, t - 5.0)
+            f.write(f"{t},{ds * fly},{v * fly},0,10000,{v if t >= 5 else 9999}\n")
+write(0, 600.0, 606.0)
+write(1, 630.0, 630.0)
+'''
+
+with tempfile.TemporaryDirectory() as tmp:
+    fake = os.path.join(tmp, "f16race")
+    open(fake, "w").write(FAKE)
+    os.chmod(fake, 0o755)
+    env = dict(os.environ, F16RACE=fake)
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x", "runs/y", "--races", "3"], capture_output=True, text=True,
+                       env=env)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    assert "runs/x run        2 clean races: airspeed  600.0 ft/s, along the track  606.0 ft/s, per foot flown 1.0100" \
+        in out, out
+    assert "runs/y autopilot  2 clean races: airspeed  630.0 ft/s, along the track  630.0 ft/s, per foot flown 1.0000" \
+        in out, out
+    assert "airspeed_ftps, 2 runs: mean -30.0000 bootstrap 95% [-30.0000, -30.0000]" in out, out
+    assert "along_ftps, 2 runs: mean -24.0000" in out, out
+    assert "along_per_path, 2 runs: mean +0.0100" in out, out
+    assert "runs/x lead at the end  -168.0 ft (sd 0.0), ahead in 0 of 2" in out, out
+    assert "lead_ft, 2 runs: mean -168.0000" in out, out
+    # A bad race count and a failing replay: one line each.
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--races", "0"], capture_output=True, text=True, env=env)
+    assert r.returncode != 0 and "at least 1" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x"], capture_output=True, text=True,
+                       env=dict(env, F16RACE="/bin/false"))
+    assert r.returncode != 0 and "replay --seed 1 failed" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+print("race_lines.py: the known answer, clean races only, bad input in one line")
