@@ -70,10 +70,6 @@ std::string hl_description(const Entry& e) {
   return hl_override_description(e.hl);
 }
 
-}  // namespace
-
-namespace {
-
 // Per variant, over the entries counted in the statistics only (no controls; "untrained" only
 // with untrained_in_statistics): mean total winrate +- std over its runs (seeds), and the IQM of
 // its pairing winrates against every counted entry of the other variants with a
