@@ -183,11 +183,7 @@ std::string observation_entries(const race::RaceConfig& rc) {
     << race::kPreviewWidth << "p+" << race::kPreviewWidth - 1 << " describe the center-line point (p+1)·"
     << rc.preview_spacing_ft << " ft ahead, entry " << race::kPreviewWidth << "p+k for k = "
     << field_list(race::kPreviewFields, 0) << "; then "
-    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points);
-  if (rc.lane_error_average_s > 0.0)
-    o << "; then " << field_list(race::kTaskLaneFields, race::kPreviewWidth * rc.preview_points + race::kTaskTailWidth)
-      << " (over " << rc.lane_error_average_s << " s)";
-  o << ".\n\n";
+    << field_list(race::kTaskTailFields, race::kPreviewWidth * rc.preview_points) << ".\n\n";
   return o.str();
 }
 

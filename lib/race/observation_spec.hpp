@@ -100,17 +100,6 @@ inline constexpr ObsField kTaskTailFields[] = {
 inline constexpr int kTaskTailWidth = fields_width(kTaskTailFields);
 static_assert(kTaskTailWidth == 8 && contiguous(kTaskTailFields), "task tail layout");
 
-// task, with race.lane_error_average_s > 0: after the tail, an average of the lane error the goal
-// entries give (docs/notebook/74), so a policy can remove an offset it holds, as an integral term.
-inline constexpr int kTaskLaneAverage = 0;
-inline constexpr ObsField kTaskLaneFields[] = {
-    {kTaskLaneAverage, 2, "goal entries 1-2 averaged exponentially over race.lane_error_average_s, clamped ±10"},
-};
-inline constexpr int kTaskLaneWidth = fields_width(kTaskLaneFields);
-static_assert(kTaskLaneWidth == 2 && contiguous(kTaskLaneFields), "task lane average layout");
-
-constexpr int task_width(int preview_points, bool lane_average = false) {
-  return kPreviewWidth * preview_points + kTaskTailWidth + (lane_average ? kTaskLaneWidth : 0);
-}
+constexpr int task_width(int preview_points) { return kPreviewWidth * preview_points + kTaskTailWidth; }
 
 }  // namespace f16race::race

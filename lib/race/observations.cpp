@@ -203,24 +203,6 @@ void RaceEnv::write_task_observations(int env, const float* cos_psi, const float
     u[kTaskHlTimeLeft] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
     u[kTaskEgoRank] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
     u[kTaskTeamRank] = static_cast<float>(team_rank_[i]);
-    if (c.lane_error_average_s > 0.0) {
-      float* w = u + kTaskTailWidth;
-      w[kTaskLaneAverage] = clampf(lane_avg_right_[i], -10.0, 10.0);
-      w[kTaskLaneAverage + 1] = clampf(lane_avg_up_[i], -10.0, 10.0);
-    }
-  }
-}
-
-// The goal entries' lane error, as write_goal_observation gives it (unclamped), into an
-// exponential average: weight 1 - exp(-dt / tau) on the new step. Aircraft taken out keep theirs.
-void RaceEnv::update_lane_averages(int env) {
-  const double keep = std::exp(-config_.dt_ll_s / config_.lane_error_average_s);
-  for (int i = env * n_agent_; i < (env + 1) * n_agent_; ++i) {
-    if (!alive_[i]) continue;
-    const double right = (goal_lateral_ft_[i] - lateral_ft_[i]) / radius_ft_[i];
-    const double up = (goal_vertical_ft_[i] - vertical_ft_[i]) / radius_ft_[i];
-    lane_avg_right_[i] = keep * lane_avg_right_[i] + (1.0 - keep) * right;
-    lane_avg_up_[i] = keep * lane_avg_up_[i] + (1.0 - keep) * up;
   }
 }
 

@@ -80,8 +80,8 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
-  r.read("lane_error_average_s", &c->lane_error_average_s, 0.0, 1000.0);
   r.retired("observe_team_lanes", "false");  // docs/notebook/08, 09
+  r.retired("lane_error_average_s", "0", io::kNotebook74Keys);
   r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
   r.read("w_goal_proximity", &c->w_goal_proximity, -1e6, 1e6);
   r.read("goal_scale_ft", &c->goal_scale_ft, 1.0, 1e6);

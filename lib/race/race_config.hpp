@@ -89,10 +89,6 @@ struct RaceConfig {
   // Observations.
   int preview_points = 6;
   double preview_spacing_ft = 2000.0;
-  // > 0: the task row ends with the goal's lane error (goal entries 1-2) averaged exponentially
-  // over this time constant [s], so the low level can see and remove a steady offset from its
-  // lane (docs/notebook/74). 0: not observed.
-  double lane_error_average_s = 0.0;
 
   // LL reward weights (per LL step unless noted).
   double w_goal_progress = 1.0;      // closing speed toward the goal, per goal_scale_ft

@@ -52,7 +52,7 @@ F16BatchConfig batch_config(const RaceConfig& c) {
 
 }  // namespace
 
-int task_dim(const RaceConfig& c) { return task_width(c.preview_points, c.lane_error_average_s > 0.0); }
+int task_dim(const RaceConfig& c) { return task_width(c.preview_points); }
 int ado_dim(const RaceConfig&) { return kAdoDim; }
 
 std::size_t RaceEnv::extent_size(Extent x) const {
@@ -259,7 +259,6 @@ void RaceEnv::step_env(int e) {
   compute_ranks(e);
   refresh_reached_goals(e);
   pay_rewards(e, progress_before_ft);
-  if (c.lane_error_average_s > 0.0) update_lane_averages(e);
   if (!end_race_if_over(e)) {
     hl_time_left_s_[e] -= c.dt_ll_s;
     if (hl_time_left_s_[e] <= 1e-9) hl_due_[e] = 1;

@@ -195,10 +195,6 @@ class RaceEnv {
     f("task obs", s.task_, X::obs_task, 0.0f); f("ado alive", s.ado_alive_, X::obs_ado_rows, 0);
     f("ll reward", s.ll_reward_, X::aircraft, 0.0f); f("hl reward", s.hl_reward_, X::aircraft, 0.0f);
     f("race winner", s.race_winner_, X::env, -1); f("race end", s.race_end_, X::env, 0);
-    if (s.config_.lane_error_average_s > 0.0) {  // listed only when on: other snapshots keep their bytes
-      f("lane average right", s.lane_avg_right_, X::aircraft, 0.0);
-      f("lane average up", s.lane_avg_up_, X::aircraft, 0.0);
-    }
   }
 
   // The step and its systems, each in the file named after it: race_env.cpp (actions, track
@@ -221,8 +217,6 @@ class RaceEnv {
   // The track preview and task entries; cos_psi, sin_psi: [n_agent] the env's headings.
   void write_task_observations(int env, const float* cos_psi, const float* sin_psi);
   void write_goal_observation(int i);
-  // race.lane_error_average_s: one step of env's averages (its live aircraft), after the goals moved.
-  void update_lane_averages(int env);
   double goal_lane_error_ft(int i) const;
   // Places again at the horizon, with the same bins, the goals their live aircraft have (nearly) reached.
   void refresh_reached_goals(int env);
@@ -265,8 +259,6 @@ class RaceEnv {
   std::vector<double> goal_progress_ft_;   // [N] center-line progress of the goal's point
   std::vector<double> goal_lateral_ft_, goal_vertical_ft_;  // [N] the goal's offset in its tube cross-section
   std::vector<std::int64_t> goal_bins_;    // [N, 3] the HL bins the goal was placed with
-  // [N] race.lane_error_average_s's averages of goal entries 1-2 (right, up); empty when it is 0.
-  std::vector<double> lane_avg_right_, lane_avg_up_;
 
   // Outputs. The observation buffers (megabytes, rewritten every step) share one huge-page
   // block like the tracks.

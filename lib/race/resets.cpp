@@ -72,7 +72,6 @@ void RaceEnv::reset_env(int env) {
     alive_[i] = 1;
     cause_[i] = kCauseNone;
     tube_out_s_[i] = 0.0;
-    if (config_.lane_error_average_s > 0.0) lane_avg_right_[i] = lane_avg_up_[i] = 0.0;
     // Warm start at the start line: a cold (global) search per aircraft and reset cost more
     // than the rest of the reset, and the start point's nearest sample is known.
     track_hint_[i] = std::clamp(static_cast<int>(config_.start_s_ft / tr.spacing_ft()), 0, tr.n_samples() - 1);

@@ -41,7 +41,6 @@ TEST(ObservationSpec, DocsTablesMatchTheSpec) {
   expect_rows(docs, kPreviewFields, 0, "preview point");
   // The tail is documented at the default preview length.
   expect_rows(docs, kTaskTailFields, kPreviewWidth * RaceConfig{}.preview_points, "task tail");
-  expect_rows(docs, kTaskLaneFields, kPreviewWidth * RaceConfig{}.preview_points + kTaskTailWidth, "task lane average");
   EXPECT_NE(docs.find("| ego (kEgoDim = " + std::to_string(kEgoDim) + ")"), std::string::npos);
   EXPECT_NE(docs.find("| ado (kAdoDim = " + std::to_string(kAdoDim) + ")"), std::string::npos);
 }

@@ -410,12 +410,8 @@ TEST(RaceEnv, AutopilotPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
 namespace f16race::race {
 namespace {
 
-// Also with race.lane_error_average_s, whose averages are state of their own.
 TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
-  for (const double tau : {0.0, 2.0}) {
-  SCOPED_TRACE(tau);
   RaceConfig c = small_config(3, 2);
-  c.lane_error_average_s = tau;
   RaceEnv a(c), b(c);
   RandomStream rng(3, 3);
   std::vector<float> act(static_cast<std::size_t>(a.n_aircraft()) * kActionDim);
@@ -439,20 +435,14 @@ TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
   for (int i = 0; i < a.n_aircraft(); ++i) EXPECT_EQ(a.sim().state(kAlt)[i], b.sim().state(kAlt)[i]);
   std::stringstream bad("short");
   EXPECT_THROW(b.load_state(bad), std::runtime_error);
-  }
 }
 
 // The field list sizes every array: each is non-empty, a whole number of per-env or per-aircraft
 // rows, named once, and the snapshot holds each of them (its bytes plus a length word).
 TEST(RaceEnv, EveryListedArrayIsSizedOnceAndSnapshotted) {
-  for (const double tau : {0.0, 2.0}) {
-  SCOPED_TRACE(tau);
   RaceConfig c = small_config(3, 2);
-  c.lane_error_average_s = tau;
   RaceEnv env(c);
   const auto layout = env.snapshot_layout();
-  // The lane averages are listed only when on, last: a snapshot without them keeps its old bytes.
-  EXPECT_EQ(layout.back().name == "lane average up", tau > 0.0);
   ASSERT_GE(layout.size(), 30u);
   std::set<std::string> names;
   std::size_t listed = 0;
@@ -474,47 +464,6 @@ TEST(RaceEnv, EveryListedArrayIsSizedOnceAndSnapshotted) {
   std::stringstream snap2;
   other.save_state(snap2);
   EXPECT_EQ(snap.str(), snap2.str());
-  }
-}
-
-// race.lane_error_average_s: the task row's last two entries are goal entries 1-2 averaged
-// exponentially, each step, for live aircraft: 0 at a race's start, then avg = keep avg + (1 -
-// keep) goal, keep = exp(-dt / tau). Off, the row is two entries shorter.
-TEST(RaceEnv, LaneAverageIsTheExponentialAverageOfTheGoalEntries) {
-  RaceConfig c = small_config(2, 2);
-  c.lane_error_average_s = 1.5;
-  RaceConfig off = c;
-  off.lane_error_average_s = 0.0;
-  RaceEnv env(c), env_off(off);
-  ASSERT_EQ(env.task_dim(), env_off.task_dim() + kTaskLaneWidth);
-  const int n = env.n_aircraft(), lane = env.task_dim() - kTaskLaneWidth;
-  auto entry = [&](int i, int k) { return env.obs_task()[static_cast<std::size_t>(i) * env.task_dim() + lane + k]; };
-  auto goal = [&](int i, int k) { return env.obs_goal()[static_cast<std::size_t>(i) * kGoalDim + kGoalLaneRight + k]; };
-  env.reset();
-  std::vector<double> avg(static_cast<std::size_t>(n) * 2, 0.0);
-  for (int i = 0; i < n; ++i) {
-    EXPECT_EQ(entry(i, 0), 0.0f);
-    EXPECT_EQ(entry(i, 1), 0.0f);
-  }
-  const auto trim = env.level_trim_action();
-  std::vector<float> act(static_cast<std::size_t>(n) * kActionDim);
-  for (int i = 0; i < n; ++i) std::copy(trim.begin(), trim.end(), act.begin() + i * kActionDim);
-  const double keep = std::exp(-c.dt_ll_s / c.lane_error_average_s);
-  double largest = 0.0;
-  for (int s = 0; s < 60; ++s) {
-    env.step(act.data());
-    for (int i = 0; i < n; ++i) {
-      const bool new_race = env.env_done()[i / env.n_agent()] != 0;  // ended and reset in this step
-      for (int k = 0; k < 2; ++k) {
-        double& a = avg[static_cast<std::size_t>(i) * 2 + k];
-        if (new_race) a = 0.0;
-        else if (env.alive(i)) a = keep * a + (1.0 - keep) * goal(i, k);
-        EXPECT_NEAR(entry(i, k), a, 1e-5) << "aircraft " << i << " entry " << k << " step " << s;
-        largest = std::max(largest, std::fabs(a));
-      }
-    }
-  }
-  EXPECT_GT(largest, 0.05);  // the start offsets put every aircraft off its (centred) lane
 }
 
 }  // namespace

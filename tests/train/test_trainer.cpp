@@ -93,13 +93,13 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
 }
 
-// The keys issue 51 and notebooks 69, 70 and 73 retired (io::ConfigReader::retired), as a run folder's
+// The keys issue 51 and notebooks 69, 70, 73 and 74 retired (io::ConfigReader::retired), as a run folder's
 // config.yaml from an older build lists them: at the value this build behaves as they change
 // nothing; at another value the config is refused in one line naming the key, the value and the
 // commit to build.
 TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
   const char* old_defaults = R"(
-race: {goal_origin: center, observe_team_lanes: false}
+race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0}
 ll: {inference: eigen, normalize_returns: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
 train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
@@ -109,7 +109,7 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
   for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
                           "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
-                          "p_autopilot", "normalize_returns"})
+                          "p_autopilot", "normalize_returns", "lane_error_average_s"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -137,6 +137,9 @@ pool: {p_center: 0.0, p_autopilot: 0}
             "to use it");
   EXPECT_EQ(error_of("ll: {normalize_returns: true}"),
             "cfg.yaml: ll.normalize_returns: true was removed after docs/notebook/70's verdict; build commit c8c67be "
+            "to use it");
+  EXPECT_EQ(error_of("race: {lane_error_average_s: 8}"),
+            "cfg.yaml: race.lane_error_average_s: 8 was removed after docs/notebook/74's verdict; build commit 46d4f04 "
             "to use it");
   // A key never known is still an unknown key, not a retired one.
   EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
@@ -207,16 +210,6 @@ TEST(Trainer, TrimInitStartsTheMeanActionAtLevelFlightAndResumesExactly) {
   EXPECT_LT(trim[1], -0.7f);
 
   expect_resumed_run_ends_as_unbroken("ll.init_at_trim=true", "trim");
-}
-
-// race.lane_error_average_s: both networks read two more task entries (more input weights), and
-// the averages are env state of their own: a stopped and resumed run ends with the unbroken run's
-// weights.
-TEST(Trainer, LaneAverageWidensTheTaskRowAndResumesExactly) {
-  Trainer plain(smoke(), fresh_dir("lane_off")), lane(smoke("race.lane_error_average_s=2"), fresh_dir("lane_on"));
-  EXPECT_GT(lane.ll_parameters().size(), plain.ll_parameters().size());
-  EXPECT_GT(lane.hl_parameters().size(), plain.hl_parameters().size());
-  expect_resumed_run_ends_as_unbroken("race.lane_error_average_s=2", "lane");
 }
 
 // train.ll_pilot autopilot: AeroBench's waypoint autopilot flies the goal lanes, so every update
