@@ -4,7 +4,10 @@
 along the track's center line (ds/dt) and that progress per foot flown (ds / path length; above 1
 on the inside of bends), every aircraft after the race's first 5 s; and the lead at the end: the
 run's leading aircraft's distance along the track minus the autopilot's (the team of the leader
-wins). Both teams fly at the envelope's cap, so what is left to win with is a line.
+wins). Both teams fly at the envelope's cap, so what is left to win with is a line. The cap is a
+Mach number, so an aircraft's airspeed at the cap falls with its altitude: each team's mean
+altitude, height above the center line and Mach say whether an airspeed difference is a
+difference in how close to the cap a pilot holds or in where it flies.
 
     scripts/race_lines.py RUN [RUN ...] [--races N]
 
@@ -23,7 +26,8 @@ import tempfile
 
 SETTLE_S = 5.0  # the start's random offsets and speeds say nothing about a line
 FATE = re.compile(r"^\| (\d+) \| (blue|red) \| (.*?) \|", re.M)
-MEASURES = ("airspeed_ftps", "along_ftps", "along_per_path", "lead_ft")
+MEASURES = ("airspeed_ftps", "along_ftps", "along_per_path", "alt_ft", "above_line_ft", "mach", "lead_ft")
+N_LINE = len(MEASURES) - 1  # the per-aircraft measures; the lead is per race
 
 
 def fates(replay_md):
@@ -34,9 +38,15 @@ def fates(replay_md):
     return out
 
 
+def mach(vt_ftps, alt_ft):
+    """The simulator's Mach number (lib/dynamics/engine.hpp air_data, AeroBench's adc.py)."""
+    temp_rankine = 390.0 if alt_ft >= 35000.0 else 519.0 * (1.0 - 0.703e-5 * alt_ft)
+    return vt_ftps / math.sqrt(1.4 * 1716.3 * temp_rankine)
+
+
 def aircraft_line(csv_path):
-    """(mean airspeed, ds/dt, ds/path) of one aircraft after SETTLE_S, or None with too few rows;
-    and its distance along the track at the end."""
+    """(mean airspeed, ds/dt, ds/path, altitude, height above the center line, Mach) of one aircraft
+    after SETTLE_S, or None with too few rows; and its distance along the track at the end."""
     every = list(csv.DictReader(open(csv_path)))
     rows = [r for r in every if float(r["t_s"]) >= SETTLE_S]
     s_end = float(every[-1]["s_ft"])
@@ -48,13 +58,18 @@ def aircraft_line(csv_path):
     dt = float(rows[-1]["t_s"]) - float(rows[0]["t_s"])
     if path <= 0.0 or dt <= 0.0:
         return None, s_end
-    return (sum(float(r["vt_ftps"]) for r in rows) / len(rows), ds / dt, ds / path), s_end
+    n = len(rows)
+    airspeed = sum(float(r["vt_ftps"]) for r in rows) / n
+    alt = sum(p[2] for p in point) / n
+    above = sum(float(r["vertical_ft"]) for r in rows) / n
+    m = sum(mach(float(r["vt_ftps"]), float(r["alt_ft"])) for r in rows) / n
+    return (airspeed, ds / dt, ds / path, alt, above, m), s_end
 
 
 def run_lines(binary, run, races):
     """{team: [sums of MEASURES..., aircraft]} over the clean races of `races` replays, and each clean
     race's lead at the end (ft)."""
-    sums = {"blue": [0.0, 0.0, 0.0, 0], "red": [0.0, 0.0, 0.0, 0]}
+    sums = {"blue": [0.0] * N_LINE + [0], "red": [0.0] * N_LINE + [0]}
     leads = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(1, races + 1):
@@ -75,7 +90,7 @@ def run_lines(binary, run, races):
                 s = sums[team]
                 for k, v in enumerate(line):
                     s[k] += v
-                s[3] += 1
+                s[N_LINE] += 1
             leads.append(best["blue"] - best["red"])
     return sums, leads
 
@@ -103,18 +118,19 @@ def main():
     for run in args:
         sums, leads = run_lines(binary, run, races)
         clean = len(leads)
-        if sums["blue"][3] == 0 or sums["red"][3] == 0:
+        if sums["blue"][N_LINE] == 0 or sums["red"][N_LINE] == 0:
             print(f"{run}: no clean race in {races} replays")
             continue
-        mean = {t: [s[k] / s[3] for k in range(3)] for t, s in sums.items()}
+        mean = {t: [s[k] / s[N_LINE] for k in range(N_LINE)] for t, s in sums.items()}
         for team, who in (("blue", "run"), ("red", "autopilot")):
             m = mean[team]
             print(f"{run} {who:9} {clean:2} clean races: airspeed {m[0]:6.1f} ft/s, along the track {m[1]:6.1f} ft/s, "
-                  f"per foot flown {m[2]:.4f}")
+                  f"per foot flown {m[2]:.4f}, altitude {m[3]:7.0f} ft, {m[4]:+5.0f} ft above the line, "
+                  f"Mach {m[5]:.4f}")
         lead = sum(leads) / clean
         sd = math.sqrt(sum((x - lead) ** 2 for x in leads) / clean)
         print(f"{run} lead at the end {lead:+7.1f} ft (sd {sd:.1f}), ahead in {sum(x > 0 for x in leads)} of {clean}")
-        diffs.append([mean["blue"][k] - mean["red"][k] for k in range(3)] + [lead])
+        diffs.append([mean["blue"][k] - mean["red"][k] for k in range(N_LINE)] + [lead])
     if len(diffs) > 1:
         for k, name in enumerate(MEASURES):
             values = [d[k] for d in diffs]

@@ -4,7 +4,8 @@ one blue and one red aircraft flying straight north, 0.2 s apart: blue at 600 ft
 growing 606 ft/s (1.01 per foot), red at 630 ft/s with s growing 630 ft/s; before 5 s both sit
 still with wild speeds (rows the measure skips). Seed 2 loses blue at 9 s (an unclean race: all
 of it skipped). So over 3 races: 2 clean, blue 600 / 606 / 1.01, red 630 / 630 / 1.0, and red
-leads at the end (12 s) by 7 x (630 - 606) = 168 ft."""
+leads at the end (12 s) by 7 x (630 - 606) = 168 ft. Blue flies at 9 000 ft, 1 000 ft below the
+center line, red on it at 10 000 ft: Mach 0.5551 and 0.5851 (the simulator's air data)."""
 import os
 import subprocess
 import sys
@@ -22,15 +23,15 @@ blue = "out at 9.00 s (tube)" if seed == 2 else "in the race at the end"
 open(os.path.join(out, "replay.md"), "w").write(
     "| aircraft | team | fate | HL decisions |\n|---|---|---|---|\n"
     f"| 0 | blue | {blue} | 2 |\n| 1 | red | in the race at the end | 0 |\n")
-def write(agent, v, ds):
+def write(agent, v, ds, alt, above):
     with open(os.path.join(out, f"replay_agent{agent}.csv"), "w") as f:
-        f.write("t_s,s_ft,pn_ft,pe_ft,alt_ft,vt_ftps\n")
+        f.write("t_s,s_ft,pn_ft,pe_ft,alt_ft,vertical_ft,vt_ftps\n")
         for k in range(61):
             t = round(0.2 * k, 6)
             fly = max(0.0, t - 5.0)
-            f.write(f"{t},{ds * fly},{v * fly},0,10000,{v if t >= 5 else 9999}\n")
-write(0, 600.0, 606.0)
-write(1, 630.0, 630.0)
+            f.write(f"{t},{ds * fly},{v * fly},0,{alt},{above},{v if t >= 5 else 9999}\n")
+write(0, 600.0, 606.0, 9000, -1000)
+write(1, 630.0, 630.0, 10000, 0)
 '''
 
 with tempfile.TemporaryDirectory() as tmp:
@@ -42,13 +43,16 @@ with tempfile.TemporaryDirectory() as tmp:
                        env=env)
     assert r.returncode == 0, r.stderr
     out = r.stdout
-    assert "runs/x run        2 clean races: airspeed  600.0 ft/s, along the track  606.0 ft/s, per foot flown 1.0100" \
-        in out, out
-    assert "runs/y autopilot  2 clean races: airspeed  630.0 ft/s, along the track  630.0 ft/s, per foot flown 1.0000" \
-        in out, out
+    assert "runs/x run        2 clean races: airspeed  600.0 ft/s, along the track  606.0 ft/s, per foot flown 1.0100, " \
+        "altitude    9000 ft, -1000 ft above the line, Mach 0.5551" in out, out
+    assert "runs/y autopilot  2 clean races: airspeed  630.0 ft/s, along the track  630.0 ft/s, per foot flown 1.0000, " \
+        "altitude   10000 ft,    +0 ft above the line, Mach 0.5851" in out, out
     assert "airspeed_ftps, 2 runs: mean -30.0000 bootstrap 95% [-30.0000, -30.0000]" in out, out
     assert "along_ftps, 2 runs: mean -24.0000" in out, out
     assert "along_per_path, 2 runs: mean +0.0100" in out, out
+    assert "alt_ft, 2 runs: mean -1000.0000" in out, out
+    assert "above_line_ft, 2 runs: mean -1000.0000" in out, out
+    assert "mach, 2 runs: mean -0.0300" in out, out
     assert "runs/x lead at the end  -168.0 ft (sd 0.0), ahead in 0 of 2" in out, out
     assert "lead_ft, 2 runs: mean -168.0000" in out, out
     # A bad race count and a failing replay: one line each.
