@@ -7,7 +7,9 @@ run's leading aircraft's distance along the track minus the autopilot's (the tea
 wins). Both teams fly at the envelope's cap, so what is left to win with is a line. The cap is a
 Mach number, so an aircraft's airspeed at the cap falls with its altitude: each team's mean
 altitude, height above the center line and Mach say whether an airspeed difference is a
-difference in how close to the cap a pilot holds or in where it flies.
+difference in how close to the cap a pilot holds or in where it flies; and below the cap, the
+throttle flown (after the Mach governor), the share of steps in which the governor, not the
+policy, set it, the engine's power and the angle of attack say whether it is throttle or drag.
 
     scripts/race_lines.py RUN [RUN ...] [--races N]
 
@@ -26,7 +28,8 @@ import tempfile
 
 SETTLE_S = 5.0  # the start's random offsets and speeds say nothing about a line
 FATE = re.compile(r"^\| (\d+) \| (blue|red) \| (.*?) \|", re.M)
-MEASURES = ("airspeed_ftps", "along_ftps", "along_per_path", "alt_ft", "above_line_ft", "mach", "lead_ft")
+MEASURES = ("airspeed_ftps", "along_ftps", "along_per_path", "alt_ft", "above_line_ft", "mach", "throttle",
+            "governor_share", "power_pct", "alpha_deg", "lead_ft")
 N_LINE = len(MEASURES) - 1  # the per-aircraft measures; the lead is per race
 
 
@@ -45,8 +48,9 @@ def mach(vt_ftps, alt_ft):
 
 
 def aircraft_line(csv_path):
-    """(mean airspeed, ds/dt, ds/path, altitude, height above the center line, Mach) of one aircraft
-    after SETTLE_S, or None with too few rows; and its distance along the track at the end."""
+    """(mean airspeed, ds/dt, ds/path, altitude, height above the center line, Mach, throttle flown,
+    share of rows whose throttle the governor cut, power, angle of attack in degrees) of one
+    aircraft after SETTLE_S, or None with too few rows; and its distance along the track at the end."""
     every = list(csv.DictReader(open(csv_path)))
     rows = [r for r in every if float(r["t_s"]) >= SETTLE_S]
     s_end = float(every[-1]["s_ft"])
@@ -63,7 +67,11 @@ def aircraft_line(csv_path):
     alt = sum(p[2] for p in point) / n
     above = sum(float(r["vertical_ft"]) for r in rows) / n
     m = sum(mach(float(r["vt_ftps"]), float(r["alt_ft"])) for r in rows) / n
-    return (airspeed, ds / dt, ds / path, alt, above, m), s_end
+    throttle = sum(float(r["throttle"]) for r in rows) / n
+    governed = sum(float(r["throttle"]) < float(r["throttle_cmd"]) - 1e-9 for r in rows) / n
+    power = sum(float(r["power_pct"]) for r in rows) / n
+    alpha = sum(math.degrees(float(r["alpha_rad"])) for r in rows) / n
+    return (airspeed, ds / dt, ds / path, alt, above, m, throttle, governed, power, alpha), s_end
 
 
 def run_lines(binary, run, races):
@@ -126,7 +134,8 @@ def main():
             m = mean[team]
             print(f"{run} {who:9} {clean:2} clean races: airspeed {m[0]:6.1f} ft/s, along the track {m[1]:6.1f} ft/s, "
                   f"per foot flown {m[2]:.4f}, altitude {m[3]:7.0f} ft, {m[4]:+5.0f} ft above the line, "
-                  f"Mach {m[5]:.4f}")
+                  f"Mach {m[5]:.4f}, throttle {m[6]:.3f} (governor's {m[7]:.2f} of steps), power {m[8]:5.1f} %, "
+                  f"alpha {m[9]:.2f} deg")
         lead = sum(leads) / clean
         sd = math.sqrt(sum((x - lead) ** 2 for x in leads) / clean)
         print(f"{run} lead at the end {lead:+7.1f} ft (sd {sd:.1f}), ahead in {sum(x > 0 for x in leads)} of {clean}")

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamics/inner_loop.hpp"
 #include "dynamics/state.hpp"
 #include "io/csv_table.hpp"
 #include "io/plot.hpp"
@@ -31,10 +32,13 @@ void RaceRecorder::record_rows(const RaceEnv& env, int e) {
     const int i = e * env.n_agent() + a;
     if (!env.alive(i)) continue;
     const double s = env.progress_ft(i);
+    const float throttle_action = env.obs_prev_action()[static_cast<std::size_t>(i) * kActionDim];
     traces_[e].rows[a].push_back(TraceRow{env.race_time_s(e), s, env.lateral_ft(i), env.vertical_ft(i),
                                           sim.state(kPn)[i], sim.state(kPe)[i], sim.state(kAlt)[i], sim.state(kVt)[i],
                                           sim.state(kPhi)[i], sim.state(kTheta)[i], sim.state(kPsi)[i],
-                                          traces_[e].track.radius_at(s)});
+                                          traces_[e].track.radius_at(s), 0.5 * (throttle_action + 1.0),
+                                          sim.ref(kThrottleDelta)[i] + lqr::kThrottleEquil, sim.state(kPow)[i],
+                                          sim.state(kAlpha)[i]});
   }
 }
 
@@ -101,13 +105,16 @@ std::string agent_file(const std::string& prefix, int a) { return prefix + "_age
 }  // namespace
 
 void write_trace_csv(const RaceTrace& t, const std::string& dir, const std::string& prefix) {
-  const std::vector<std::string> header{"t_s",    "s_ft",    "lateral_ft", "vertical_ft", "pn_ft",   "pe_ft",
-                                        "alt_ft", "vt_ftps", "phi_rad",    "theta_rad",   "psi_rad", "radius_ft"};
+  const std::vector<std::string> header{"t_s",       "s_ft",         "lateral_ft", "vertical_ft", "pn_ft",
+                                        "pe_ft",     "alt_ft",       "vt_ftps",    "phi_rad",     "theta_rad",
+                                        "psi_rad",   "radius_ft",    "throttle_cmd", "throttle",  "power_pct",
+                                        "alpha_rad"};
   for (std::size_t a = 0; a < t.rows.size(); ++a) {
     std::vector<std::vector<double>> cols(header.size());
     for (const TraceRow& r : t.rows[a]) {
-      const double v[] = {r.t_s,   r.s_ft,    r.lateral_ft, r.vertical_ft, r.pn_ft,   r.pe_ft,
-                          r.alt_ft, r.vt_ftps, r.phi_rad,    r.theta_rad,   r.psi_rad, r.radius_ft};
+      const double v[] = {r.t_s,        r.s_ft,       r.lateral_ft, r.vertical_ft, r.pn_ft,     r.pe_ft,
+                          r.alt_ft,     r.vt_ftps,    r.phi_rad,    r.theta_rad,   r.psi_rad,   r.radius_ft,
+                          r.throttle_cmd, r.throttle, r.power_pct,  r.alpha_rad};
       for (std::size_t c = 0; c < header.size(); ++c) cols[c].push_back(v[c]);
     }
     io::write_csv(dir + "/" + agent_file(prefix, static_cast<int>(a)), header, cols);

@@ -22,6 +22,9 @@ struct TraceRow {
   double pn_ft, pe_ft, alt_ft;                // position (north, east, altitude)
   double vt_ftps, phi_rad, theta_rad, psi_rad;
   double radius_ft;                           // tube radius at s
+  // The step's throttle: as the policy commanded it (0..1) and as flown after the Mach governor,
+  // and what it made: engine power and angle of attack (a speed deficit is throttle or drag).
+  double throttle_cmd, throttle, power_pct, alpha_rad;
 };
 
 struct GoalMark {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamics/engine.hpp"
 #include "race/race_env.hpp"
 #include "race/race_recorder.hpp"
 #include "race/scripted_pilot.hpp"
@@ -28,12 +29,14 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
   std::vector<float> actions(static_cast<std::size_t>(env.n_aircraft()) * kActionDim);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_bins / 2);
   ScriptedPilotConfig pilot;
+  std::vector<float> throttle_action_0;  // env 0, agent 0: the throttle action of each step
   int steps = 0;
   while (rec.remaining() > 0 && steps < 10000) {
     const std::vector<std::uint8_t> due(env.hl_due(), env.hl_due() + c.n_env);
     env.set_hl_actions(bins.data());
     rec.record_goals(env, due.data());
     scripted_actions(env, pilot, actions.data());
+    throttle_action_0.push_back(actions[0]);
     rec.before_step(env);
     env.step(actions.data());
     rec.after_step(env);
@@ -62,6 +65,24 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
       for (int k = 0; k < kHlDims; ++k) EXPECT_EQ(g.bins[k], c.hl_center_bin()) << k;
     }
   }
+  // Row k + 1 follows step k: its commanded throttle is that step's action, and the governor only
+  // takes throttle away, all of it passed through while the step starts below mach_max - 0.05.
+  const auto& rows = rec.trace(0).rows[0];
+  int passed = 0;
+  for (std::size_t k = 0; k + 1 < rows.size(); ++k) {
+    const TraceRow& r = rows[k + 1];
+    const double cmd = 0.5 * (std::min(std::max(throttle_action_0[k], -1.0f), 1.0f) + 1.0);
+    EXPECT_NEAR(r.throttle_cmd, cmd, 1e-7) << k;
+    EXPECT_LE(r.throttle, r.throttle_cmd + 1e-12) << k;
+    EXPECT_GE(r.throttle, 0.0) << k;
+    EXPECT_GE(r.power_pct, 0.0) << k;
+    EXPECT_LE(r.power_pct, 100.0) << k;
+    if (dynamics::air_data(rows[k].vt_ftps, rows[k].alt_ft).mach < c.mach_max - 0.05) {
+      EXPECT_NEAR(r.throttle, r.throttle_cmd, 1e-12) << k;
+      ++passed;
+    }
+  }
+  EXPECT_GT(passed, 0);
   const std::string dir = (fs::temp_directory_path() / "f16race_recorder").string();
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -69,6 +90,10 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
   write_trace_acmi(rec.trace(0), dir + "/r.acmi", "test");
   for (const char* f : {"r_agent0.csv", "r_agent3.csv", "r_goals.csv", "r_track.csv", "r_tube.csv", "r.acmi"})
     EXPECT_TRUE(fs::exists(fs::path(dir) / f)) << f;
+  std::ifstream csv(dir + "/r_agent0.csv");
+  std::string header;
+  std::getline(csv, header);
+  EXPECT_NE(header.find(",radius_ft,throttle_cmd,throttle,power_pct,alpha_rad"), std::string::npos) << header;
   std::ifstream acmi(dir + "/r.acmi");
   const std::string text((std::istreambuf_iterator<char>(acmi)), {});
   int aircraft = 0;
