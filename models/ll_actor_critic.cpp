@@ -36,13 +36,6 @@ LlActorCriticImpl::LlActorCriticImpl(const LlActorCriticConfig& cfg) : cfg_(cfg)
                                                                                  cfg.n_heads}));
   const int64_t in = cfg.dims.d_ego + cfg.dims.d_goal + cfg.d_model + cfg.dims.d_task;
   actor_ = register_module("actor", make_mlp(in, cfg.hidden, cfg.action_dim, 0.01));
-  if (!cfg.init_mean.empty()) {
-    TORCH_CHECK(static_cast<int64_t>(cfg.init_mean.size()) == cfg.action_dim, "LlActorCritic: init_mean needs ",
-                cfg.action_dim, " values, got ", cfg.init_mean.size());
-    torch::NoGradGuard no_grad;
-    actor_->ptr(actor_->size() - 1)->as<torch::nn::LinearImpl>()->bias.copy_(
-        torch::tensor(cfg.init_mean, torch::kDouble));
-  }
   critic_ = register_module("critic", make_mlp(in, cfg.hidden, 1, 1.0));
   log_std_ = register_parameter("log_std", torch::full({cfg.action_dim}, cfg.init_log_std));
 }

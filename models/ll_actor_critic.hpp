@@ -25,9 +25,6 @@ struct LlActorCriticConfig {
   int64_t n_heads = 4;
   std::vector<int64_t> hidden{64, 64};  // paper Table I h_dim, for actor and critic each
   double init_log_std = 0.0;
-  // [action_dim] the policy's initial mean action, as the output layer's bias; empty: zeros
-  // (CleanRL's init). The trainer fills it with the race's level trim (ll.init_at_trim).
-  std::vector<double> init_mean;
 };
 
 struct LlOutput {

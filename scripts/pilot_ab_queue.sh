@@ -7,9 +7,9 @@
 #   scripts/pilot_ab_queue.sh [ENTRY ...]     # default: 70 74 71 67
 #
 # Arms: 69 off (the control of them all, kept; the switches of 69's `on` arm and of 73 were
-# removed after their verdicts); 70 ll.normalize_returns (read and removed: its seeds need a build
-# of c8c67be, F16RACE=...); 71 ll.init_at_trim; 67 ll.gamma 0.995; 74 race.lane_error_average_s 8
-# (read and removed: a build of 46d4f04).
+# removed after their verdicts); 70 ll.normalize_returns and 71 ll.init_at_trim (read and removed:
+# their seeds need a build of c8c67be, F16RACE=...); 67 ll.gamma 0.995 (read); 74
+# race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"

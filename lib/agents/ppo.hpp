@@ -52,9 +52,6 @@ struct PpoConfig {
   bool anneal_lr = true;
   int64_t total_updates = 0;  // planned updates; the lr reaches 0 after this many (needed if anneal_lr)
   bool normalize_advantages = true;
-  // The trainer starts the policy's mean action at the race's level trim (net.init_mean)
-  // instead of 0, which commands Nz_ref 2.5 g (issue 49, notebook 71).
-  bool init_at_trim = false;
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order

@@ -44,6 +44,8 @@ inline constexpr Retirement kIssue51Keys{"in 06d4cb7", "b8c9f8c"};
 inline constexpr Retirement kNotebook69Keys{"after docs/notebook/69's verdict", "c8c67be"};
 // ll.normalize_returns: measured not to help (docs/notebook/70-return-normalisation.md).
 inline constexpr Retirement kNotebook70Keys{"after docs/notebook/70's verdict", "c8c67be"};
+// ll.init_at_trim: measured not to help (docs/notebook/71-trim-centred-initial-action.md).
+inline constexpr Retirement kNotebook71Keys{"after docs/notebook/71's verdict", "c8c67be"};
 // race.lane_error_average_s: measured not to help (docs/notebook/74-the-lane-error-average.md).
 inline constexpr Retirement kNotebook74Keys{"after docs/notebook/74's verdict", "46d4f04"};
 // pool.p_autopilot: measured not to help (docs/notebook/73-the-autopilot-in-the-pool.md).

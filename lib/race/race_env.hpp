@@ -58,9 +58,6 @@ class RaceEnv {
   int n_aircraft() const { return n_env() * n_agent_; }
   int task_dim() const { return task_dim_; }
   int ado_dim() const { return ado_dim_; }
-  // Level flight's commands in action units at the start speed and the tracks' middle altitude:
-  // the low level's trim-centred initial mean action (ll.init_at_trim).
-  std::array<float, kActionDim> level_trim_action() const;
 
   // Starts every race afresh (new tracks from each env's stream) and writes observations.
   void reset();

@@ -93,13 +93,6 @@ void RaceEnv::reset_env(int env) {
   separate_goals(env, -1);
 }
 
-std::array<float, kActionDim> RaceEnv::level_trim_action() const {
-  const double mid_ft = 0.5 * (config_.track.alt_min_ft + config_.track.alt_max_ft);
-  const int k = std::clamp(static_cast<int>(std::lround((mid_ft - trim_alt0_ft_) / trim_step_ft_)), 0,
-                           static_cast<int>(trims_.size()) - 1);
-  return action_of(trims_[k]);
-}
-
 std::array<float, kActionDim> RaceEnv::action_of(const TrimResult& trim) const {
   return {static_cast<float>(2.0 * (trim.u_ref[kThrottleDelta] + lqr::kThrottleEquil) - 1.0),
           static_cast<float>(2.0 * (trim.u_ref[kNzRef] - config_.nz_ref_min_g) /

@@ -52,9 +52,9 @@ void bind_ll(R& r, agents::PpoConfig* c) {
   r.read("anneal_lr", &c->anneal_lr);
   r.read("normalize_advantages", &c->normalize_advantages);
   r.read("normalize_obs", &c->normalize_obs);
-  r.read("init_at_trim", &c->init_at_trim);
   r.retired("inference", "eigen");  // a test hook: PpoConfig::eigen_inference
   r.retired("normalize_returns", "false", io::kNotebook70Keys);
+  r.retired("init_at_trim", "false", io::kNotebook71Keys);
   r.finish();
 }
 

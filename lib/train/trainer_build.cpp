@@ -82,10 +82,6 @@ void Trainer::State::build_learners() {
   const double ll_steps = (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
   cfg.ll.total_updates =
       std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env_global)) + 1);
-  if (cfg.ll.init_at_trim) {
-    const auto trim = env->level_trim_action();
-    cfg.ll.net.init_mean.assign(trim.begin(), trim.end());
-  }
   ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   es = std::make_unique<agents::EsAgent>(cfg.hl);
   opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);

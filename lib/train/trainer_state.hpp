@@ -123,7 +123,7 @@ struct Trainer::State {
 
   // --- trainer_build.cpp
   void build(bool fresh);
-  void build_learners();  // agents, pool opponent, rollout buffer, return scaler
+  void build_learners();  // agents, pool opponent, rollout buffer
   // train.ll_from: the named run's latest low level (weights and observation statistics).
   void load_frozen_low_level();
   // A run folder resumed before its first checkpoint: everything but config.yaml (and the lock)

@@ -281,33 +281,6 @@ TEST(LlActorCritic, ShapesAndGaussianHelpers) {
   EXPECT_NEAR(gaussian_entropy(torch::full({1, 3}, 0.5f)).item<double>(), 3 * (0.5 + 0.5 * (1.0 + log2pi)), 1e-5);
 }
 
-// init_mean: the policy starts at that mean action; every other weight is CleanRL's init, drawn
-// as without it.
-TEST(LlActorCritic, InitMeanIsTheOutputBiasAndDrawsNoOtherWeight) {
-  LlActorCriticConfig cfg;
-  cfg.dims = stand_in_dims();
-  torch::manual_seed(4);
-  LlActorCritic plain(cfg);
-  cfg.init_mean = {0.25, -5.0 / 7.0, 0.0};
-  torch::manual_seed(4);
-  LlActorCritic trimmed(cfg);
-  const auto a = plain->named_parameters(), b = trimmed->named_parameters();
-  ASSERT_EQ(a.size(), b.size());
-  int differ = 0;
-  for (std::size_t k = 0; k < a.size(); ++k)
-    if (!torch::equal(a[k].value(), b[k].value())) {
-      ++differ;
-      EXPECT_EQ(b[k].key(), "actor." + std::to_string(2 * cfg.hidden.size()) + ".bias");
-      EXPECT_TRUE(torch::allclose(b[k].value(), torch::tensor({0.25f, -5.0f / 7.0f, 0.0f})));
-    }
-  EXPECT_EQ(differ, 1);
-  Rng r(5);
-  const auto out = trimmed(random_ll_obs(r, cfg.dims, 16));
-  EXPECT_LT((out.mean - torch::tensor({0.25f, -5.0f / 7.0f, 0.0f})).abs().max().item<float>(), 0.1f);
-  cfg.init_mean = {0.0, 0.0};
-  EXPECT_THROW(LlActorCritic{cfg}, c10::Error);
-}
-
 TEST(Models, FlopsPerSampleMatchHandCounts) {
   // d_ego 5, d_ado 4, d_task 6, 3 others, width 8 (2 heads), one hidden layer of 10, 3 bins.
   const ObsDims d{5, 4, 6, 3};

@@ -87,30 +87,6 @@ TEST(RaceEnv, StartIsTrimmedLevelFlightAtOneForwardDisplacement) {
   for (int i = 0; i < env.n_aircraft(); ++i) EXPECT_NEAR(env.sim().state(dynamics::kVt)[i], c.start_speed_ftps, 0.05);
 }
 
-// ll.init_at_trim's mean action: level flight's commands at the start speed and the tracks'
-// middle altitude, mapped to action units as the race maps them back.
-TEST(RaceEnv, LevelTrimActionIsTheMiddleAltitudesTrimInActionUnits) {
-  RaceConfig c = small_config(1, 2);
-  c.track.alt_min_ft = 6000.0;
-  c.track.alt_max_ft = 14000.0;
-  const RaceEnv env(c);
-  dynamics::TrimRequest req;
-  req.model = c.model;
-  req.vt_ftps = c.start_speed_ftps;
-  req.alt_ft = 10000.0;
-  const dynamics::TrimResult trim = dynamics::trim_level_flight(req);
-  const auto a = env.level_trim_action();
-  EXPECT_NEAR(a[0], 2.0 * (trim.u_ref[dynamics::kThrottleDelta] + dynamics::lqr::kThrottleEquil) - 1.0, 1e-6);
-  // Level flight holds Nz_ref = cos(theta) - 1, a few thousandths below 0 g: -5/7 in [-1, 6] g.
-  EXPECT_NEAR(a[1], 2.0 * (trim.u_ref[dynamics::kNzRef] + 1.0) / 7.0 - 1.0, 1e-6);
-  EXPECT_NEAR(a[1], -5.0 / 7.0, 0.01);
-  EXPECT_EQ(a[2], 0.0f);
-  // Thinner air at altitude needs more throttle for the same speed.
-  c.track.alt_min_ft = 19000.0;
-  c.track.alt_max_ft = 21000.0;
-  EXPECT_GT(RaceEnv(c).level_trim_action()[0], a[0] + 0.05);
-}
-
 TEST(RaceEnv, CollisionTakesBothAircraftOut) {
   RaceConfig c = small_config(2, 2);
   c.collision_radius_ft = 3000.0;  // everybody is within 3000 ft at the start
