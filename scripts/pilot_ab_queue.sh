@@ -10,6 +10,7 @@
 # removed after their verdicts); 70 ll.normalize_returns and 71 ll.init_at_trim (read and removed:
 # their seeds need a build of c8c67be, F16RACE=...); 67 ll.gamma 0.995 (read); 74
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
+# 77 race.goal_bin_scale 0.5 (narrower lanes; this build).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -26,7 +27,8 @@ for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdi
       71) jobs+=("71 on $s --set ll.init_at_trim=true") ;;
       67) jobs+=("67 on $s --set ll.gamma=0.995") ;;
       74) jobs+=("74 on $s --set race.lane_error_average_s=8") ;;
-      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67 or 74)" >&2; exit 2 ;;
+      77) jobs+=("77 on $s --set race.goal_bin_scale=0.5") ;;
+      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74 or 77)" >&2; exit 2 ;;
     esac
   done
 done
