@@ -298,7 +298,7 @@
   const rowsEl = $('board-rows');
   const boardRows = D.aircraft.map((ac, a) => {
     const tr = document.createElement('tr');
-    tr.innerHTML = '<td></td><td class="name"></td><td></td><td></td><td></td><td></td>';
+    tr.innerHTML = '<td></td><td class="name"></td>' + '<td></td>'.repeat(6);
     tr.children[1].textContent = ac.label;
     tr.children[1].style.color = '#' + actors[a].color.getHexString();
     rowsEl.appendChild(tr);
@@ -313,14 +313,16 @@
       const g = goalIndex(ac, time);
       c[0].textContent = r[a] + 1;
       c[2].textContent = on ? Math.round(ac.vt[j] * 0.592484) : '';
-      c[3].textContent = on ? ac.u[j] : '';
-      c[4].textContent = g >= 0 ? ac.goals[g].slice(4).join(',') : '\u2013';
-      c[4].className = g >= 0 && goalChanges[a][g] && time - ac.goals[g][0] < GOAL_FLASH_S ? 'flash' : '';
+      c[3].textContent = on ? (ac.mach[j] / 1000).toFixed(3) : '';
+      c[4].textContent = on ? ac.thr[j] : '';
+      c[5].textContent = on ? ac.u[j] : '';
+      c[6].textContent = g >= 0 ? ac.goals[g].slice(4).join(',') : '\u2013';
+      c[6].className = g >= 0 && goalChanges[a][g] && time - ac.goals[g][0] < GOAL_FLASH_S ? 'flash' : '';
       let st = on ? (ac.s[j] >= D.track.finish_s_ft ? 'finished' : 'racing') : ac.cause;
       D.blocks.forEach((b) => {
         if (on && time >= b[2] && time <= b[3] + BLOCK_HOLD_S) st = b[0] === a ? 'blocking' : b[1] === a ? 'blocked' : st;
       });
-      c[5].textContent = st;
+      c[7].textContent = st;
       boardRows[a].className = on ? '' : 'out';
     });
   }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "dynamics/engine.hpp"
 #include "io/json_text.hpp"
 #include "io/viewer_page.hpp"
 
@@ -65,6 +66,10 @@ std::string aircraft_json(const RaceReplay& r, int a, int stride, const Origin& 
   s += ",\"theta\":" + col([](const race::TraceRow& x) { return 100.0 * x.theta_rad; });
   s += ",\"psi\":" + col([](const race::TraceRow& x) { return 100.0 * x.psi_rad; });
   s += ",\"vt\":" + col([](const race::TraceRow& x) { return x.vt_ftps; });
+  // Mach in thousandths (the envelope caps it at race.mach_max) and the throttle flown in percent:
+  // at the cap, what separates two pilots.
+  s += ",\"mach\":" + col([](const race::TraceRow& x) { return 1000.0 * dynamics::air_data(x.vt_ftps, x.alt_ft).mach; });
+  s += ",\"thr\":" + col([](const race::TraceRow& x) { return 100.0 * x.throttle; });
   s += ",\"s\":" + col([](const race::TraceRow& x) { return x.s_ft; });
   const bool out = t.cause[a] != race::kCauseNone;
   s += ",\"out_s\":" + (out ? decimals(t.out_s[a], 2) : std::string("-1"));

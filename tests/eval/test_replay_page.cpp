@@ -37,7 +37,8 @@ RaceReplay straight_race(double duration_s, double dt_s) {
     for (int k = 0; k < n; ++k) {
       const double s = 1500.0 + 800.0 * k * dt_s;
       const race::Vec3 p = t.track.point_at(s);
-      t.rows[a].push_back({k * dt_s, s, 30.0 * a, 0.0, p.n, p.e + 30.0 * a, p.u, 800.0, 0.1, 0.02, 0.3, 1200.0});
+      t.rows[a].push_back(
+          {k * dt_s, s, 30.0 * a, 0.0, p.n, p.e + 30.0 * a, p.u, 800.0, 0.1, 0.02, 0.3, 1200.0, 0.9, 0.25, 20.0, 0.05});
     }
     for (double g = 0.0; g < duration_s; g += 8.0) t.goals[a].push_back({g, 9000.0, 0.0, 0.0, {9000.0, 0.0, 8500.0}, {3, 3, 4}});
   }
@@ -79,6 +80,14 @@ TEST(ReplayPage, SixtySecondsOfEightAircraftFitALaptop) {
   // Angles in centiradians, airspeed in whole ft/s: phi 0.1 rad is 10.
   EXPECT_NE(json.find("\"phi\":[10,10,", a5), std::string::npos);
   EXPECT_NE(json.find("\"vt\":[800,800,", a5), std::string::npos);
+  // Mach in thousandths at the row's altitude (AeroBench's adc: speed of sound from 519 R with the
+  // 0.703e-5 per ft lapse; ~0.737 at 800 ft/s and 8 000 ft), the throttle flown in percent.
+  const double alt_ft = r.trace.rows[5][0].alt_ft;
+  const long mach = std::lround(1000.0 * 800.0 / std::sqrt(1.4 * 1716.3 * 519.0 * (1.0 - 0.703e-5 * alt_ft)));
+  EXPECT_NE(json.find("\"mach\":[" + std::to_string(mach) + ",", a5), std::string::npos) << json.substr(a5, 200);
+  EXPECT_NEAR(mach, 737.5, 1.0);
+  EXPECT_NE(json.find("\"thr\":[25,25,", a5), std::string::npos);
+  EXPECT_EQ(array_size(json, "\"mach\"", a5), 375);
 }
 
 TEST(ReplayPage, FineStepsAreThinnedToTwentyHertz) {
