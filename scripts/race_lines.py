@@ -52,6 +52,8 @@ def aircraft_line(csv_path):
     share of rows whose throttle the governor cut, power, angle of attack in degrees) of one
     aircraft after SETTLE_S, or None with too few rows; and its distance along the track at the end."""
     every = list(csv.DictReader(open(csv_path)))
+    if every and "throttle" not in every[0]:
+        sys.exit(f"{csv_path}: no throttle columns; replay with a build from 630ce59 on (F16RACE names it)")
     rows = [r for r in every if float(r["t_s"]) >= SETTLE_S]
     s_end = float(every[-1]["s_ft"])
     if len(rows) < 2:
