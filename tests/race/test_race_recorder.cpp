@@ -103,5 +103,46 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
   EXPECT_NE(text.find("Coalition=Red"), std::string::npos);
 }
 
+// Full throttle in level flight runs into the Mach governor (as in
+// RaceEnv.MachGovernorHoldsFullThrottleInsideTheEnvelope): the rows then record the command
+// untouched and the throttle flown cut to the governor's limit, none of it once past the band.
+TEST(RaceRecorder, RecordsTheThrottleTheGovernorCuts) {
+  RaceConfig c;
+  c.n_env = 1;
+  c.team_size = 1;
+  c.seed = 42;
+  c.tube_grace_s = 1e6;
+  c.turn_rate_max_dps = 1e3;
+  c.time_limit_s = 1e3;
+  RaceEnv env(c);
+  RaceRecorder rec(env);
+  std::vector<float> a(2 * kActionDim, 0.0f);
+  for (int i = 0; i < 2; ++i) {
+    a[i * 3 + 0] = 1.0f;  // full throttle, the trim's Nz (level flight), no roll
+    a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) /
+                                          (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
+  }
+  for (int k = 0; k < 500 && rec.remaining() > 0; ++k) {
+    rec.before_step(env);
+    env.step(a.data());
+    rec.after_step(env);
+  }
+  const auto& rows = rec.trace(0).rows[0];
+  ASSERT_GT(rows.size(), 400u);
+  int cut = 0;
+  for (std::size_t k = 1; k < rows.size(); ++k) {
+    EXPECT_EQ(rows[k].throttle_cmd, 1.0) << k;
+    const double mach = dynamics::air_data(rows[k - 1].vt_ftps, rows[k - 1].alt_ft).mach;  // where step k-1 began
+    if (mach < c.mach_max - 0.05) {
+      EXPECT_EQ(rows[k].throttle, 1.0) << k;
+    }
+    if (mach >= c.mach_max - 0.01) {
+      EXPECT_NEAR(rows[k].throttle, 0.0, 1e-12) << k;
+    }
+    cut += rows[k].throttle < 0.999;
+  }
+  EXPECT_GT(cut, 100) << "most of 40 s at full throttle is spent in the governor's band";
+}
+
 }  // namespace
 }  // namespace f16race::race
