@@ -10,7 +10,8 @@
 # removed after their verdicts); 70 ll.normalize_returns and 71 ll.init_at_trim (read and removed:
 # their seeds need a build of c8c67be, F16RACE=...); 67 ll.gamma 0.995 (read); 74
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
-# 77 race.goal_bin_scale 0.5 (narrower lanes; this build).
+# 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap (this
+# build).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -28,7 +29,8 @@ for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdi
       67) jobs+=("67 on $s --set ll.gamma=0.995") ;;
       74) jobs+=("74 on $s --set race.lane_error_average_s=8") ;;
       77) jobs+=("77 on $s --set race.goal_bin_scale=0.5") ;;
-      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74 or 77)" >&2; exit 2 ;;
+      78) jobs+=("78 on $s --set race.governor_sets_throttle_at_cap=true") ;;
+      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77 or 78)" >&2; exit 2 ;;
     esac
   done
 done

@@ -61,6 +61,10 @@ struct RaceConfig {
   // A governor in the fly-by-wire throttle path keeps the aircraft below mach_max: the throttle
   // the policy commands is capped, from full below mach_max - 0.05 to idle at mach_max - 0.01.
   bool mach_governor = true;
+  // Inside the governor's band (Mach above mach_max - 0.05) the governor alone sets the throttle,
+  // whatever the policy commands, as it does for the autopilot flying for a speed above the cap;
+  // the policy's throttle acts below the band. An experiment (docs/notebook/78).
+  bool governor_sets_throttle_at_cap = false;
   // The `autopilot` baseline's airspeed set point (tournament, replay, race); 0: start_speed_ftps.
   // Tuned over set points against the start speed (docs/race.md "The autopilot baseline").
   double autopilot_airspeed_ftps = 640.0;
