@@ -11,13 +11,17 @@ difference in how close to the cap a pilot holds or in where it flies; and below
 throttle flown (after the Mach governor), the share of steps in which the governor, not the
 policy, set it, the engine's power and the angle of attack say whether it is throttle or drag.
 
-    scripts/race_lines.py RUN [RUN ...] [--races N]
+    scripts/race_lines.py RUN [RUN ...] [--races N] [--save FILE] [--control FILE]
 
 One line per run and team, then the run's team minus the autopilot's, averaged over the runs with
 a bootstrap 95 % interval over runs (10 000 resamples, random seed 49). N defaults to 12.
+--save writes each run's differences (run minus autopilot) to FILE as JSON; --control reads such a
+file of another arm and adds, per measure, this arm's mean minus the control's with a bootstrap
+95 % interval (the runs resampled within each arm): an A/B's mechanism over seeds.
 F16RACE names the binary (default build/f16race). Standard library.
 """
 import csv
+import json
 import math
 import os
 import random
@@ -111,20 +115,58 @@ def bootstrap_mean(values, resamples=10000, seed=49):
     return means[int(0.025 * resamples)], means[int(0.975 * resamples) - 1]
 
 
+def bootstrap_difference(treatment, control, resamples=10000, seed=49):
+    """95 % interval of mean(treatment) - mean(control), the runs resampled within each arm."""
+    rng = random.Random(seed)
+    d = sorted(sum(rng.choice(treatment) for _ in treatment) / len(treatment) -
+               sum(rng.choice(control) for _ in control) / len(control) for _ in range(resamples))
+    return d[int(0.025 * resamples)], d[int(0.975 * resamples) - 1]
+
+
+def take_option(args, name):
+    """The value after `name` in args (both removed), or None when absent."""
+    if name not in args:
+        return None
+    k = args.index(name)
+    if k + 1 >= len(args) or args[k + 1].startswith("--"):
+        sys.exit(f"{name}: give a value after it")
+    value = args[k + 1]
+    del args[k:k + 2]
+    return value
+
+
+def read_control(path):
+    """{measure: [per-run values]} of a file written by --save."""
+    try:
+        runs = json.load(open(path))["runs"]
+        return {m: [r[m] for r in runs.values()] for m in MEASURES}
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f"--control {path}: not a file written by race_lines.py --save ({e.__class__.__name__}: {e})")
+
+
+def compare(diffs, control):
+    for k, name in enumerate(MEASURES):
+        values, base = [d[k] for d in diffs], control[name]
+        if not values or not base:
+            return
+        lo, hi = bootstrap_difference(values, base)
+        print(f"arm minus control, {name}, {len(values)} against {len(base)} runs: "
+              f"{sum(values) / len(values):+.4f} - {sum(base) / len(base):+.4f} = "
+              f"{sum(values) / len(values) - sum(base) / len(base):+.4f} bootstrap 95% [{lo:+.4f}, {hi:+.4f}]")
+
+
 def main():
     args = sys.argv[1:]
-    races = 12
-    if "--races" in args:
-        k = args.index("--races")
-        value = args[k + 1] if k + 1 < len(args) else ""
-        if not value.isdigit() or int(value) < 1:
-            sys.exit(f"--races {value}: give a whole number of races, at least 1")
-        races = int(value)
-        del args[k:k + 2]
+    races = take_option(args, "--races") or "12"
+    if not races.isdigit() or int(races) < 1:
+        sys.exit(f"--races {races}: give a whole number of races, at least 1")
+    races = int(races)
+    save, control_path = take_option(args, "--save"), take_option(args, "--control")
+    control = read_control(control_path) if control_path else None
     if not args:
-        sys.exit("usage: scripts/race_lines.py RUN [RUN ...] [--races N]")
+        sys.exit("usage: scripts/race_lines.py RUN [RUN ...] [--races N] [--save FILE] [--control FILE]")
     binary = os.environ.get("F16RACE", os.path.join(os.path.dirname(__file__), "..", "build", "f16race"))
-    diffs = []
+    diffs, names = [], []
     for run in args:
         sums, leads = run_lines(binary, run, races)
         clean = len(leads)
@@ -142,12 +184,20 @@ def main():
         sd = math.sqrt(sum((x - lead) ** 2 for x in leads) / clean)
         print(f"{run} lead at the end {lead:+7.1f} ft (sd {sd:.1f}), ahead in {sum(x > 0 for x in leads)} of {clean}")
         diffs.append([mean["blue"][k] - mean["red"][k] for k in range(N_LINE)] + [lead])
+        names.append(run)
     if len(diffs) > 1:
         for k, name in enumerate(MEASURES):
             values = [d[k] for d in diffs]
             lo, hi = bootstrap_mean(values)
             print(f"run minus autopilot, {name}, {len(values)} runs: mean {sum(values) / len(values):+.4f} "
                   f"bootstrap 95% [{lo:+.4f}, {hi:+.4f}]")
+    if control:
+        compare(diffs, control)
+    if save:
+        tmp = save + ".tmp"
+        with open(tmp, "w") as f:
+            json.dump({"races": races, "runs": {n: dict(zip(MEASURES, d)) for n, d in zip(names, diffs)}}, f, indent=1)
+        os.replace(tmp, save)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ leads at the end (12 s) by 7 x (630 - 606) = 168 ft. Blue flies at 9 000 ft, 1 0
 center line, red on it at 10 000 ft: Mach 0.5551 and 0.5851 (the simulator's air data). Blue's
 policy commands throttle 0.3 and flies it (power 20 %, alpha 2 deg); red commands 1.0 and the
 governor lets 0.2 through in every other row (power 14 %, alpha 3 deg)."""
+import json
 import os
 import subprocess
 import sys
@@ -65,6 +66,27 @@ with tempfile.TemporaryDirectory() as tmp:
     assert "alpha_deg, 2 runs: mean -1.0000" in out, out
     assert "runs/x lead at the end  -168.0 ft (sd 0.0), ahead in 0 of 2" in out, out
     assert "lead_ft, 2 runs: mean -168.0000" in out, out
+    # --save keeps each run's differences; --control compares an arm with a saved one.
+    saved = os.path.join(tmp, "lines.json")
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x", "runs/y", "--races", "3", "--save", saved],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    kept = json.load(open(saved))
+    assert kept["races"] == 3 and sorted(kept["runs"]) == ["runs/x", "runs/y"], kept
+    assert abs(kept["runs"]["runs/y"]["mach"] + 0.0300) < 5e-5 and kept["runs"]["runs/x"]["lead_ft"] == -168.0, kept
+    control = os.path.join(tmp, "control.json")
+    measures = dict(kept["runs"]["runs/x"])
+    json.dump({"runs": {"a": dict(measures, mach=-0.02), "b": dict(measures, mach=-0.01)}}, open(control, "w"))
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x", "runs/y", "--races", "3", "--control", control],
+                       capture_output=True, text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "arm minus control, mach, 2 against 2 runs: -0.0300 - -0.0150 = -0.0150 bootstrap 95% [-0.0200, -0.0100]" \
+        in r.stdout, r.stdout
+    assert "arm minus control, lead_ft, 2 against 2 runs: -168.0000 - -168.0000 = +0.0000" in r.stdout, r.stdout
+    open(control, "w").write("{}")
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--control", control], capture_output=True, text=True, env=env)
+    assert r.returncode != 0 and "not a file written by race_lines.py --save" in r.stderr and \
+        r.stderr.count("\n") == 1, r.stderr
     # A bad race count and a failing replay: one line each.
     r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--races", "0"], capture_output=True, text=True, env=env)
     assert r.returncode != 0 and "at least 1" in r.stderr and r.stderr.count("\n") == 1, r.stderr
@@ -76,4 +98,4 @@ with tempfile.TemporaryDirectory() as tmp:
     open(fake, "w").write(old)
     r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--races", "1"], capture_output=True, text=True, env=env)
     assert r.returncode != 0 and "no throttle columns" in r.stderr and r.stderr.count("\n") == 1, r.stderr
-print("race_lines.py: the known answer, clean races only, bad input in one line")
+print("race_lines.py: the known answer, clean races only, an arm against a saved control, bad input in one line")
