@@ -166,6 +166,9 @@ def main():
     if not args:
         sys.exit("usage: scripts/race_lines.py RUN [RUN ...] [--races N] [--save FILE] [--control FILE]")
     binary = os.environ.get("F16RACE", os.path.join(os.path.dirname(__file__), "..", "build", "f16race"))
+    if not os.path.isfile(binary):
+        sys.exit(f"F16RACE={binary}: no such binary; give the path of an f16race build")
+    binary = os.path.abspath(binary)  # a bare name would be looked up on PATH
     diffs, names = [], []
     for run in args:
         sums, leads = run_lines(binary, run, races)

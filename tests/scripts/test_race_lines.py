@@ -93,6 +93,9 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([sys.executable, SCRIPT, "runs/x"], capture_output=True, text=True,
                        env=dict(env, F16RACE="/bin/false"))
     assert r.returncode != 0 and "replay --seed 1 failed" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x"], capture_output=True, text=True,
+                       env=dict(env, F16RACE=os.path.join(tmp, "missing")))
+    assert r.returncode != 0 and "no such binary" in r.stderr and r.stderr.count("\n") == 1, r.stderr
     # A binary from before the throttle columns: one line naming the file and the fix.
     old = FAKE.replace(",throttle_cmd,throttle,power_pct,alpha_rad", "")
     open(fake, "w").write(old)
