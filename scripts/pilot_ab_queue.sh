@@ -10,8 +10,8 @@
 # removed after their verdicts); 70 ll.normalize_returns and 71 ll.init_at_trim (read and removed:
 # their seeds need a build of c8c67be, F16RACE=...); 67 ll.gamma 0.995 (read); 74
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
-# 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap (this
-# build).
+# 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap (read);
+# 79 both (this build).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -30,7 +30,8 @@ for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdi
       74) jobs+=("74 on $s --set race.lane_error_average_s=8") ;;
       77) jobs+=("77 on $s --set race.goal_bin_scale=0.5") ;;
       78) jobs+=("78 on $s --set race.governor_sets_throttle_at_cap=true") ;;
-      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77 or 78)" >&2; exit 2 ;;
+      79) jobs+=("79 on $s --set race.governor_sets_throttle_at_cap=true --set race.goal_bin_scale=0.5") ;;
+      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78 or 79)" >&2; exit 2 ;;
     esac
   done
 done
@@ -47,7 +48,7 @@ running=0
 for j in "${jobs[@]}"; do
   read -r e arm s rest <<< "$j"
   [ -f "docs/notebook/data/$e/$arm/s$s.json" ] && continue
-  # shellcheck disable=SC2086  # rest is "--set KEY=VALUE" or empty
+  # shellcheck disable=SC2086  # rest is "--set KEY=VALUE ..." or empty
   run_job "$e" "$arm" "$s" $rest &
   running=$((running + 1))
   if [ "$running" -ge 2 ]; then wait -n; running=$((running - 1)); fi
