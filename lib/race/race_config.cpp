@@ -62,6 +62,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("turn_rate_max_dps", &c->turn_rate_max_dps, 1.0, 360.0);
   r.read("mach_max", &c->mach_max, 0.0, 3.0);
   r.read("mach_governor", &c->mach_governor);
+  r.read("governor_band_mach", &c->governor_band_mach, 0.005, 0.1);
   r.read("governor_sets_throttle_at_cap", &c->governor_sets_throttle_at_cap);
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 3000.0);
   std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";

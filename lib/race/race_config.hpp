@@ -59,9 +59,12 @@ struct RaceConfig {
   // (cause "envelope"; 0: no limit). docs/race.md "The envelope" gives the sources.
   double mach_max = 0.6;
   // A governor in the fly-by-wire throttle path keeps the aircraft below mach_max: the throttle
-  // the policy commands is capped, from full below mach_max - 0.05 to idle at mach_max - 0.01.
+  // the policy commands is capped, from full below mach_max - 0.01 - governor_band_mach to idle
+  // at mach_max - 0.01. The cap is proportional: an aircraft settles governor_band_mach x its
+  // throttle below the top, so one with more drag settles lower (docs/notebook/78).
   bool mach_governor = true;
-  // Inside the governor's band (Mach above mach_max - 0.05) the governor alone sets the throttle,
+  double governor_band_mach = 0.04;
+  // Inside the governor's band (the limit below full throttle) the governor alone sets the throttle,
   // whatever the policy commands, as it does for the autopilot flying for a speed above the cap;
   // the policy's throttle acts below the band. An experiment (docs/notebook/78).
   bool governor_sets_throttle_at_cap = false;
