@@ -11,7 +11,7 @@
 # their seeds need a build of c8c67be, F16RACE=...); 67 ll.gamma 0.995 (read); 74
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
 # 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap (read);
-# 79 both (this build).
+# 79 both (78's code); 80 race.governor_band_mach 0.01 (this build).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -31,7 +31,8 @@ for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdi
       77) jobs+=("77 on $s --set race.goal_bin_scale=0.5") ;;
       78) jobs+=("78 on $s --set race.governor_sets_throttle_at_cap=true") ;;
       79) jobs+=("79 on $s --set race.governor_sets_throttle_at_cap=true --set race.goal_bin_scale=0.5") ;;
-      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78 or 79)" >&2; exit 2 ;;
+      80) jobs+=("80 on $s --set race.governor_band_mach=0.01") ;;
+      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79 or 80)" >&2; exit 2 ;;
     esac
   done
 done
