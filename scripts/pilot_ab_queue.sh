@@ -10,8 +10,9 @@
 # removed after their verdicts); 70 ll.normalize_returns and 71 ll.init_at_trim (read and removed:
 # their seeds need a build of c8c67be, F16RACE=...); 67 ll.gamma 0.995 (read); 74
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
-# 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap (read);
-# 79 both (78's code); 80 race.governor_band_mach 0.01 (this build).
+# 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap and 79
+# that switch with 77's lanes (read and removed: a build of 0b55350); 80 race.governor_band_mach
+# 0.01 (this build).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"

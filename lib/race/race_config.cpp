@@ -63,7 +63,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("mach_max", &c->mach_max, 0.0, 3.0);
   r.read("mach_governor", &c->mach_governor);
   r.read("governor_band_mach", &c->governor_band_mach, 0.005, 0.1);
-  r.read("governor_sets_throttle_at_cap", &c->governor_sets_throttle_at_cap);
+  r.retired("governor_sets_throttle_at_cap", "false", io::kNotebook78Keys);
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 3000.0);
   std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";
   r.read("tube_exit", &exit, {"grace", "terminate"});
@@ -145,8 +145,6 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
   if (c.autopilot_airspeed_ftps != 0.0 && c.autopilot_airspeed_ftps < 300.0)
     fail("autopilot_airspeed_ftps (" + v(c.autopilot_airspeed_ftps) + ") must be 0 (the start speed) or >= 300 ft/s");
   if (c.mach_governor && c.mach_max == 0.0) fail("mach_governor needs a mach_max > 0 to hold the aircraft below");
-  if (c.governor_sets_throttle_at_cap && !c.mach_governor)
-    fail("governor_sets_throttle_at_cap needs mach_governor: true (the governor is what sets the throttle)");
   if (c.mach_max > 0.0) {  // the highest start: the slowest speed of sound, so the start's highest Mach
     const double highest_ft = c.track.alt_max_ft + c.track.radius_max_ft;
     const double start_mach = dynamics::air_data(c.start_speed_ftps, highest_ft).mach;

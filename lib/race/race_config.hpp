@@ -64,10 +64,6 @@ struct RaceConfig {
   // throttle below the top, so one with more drag settles lower (docs/notebook/78).
   bool mach_governor = true;
   double governor_band_mach = 0.04;
-  // Inside the governor's band (the limit below full throttle) the governor alone sets the throttle,
-  // whatever the policy commands, as it does for the autopilot flying for a speed above the cap;
-  // the policy's throttle acts below the band. An experiment (docs/notebook/78).
-  bool governor_sets_throttle_at_cap = false;
   // The `autopilot` baseline's airspeed set point (tournament, replay, race); 0: start_speed_ftps.
   // Tuned over set points against the start speed (docs/race.md "The autopilot baseline").
   double autopilot_airspeed_ftps = 640.0;

@@ -76,13 +76,13 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
 }
 
-// The keys issue 51 and notebooks 69, 70, 71, 73 and 74 retired (io::ConfigReader::retired), as a run folder's
+// The keys issue 51 and notebooks 69, 70, 71, 73, 74 and 78 retired (io::ConfigReader::retired), as a run folder's
 // config.yaml from an older build lists them: at the value this build behaves as they change
 // nothing; at another value the config is refused in one line naming the key, the value and the
 // commit to build.
 TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
   const char* old_defaults = R"(
-race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0}
+race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0, governor_sets_throttle_at_cap: false}
 ll: {inference: eigen, normalize_returns: false, init_at_trim: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
 train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
@@ -92,7 +92,8 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
   for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
                           "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
-                          "p_autopilot", "normalize_returns", "init_at_trim", "lane_error_average_s"})
+                          "p_autopilot", "normalize_returns", "init_at_trim", "lane_error_average_s",
+                          "governor_sets_throttle_at_cap"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -127,6 +128,9 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(error_of("race: {lane_error_average_s: 8}"),
             "cfg.yaml: race.lane_error_average_s: 8 was removed after docs/notebook/74's verdict; build commit 46d4f04 "
             "to use it");
+  EXPECT_EQ(error_of("race: {governor_sets_throttle_at_cap: true}"),
+            "cfg.yaml: race.governor_sets_throttle_at_cap: true was removed after docs/notebook/78's and 79's verdicts; "
+            "build commit 0b55350 to use it");
   // A key never known is still an unknown key, not a retired one.
   EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
 }
