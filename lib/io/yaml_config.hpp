@@ -50,7 +50,7 @@ inline constexpr Retirement kNotebook71Keys{"after docs/notebook/71's verdict", 
 inline constexpr Retirement kNotebook74Keys{"after docs/notebook/74's verdict", "46d4f04"};
 // pool.p_autopilot: measured not to help (docs/notebook/73-the-autopilot-in-the-pool.md).
 inline constexpr Retirement kNotebook73Keys{"after docs/notebook/73's verdict", "e9c8edf"};
-// race.governor_sets_throttle_at_cap: measured not to help (docs/notebook/78-the-governor-sets-the-throttle-at-the-cap.md, 79).
+// race.governor_sets_throttle_at_cap: measured not to help (docs/notebook/, entries 78 and 79).
 inline constexpr Retirement kNotebook78Keys{"after docs/notebook/78's and 79's verdicts", "0b55350"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
