@@ -15,28 +15,6 @@
 # 0.01 (this build).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-cd "$here"
-entries=("$@")
-[ ${#entries[@]} -gt 0 ] || entries=(70 74 71 67)
-
-jobs=()  # "entry arm seed set-args"
-for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdicts come in order
-  for s in 1 2 3 4 5 6 7 8; do
-    case "$e" in
-      69) jobs+=("69 off $s") ;;
-      70) jobs+=("70 on $s --set ll.normalize_returns=true") ;;
-      71) jobs+=("71 on $s --set ll.init_at_trim=true") ;;
-      67) jobs+=("67 on $s --set ll.gamma=0.995") ;;
-      74) jobs+=("74 on $s --set race.lane_error_average_s=8") ;;
-      77) jobs+=("77 on $s --set race.goal_bin_scale=0.5") ;;
-      78) jobs+=("78 on $s --set race.governor_sets_throttle_at_cap=true") ;;
-      79) jobs+=("79 on $s --set race.governor_sets_throttle_at_cap=true --set race.goal_bin_scale=0.5") ;;
-      80) jobs+=("80 on $s --set race.governor_band_mach=0.01") ;;
-      *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79 or 80)" >&2; exit 2 ;;
-    esac
-  done
-done
 
 run_job() {
   local e="$1" arm="$2" s="$3"
@@ -46,14 +24,43 @@ run_job() {
     > "runs/nb$e/${arm}_s$s.log" 2>&1 || echo "pilot_ab_queue: $e $arm s$s failed, see runs/nb$e/${arm}_s$s.log" >&2
 }
 
-running=0
-for j in "${jobs[@]}"; do
-  read -r e arm s rest <<< "$j"
-  [ -f "docs/notebook/data/$e/$arm/s$s.json" ] && continue
-  # shellcheck disable=SC2086  # rest is "--set KEY=VALUE ..." or empty
-  run_job "$e" "$arm" "$s" $rest &
-  running=$((running + 1))
-  if [ "$running" -ge 2 ]; then wait -n; running=$((running - 1)); fi
-done
-wait
-echo "pilot_ab_queue: every seed of ${entries[*]} kept"
+# The whole queue is one function, read before it runs: editing this file while a queue runs
+# cannot change what the running queue does next.
+main() {
+  here="$(cd "$(dirname "$0")/.." && pwd)"
+  cd "$here"
+  entries=("$@")
+  [ ${#entries[@]} -gt 0 ] || entries=(70 74 71 67)
+
+  jobs=()  # "entry arm seed set-args"
+  for e in "${entries[@]}"; do  # one entry's eight seeds before the next's: verdicts come in order
+    for s in 1 2 3 4 5 6 7 8; do
+      case "$e" in
+        69) jobs+=("69 off $s") ;;
+        70) jobs+=("70 on $s --set ll.normalize_returns=true") ;;
+        71) jobs+=("71 on $s --set ll.init_at_trim=true") ;;
+        67) jobs+=("67 on $s --set ll.gamma=0.995") ;;
+        74) jobs+=("74 on $s --set race.lane_error_average_s=8") ;;
+        77) jobs+=("77 on $s --set race.goal_bin_scale=0.5") ;;
+        78) jobs+=("78 on $s --set race.governor_sets_throttle_at_cap=true") ;;
+        79) jobs+=("79 on $s --set race.governor_sets_throttle_at_cap=true --set race.goal_bin_scale=0.5") ;;
+        80) jobs+=("80 on $s --set race.governor_band_mach=0.01") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79 or 80)" >&2; exit 2 ;;
+      esac
+    done
+  done
+
+  running=0
+  for j in "${jobs[@]}"; do
+    read -r e arm s rest <<< "$j"
+    [ -f "docs/notebook/data/$e/$arm/s$s.json" ] && continue
+    # shellcheck disable=SC2086  # rest is "--set KEY=VALUE ..." or empty
+    run_job "$e" "$arm" "$s" $rest &
+    running=$((running + 1))
+    if [ "$running" -ge 2 ]; then wait -n; running=$((running - 1)); fi
+  done
+  wait
+  echo "pilot_ab_queue: every seed of ${entries[*]} kept"
+}
+
+main "$@"
