@@ -12,7 +12,7 @@
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
 # 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap and 79
 # that switch with 77's lanes (read and removed: a build of 0b55350); 80 race.governor_band_mach
-# 0.01 (this build).
+# 0.01 (read and removed: a build of c3a8ae5).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 

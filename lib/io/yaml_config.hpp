@@ -52,6 +52,8 @@ inline constexpr Retirement kNotebook74Keys{"after docs/notebook/74's verdict", 
 inline constexpr Retirement kNotebook73Keys{"after docs/notebook/73's verdict", "e9c8edf"};
 // race.governor_sets_throttle_at_cap: measured not to help (docs/notebook/, entries 78 and 79).
 inline constexpr Retirement kNotebook78Keys{"after docs/notebook/78's and 79's verdicts", "0b55350"};
+// race.governor_band_mach: measured not to help (docs/notebook/80-a-governor-with-less-droop.md).
+inline constexpr Retirement kNotebook80Keys{"after docs/notebook/80's verdict", "c3a8ae5"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {

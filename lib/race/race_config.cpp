@@ -62,7 +62,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("turn_rate_max_dps", &c->turn_rate_max_dps, 1.0, 360.0);
   r.read("mach_max", &c->mach_max, 0.0, 3.0);
   r.read("mach_governor", &c->mach_governor);
-  r.read("governor_band_mach", &c->governor_band_mach, 0.005, 0.1);
+  r.retired("governor_band_mach", "0.04", io::kNotebook80Keys);
   r.retired("governor_sets_throttle_at_cap", "false", io::kNotebook78Keys);
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 3000.0);
   std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";
@@ -148,7 +148,7 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
   if (c.mach_max > 0.0) {  // the highest start: the slowest speed of sound, so the start's highest Mach
     const double highest_ft = c.track.alt_max_ft + c.track.radius_max_ft;
     const double start_mach = dynamics::air_data(c.start_speed_ftps, highest_ft).mach;
-    if (start_mach > c.mach_max - 0.05)
+    if (start_mach > c.mach_max - 0.01 - kGovernorBandMach)  // the start lies below the governor's band
       fail("start_speed_ftps (" + v(c.start_speed_ftps) + ") is Mach " + v(std::round(start_mach * 1000.0) / 1000.0) +
            " at " + v(highest_ft) + " ft, too close to mach_max (" + v(c.mach_max) + "): start slower (or raise mach_max)");
   }

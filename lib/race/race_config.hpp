@@ -22,6 +22,10 @@ enum class GoalFrame { kWorld, kTrack };
 // The middle bin of an HL axis (the center-line lane): the neutral HL action, in one place.
 constexpr int center_hl_bin(int hl_bins) { return hl_bins / 2; }
 
+// The Mach governor's band (RaceConfig::mach_governor). A quarter as wide left too little margin
+// for a dive: the pilots held the throttle back (docs/notebook/80).
+inline constexpr double kGovernorBandMach = 0.04;
+
 struct RaceConfig {
   int n_env = 64;
   int team_size = 4;                 // aircraft per team; two teams, blue (0) and red (1)
@@ -59,11 +63,10 @@ struct RaceConfig {
   // (cause "envelope"; 0: no limit). docs/race.md "The envelope" gives the sources.
   double mach_max = 0.6;
   // A governor in the fly-by-wire throttle path keeps the aircraft below mach_max: the throttle
-  // the policy commands is capped, from full below mach_max - 0.01 - governor_band_mach to idle
-  // at mach_max - 0.01. The cap is proportional: an aircraft settles governor_band_mach x its
+  // the policy commands is capped, from full below mach_max - 0.01 - kGovernorBandMach to idle
+  // at mach_max - 0.01. The cap is proportional: an aircraft settles kGovernorBandMach x its
   // throttle below the top, so one with more drag settles lower (docs/notebook/78).
   bool mach_governor = true;
-  double governor_band_mach = 0.04;
   // The `autopilot` baseline's airspeed set point (tournament, replay, race); 0: start_speed_ftps.
   // Tuned over set points against the start speed (docs/race.md "The autopilot baseline").
   double autopilot_airspeed_ftps = 640.0;

@@ -22,8 +22,8 @@ namespace {
 // The most throttle the Mach governor lets through: all of it below mach_max - 0.01 - band, none
 // from mach_max - 0.01 on, linear between; the engine's lag and a dive make up the last 0.01.
 // Proportional, so where thrust meets drag an aircraft settles at mach_max - 0.01 - band x throttle.
-double governor_throttle_limit(double mach, double mach_max, double band) {
-  return std::clamp((mach_max - 0.01 - mach) / band, 0.0, 1.0);
+double governor_throttle_limit(double mach, double mach_max) {
+  return std::clamp((mach_max - 0.01 - mach) / kGovernorBandMach, 0.0, 1.0);
 }
 
 // Element counts of the observation buffers, and the bytes of all of them plus their final
@@ -235,7 +235,7 @@ void RaceEnv::apply_actions(int i0, int i1, const float* actions) {
     double throttle = 0.5 * (la[0] + 1.0);
     // Mach of the state the step starts from (the envelope check reads the state it ends in).
     if (c.mach_governor)
-      throttle = std::min(throttle, governor_throttle_limit(aircraft_mach(sim_, i), c.mach_max, c.governor_band_mach));
+      throttle = std::min(throttle, governor_throttle_limit(aircraft_mach(sim_, i), c.mach_max));
     sim_.ref(kThrottleDelta)[i] = throttle - lqr::kThrottleEquil;
     sim_.ref(kNzRef)[i] = c.nz_ref_min_g + 0.5 * (la[1] + 1.0) * (c.nz_ref_max_g - c.nz_ref_min_g);
     sim_.ref(kPsRef)[i] = la[2] * c.ps_ref_max_radps;

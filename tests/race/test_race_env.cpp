@@ -381,41 +381,37 @@ TEST(RaceEnv, AutopilotPilotFinishesFourVsFourRacesWithMostAircraftAlive) {
 }
 
 // The governor is proportional: full throttle in level flight settles inside the band, at
-// mach_max - 0.01 - band x throttle, so a narrower band settles nearer the top, steadily (no
-// limit cycle through the engine's lag) and inside the envelope.
-TEST(RaceEnv, NarrowerGovernorBandSettlesNearerTheTop) {
-  double settled[2] = {};
-  const double bands[2] = {0.04, 0.01};
-  for (int b = 0; b < 2; ++b) {
-    RaceConfig c = small_config(1, 1);
-    c.governor_band_mach = bands[b];
-    c.tube_grace_s = 1e6;
-    c.turn_rate_max_dps = 1e3;
-    c.time_limit_s = 1e3;
-    RaceEnv env(c);
-    auto mach = [&](int i) { return dynamics::air_data(env.sim().state(dynamics::kVt)[i], env.sim().state(kAlt)[i]).mach; };
-    std::vector<float> a(2 * kActionDim);
-    for (int i = 0; i < 2; ++i) {
-      a[i * 3 + 0] = 1.0f;
-      a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
-    }
-    double lo[2] = {1.0, 1.0}, hi[2] = {0.0, 0.0}, sum[2] = {};
-    for (int s = 0; s < 500; ++s) {  // 40 s, inside the track; the last 10 s measured
-      const StepStats st = env.step(a.data());
-      for (int q = 1; q < kNumCauses; ++q) ASSERT_EQ(st.terminations[q], 0) << "band " << bands[b] << " cause " << q;
-      for (int i = 0; i < 2 && s >= 375; ++i) {
-        lo[i] = std::min(lo[i], mach(i)), hi[i] = std::max(hi[i], mach(i)), sum[i] += mach(i) / 125.0;
-      }
-    }
-    const double top = c.mach_max - 0.01;
-    for (int i = 0; i < 2; ++i) {
-      EXPECT_LE(hi[i], c.mach_max) << "band " << bands[b];
-      EXPECT_GT(sum[i], top - bands[b]) << "band " << bands[b];
-      EXPECT_LT(hi[i] - lo[i], bands[b] / 4.0) << "band " << bands[b] << ": a limit cycle";
-    }
-    settled[b] = std::min(sum[0], sum[1]);
+// mach_max - 0.01 - band x throttle, steadily (no limit cycle through the engine's lag) and
+// inside the envelope.
+TEST(RaceEnv, FullThrottleSettlesSteadilyInsideTheGovernorBand) {
+  RaceConfig c = small_config(1, 1);
+  c.tube_grace_s = 1e6;
+  c.turn_rate_max_dps = 1e3;
+  c.time_limit_s = 1e3;
+  RaceEnv env(c);
+  auto mach = [&](int i) { return dynamics::air_data(env.sim().state(dynamics::kVt)[i], env.sim().state(kAlt)[i]).mach; };
+  std::vector<float> a(2 * kActionDim);
+  for (int i = 0; i < 2; ++i) {
+    a[i * 3 + 0] = 1.0f;
+    a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
   }
-  EXPECT_GT(settled[1], settled[0] + 0.002);
+  double lo[2] = {1.0, 1.0}, hi[2] = {0.0, 0.0}, mean[2] = {};
+  for (int s = 0; s < 500; ++s) {  // 40 s, inside the track; the last 10 s measured
+    const StepStats st = env.step(a.data());
+    for (int q = 1; q < kNumCauses; ++q) ASSERT_EQ(st.terminations[q], 0) << "cause " << q;
+    for (int i = 0; i < 2 && s >= 375; ++i) {
+      lo[i] = std::min(lo[i], mach(i)), hi[i] = std::max(hi[i], mach(i)), mean[i] += mach(i) / 125.0;
+    }
+  }
+  const double top = c.mach_max - 0.01;
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_LE(hi[i], c.mach_max);
+    EXPECT_GT(mean[i], top - kGovernorBandMach);
+    EXPECT_LT(mean[i], top);
+    EXPECT_LT(hi[i] - lo[i], kGovernorBandMach / 4.0) << "a limit cycle";
+  }
+  // Measured before notebook 80: 0.5830, about 0.18 of the band below the top.
+  EXPECT_NEAR(std::min(mean[0], mean[1]), 0.5830, 0.0005);
 }
 
 }  // namespace
@@ -810,7 +806,6 @@ TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
       {"{start_speed_ftps: 600}", "start_speed_ftps (600) is Mach 0.572 at 16800 ft, too close to mach_max (0.6)"},
       {"{mach_max: 0.1}", "mach_max (0.1) must be 0 (no limit) or >= 0.2"},
       {"{mach_max: 0}", "mach_governor needs a mach_max > 0"},
-      {"{governor_band_mach: 0.5}", "governor_band_mach"},
   };
   for (const auto& [yaml, message] : cases) {
     const std::string e = race_config_error(yaml);
