@@ -19,9 +19,10 @@ using namespace f16race::dynamics;
 
 namespace {
 
-// The most throttle the Mach governor lets through: all of it below mach_max - 0.01 - band, none
-// from mach_max - 0.01 on, linear between; the engine's lag and a dive make up the last 0.01.
-// Proportional, so where thrust meets drag an aircraft settles at mach_max - 0.01 - band x throttle.
+// The most throttle the Mach governor lets through: all of it below mach_max - 0.01 - band
+// (kGovernorBandMach), none from mach_max - 0.01 on, linear between; the engine's lag and a dive
+// make up the last 0.01. Proportional, so where thrust meets drag an aircraft settles at
+// mach_max - 0.01 - band x throttle.
 double governor_throttle_limit(double mach, double mach_max) {
   return std::clamp((mach_max - 0.01 - mach) / kGovernorBandMach, 0.0, 1.0);
 }
