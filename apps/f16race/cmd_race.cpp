@@ -17,6 +17,7 @@
 #include "race/race_env.hpp"
 #include "race/race_recorder.hpp"
 #include "race/scripted_pilot.hpp"
+#include "race/track_line.hpp"
 
 namespace f16race::app {
 namespace {
@@ -89,10 +90,11 @@ StepStats fly_races(RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, R
 void report_races(const RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, const RaceRecorder& rec,
                   const StepStats& totals) {
   const int n_agent = env.n_agent();
-  std::vector<std::vector<double>> cols(5);
+  std::vector<std::vector<double>> cols(8);
   std::vector<std::string> reasons;
   std::vector<std::vector<std::string>> scols(1);
   int alive_total = 0, blue_wins = 0, draws = 0;
+  double saved_sum = 0.0, saved_half_sum = 0.0;
   for (int e = 0; e < cfg.n_env; ++e) {
     const RaceTrace& r = rec.trace(e);
     blue_wins += r.winner == 0;
@@ -104,21 +106,36 @@ void report_races(const RaceEnv& env, const RaceConfig& cfg, const RaceOptions& 
     cols[2].push_back(r.winner);
     cols[3].push_back(alive);
     cols[4].push_back(r.track.length_ft());
+    // The race's stretch, start to finish line: what the best line could save at equal speed.
+    // Also within half the radius: a line that keeps clear of the wall.
+    const double s1 = r.track.length_ft() - cfg.finish_margin_ft;
+    const TubeLine line = shortest_tube_line(r.track, {cfg.start_s_ft, s1});
+    const TubeLine half = shortest_tube_line(r.track, {cfg.start_s_ft, s1, 0.5});
+    cols[5].push_back(line.center_ft);
+    cols[6].push_back(line.shortest_ft);
+    cols[7].push_back(half.shortest_ft);
+    saved_sum += 1.0 - line.shortest_ft / line.center_ft;
+    saved_half_sum += 1.0 - half.shortest_ft / half.center_ft;
     reasons.push_back(end_reason_name(r.end));
     std::string causes;
     for (int a = 0; a < n_agent; ++a) causes += (a ? ";" : "") + std::string(cause_name(r.cause[a]));
     scols[0].push_back(causes);
   }
   scols.push_back(reasons);
-  io::write_csv(o.out + "/races.csv", {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft"}, cols,
-                {"terminations", "end"}, scols);
+  io::write_csv(o.out + "/races.csv",
+                {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft", "center_line_ft", "shortest_line_ft",
+                 "shortest_line_half_radius_ft"},
+                cols, {"terminations", "end"}, scols);
   std::printf("%d races (%d vs %d, %s pilot, seed %llu): %d of %d aircraft alive at the end\n", cfg.n_env,
               cfg.team_size, cfg.team_size, o.policy.c_str(), static_cast<unsigned long long>(cfg.seed), alive_total,
               cfg.n_env * n_agent);
   std::printf("blue won %d, red %d, drawn %d\n", blue_wins, cfg.n_env - blue_wins - draws, draws);
   std::printf("terminations:");
   for (int k = 1; k < kNumCauses; ++k) std::printf(" %s %d", cause_name(k), totals.terminations[k]);
-  std::printf("\ntrajectories and tracks: %s/\n", o.out.c_str());
+  std::printf("\nshortest line through the tube, start to finish: %.2f %% shorter than the center-line (mean); "
+              "within half the radius %.2f %%\n",
+              100.0 * saved_sum / cfg.n_env, 100.0 * saved_half_sum / cfg.n_env);
+  std::printf("trajectories and tracks: %s/\n", o.out.c_str());
 }
 
 // --plot: one race's trace as CSV, Tacview file and figure.

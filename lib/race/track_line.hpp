@@ -1,0 +1,25 @@
+#pragma once
+// The shortest line through a stretch of a track's tube: a taut string held inside every
+// cross-section. What the best line could save over the center-line, at equal speed, is the
+// ceiling on what a pilot gains by its line alone (docs/notebook/82).
+#include "race/track.hpp"
+
+namespace f16race::race {
+
+struct TubeLineInputs {
+  double s0_ft = 0.0;        // start of the stretch (arc length along the center-line)
+  double s1_ft = 0.0;        // its end
+  double inset_frac = 0.0;   // the line keeps (1 - inset_frac) x the local radius from the center
+  double step_ft = 250.0;    // cross-sections this far apart along the center-line
+  int max_sweeps = 200000;   // sweeps at most; it stops once no point moves 1e-5 ft in a sweep
+};
+
+struct TubeLine {
+  double center_ft = 0.0;    // length of the center-line polyline through the same cross-sections
+  double shortest_ft = 0.0;  // length of the taut line
+  int sweeps = 0;            // relaxation sweeps it took
+};
+
+TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in);
+
+}  // namespace f16race::race
