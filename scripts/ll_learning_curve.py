@@ -84,7 +84,7 @@ def read(keep_dir, final_dir):
     if not seeds:
         fail(f"{keep_dir}: no sS_step_N.json files (run with --keep first)")
     slopes, firsts, finals, tube = [], [], [], {}
-    print("| seed | " + " | ".join(["@center vs autopilot at M steps (tube lost per race)"] * 1) + " | final | slope per M |")
+    print("| seed | @center vs autopilot at M steps (tube lost per race) | final | slope per M |")
     print("|---|---|---|---|")
     for s in sorted(seeds):
         pts = sorted(seeds[s], key=lambda d: d["env_steps"])

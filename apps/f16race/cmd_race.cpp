@@ -123,8 +123,8 @@ void report_races(const RaceEnv& env, const RaceConfig& cfg, const RaceOptions& 
   }
   scols.push_back(reasons);
   io::write_csv(o.out + "/races.csv",
-                {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft", "center_line_ft", "shortest_line_ft",
-                 "shortest_line_half_radius_ft"},
+                {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft", "center_line_ft",
+                 "shortest_line_ft", "shortest_line_half_radius_ft"},
                 cols, {"terminations", "end"}, scols);
   std::printf("%d races (%d vs %d, %s pilot, seed %llu): %d of %d aircraft alive at the end\n", cfg.n_env,
               cfg.team_size, cfg.team_size, o.policy.c_str(), static_cast<unsigned long long>(cfg.seed), alive_total,
