@@ -25,36 +25,80 @@ double polyline_ft(const std::vector<Vec3>& p) {
   return sum;
 }
 
-}  // namespace
+// The cross-sections of a stretch, n of them evenly spaced, and their radii (inset applied).
+struct Sections {
+  std::vector<TrackFrame> frames;
+  std::vector<double> radius;
+};
+
+Sections sections(const Track& track, const TubeLineInputs& in, int n) {
+  Sections s{std::vector<TrackFrame>(n), std::vector<double>(n)};
+  for (int k = 0; k < n; ++k) {
+    s.frames[k] = track.frame_at(in.s0_ft + (in.s1_ft - in.s0_ft) * k / (n - 1));
+    s.radius[k] = (1.0 - in.inset_frac) * s.frames[k].radius_ft;
+  }
+  return s;
+}
 
 // Gauss-Seidel relaxation of a string: each point moves to the point of its cross-section nearest
 // to the midpoint of its neighbours (the two ends to their one neighbour: the start and the
 // finish are whole cross-sections, not points). Each move shortens the string, so it converges
-// to the taut line; straight free stretches converge slowest, hence the sweep budget.
-TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in) {
-  const int n = std::max(2, static_cast<int>(std::ceil((in.s1_ft - in.s0_ft) / in.step_ft)) + 1);
-  std::vector<TrackFrame> frames(n);
-  std::vector<double> radius(n);
-  std::vector<Vec3> p(n);
-  for (int k = 0; k < n; ++k) {
-    frames[k] = track.frame_at(in.s0_ft + (in.s1_ft - in.s0_ft) * k / (n - 1));
-    radius[k] = (1.0 - in.inset_frac) * frames[k].radius_ft;
-    p[k] = frames[k].center;
-  }
-  TubeLine out;
-  out.center_ft = polyline_ft(p);
-  for (out.sweeps = 0; out.sweeps < in.max_sweeps;) {
-    ++out.sweeps;
+// to the taut line. Returns the sweeps it took.
+int relax(const Sections& s, std::vector<Vec3>* points, int max_sweeps) {
+  std::vector<Vec3>& p = *points;
+  const int n = static_cast<int>(p.size());
+  int sweeps = 0;
+  while (sweeps < max_sweeps) {
+    ++sweeps;
     double moved = 0.0;
     for (int k = 0; k < n; ++k) {
       const Vec3 target = k == 0 ? p[1] : k == n - 1 ? p[n - 2] : 0.5 * (p[k - 1] + p[k + 1]);
-      const Vec3 q = nearest_in_section(frames[k], radius[k], target);
+      const Vec3 q = nearest_in_section(s.frames[k], s.radius[k], target);
       moved = std::max(moved, norm(q - p[k]));
       p[k] = q;
     }
     if (moved < 1e-5) break;
   }
-  out.shortest_ft = polyline_ft(p);
+  return sweeps;
+}
+
+}  // namespace
+
+// Straight free stretches relax slowest (their error halves only every ~n^2 / 4 sweeps), so the
+// string is first relaxed on sections 16, 8, 4 and 2 times as far apart, each level started
+// from the one before (its offsets in the sections, interpolated along the track).
+TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in) {
+  const int n = std::max(2, static_cast<int>(std::ceil((in.s1_ft - in.s0_ft) / in.step_ft)) + 1);
+  TubeLine out;
+  std::vector<double> lat, vert;  // the previous level's offsets, right and up [ft]
+  for (int coarsen = 16; coarsen >= 1; coarsen /= 2) {
+    const int m = coarsen == 1 ? n : (n - 1) / coarsen + 1;
+    if (m < 3 && coarsen > 1) continue;
+    const Sections s = sections(track, in, m);
+    std::vector<Vec3> p(m);
+    for (int k = 0; k < m; ++k) {
+      double y = 0.0, z = 0.0;
+      if (!lat.empty()) {  // linear in the fraction of the stretch
+        const double x = static_cast<double>(k) / (m - 1) * (lat.size() - 1);
+        const std::size_t j = std::min(static_cast<std::size_t>(x), lat.size() - 2);
+        y = lat[j] + (x - j) * (lat[j + 1] - lat[j]), z = vert[j] + (x - j) * (vert[j + 1] - vert[j]);
+      }
+      const TrackFrame& f = s.frames[k];
+      p[k] = nearest_in_section(f, s.radius[k], f.center + y * f.right + z * f.up);
+    }
+    if (coarsen == 1) {
+      std::vector<Vec3> c(m);
+      for (int k = 0; k < m; ++k) c[k] = s.frames[k].center;
+      out.center_ft = polyline_ft(c);
+    }
+    out.sweeps += relax(s, &p, in.max_sweeps - out.sweeps);
+    lat.resize(m), vert.resize(m);
+    for (int k = 0; k < m; ++k) {
+      lat[k] = dot(p[k] - s.frames[k].center, s.frames[k].right);
+      vert[k] = dot(p[k] - s.frames[k].center, s.frames[k].up);
+    }
+    if (coarsen == 1) out.shortest_ft = polyline_ft(p);
+  }
   return out;
 }
 
