@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "commands.hpp"
@@ -33,6 +34,7 @@ struct RaceOptions {
   long long seed = -1;
   int plot_race = 0;
   std::vector<double> airspeeds;  // the pilots' set points: one for all, or blue's and red's
+  bool lines = false;             // also each track's shortest line (docs/notebook/82; ~20 ms a track)
 };
 
 // The race config with the command line's overrides, checked before any race is flown.
@@ -86,15 +88,38 @@ StepStats fly_races(RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, R
   return totals;
 }
 
+// --lines: the race's stretch, start to finish line, measured three ways (center-line, the taut
+// line in the tube, the taut line within half the radius): what the best line could save at
+// equal speed. Appends the columns; returns the mean savings.
+std::pair<double, double> add_line_columns(const RaceRecorder& rec, const RaceConfig& cfg,
+                                           std::vector<std::string>* names, std::vector<std::vector<double>>* cols) {
+  names->insert(names->end(), {"center_line_ft", "shortest_line_ft", "shortest_line_half_radius_ft"});
+  cols->resize(cols->size() + 3);
+  double saved = 0.0, saved_half = 0.0;
+  const std::size_t c0 = cols->size() - 3;
+  for (int e = 0; e < cfg.n_env; ++e) {
+    const Track& track = rec.trace(e).track;
+    const double s1 = track.length_ft() - cfg.finish_margin_ft;
+    const TubeLine line = shortest_tube_line(track, {cfg.start_s_ft, s1});
+    const TubeLine half = shortest_tube_line(track, {cfg.start_s_ft, s1, 0.5});
+    (*cols)[c0].push_back(line.center_ft);
+    (*cols)[c0 + 1].push_back(line.shortest_ft);
+    (*cols)[c0 + 2].push_back(half.shortest_ft);
+    saved += 1.0 - line.shortest_ft / line.center_ft;
+    saved_half += 1.0 - half.shortest_ft / half.center_ft;
+  }
+  return {saved / cfg.n_env, saved_half / cfg.n_env};
+}
+
 // races.csv (winner and end reason as the env decided them) and the summary lines.
 void report_races(const RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, const RaceRecorder& rec,
                   const StepStats& totals) {
   const int n_agent = env.n_agent();
-  std::vector<std::vector<double>> cols(8);
+  std::vector<std::string> names = {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft"};
+  std::vector<std::vector<double>> cols(5);
   std::vector<std::string> reasons;
   std::vector<std::vector<std::string>> scols(1);
   int alive_total = 0, blue_wins = 0, draws = 0;
-  double saved_sum = 0.0, saved_half_sum = 0.0;
   for (int e = 0; e < cfg.n_env; ++e) {
     const RaceTrace& r = rec.trace(e);
     blue_wins += r.winner == 0;
@@ -106,35 +131,26 @@ void report_races(const RaceEnv& env, const RaceConfig& cfg, const RaceOptions& 
     cols[2].push_back(r.winner);
     cols[3].push_back(alive);
     cols[4].push_back(r.track.length_ft());
-    // The race's stretch, start to finish line: what the best line could save at equal speed.
-    // Also within half the radius: a line that keeps clear of the wall.
-    const double s1 = r.track.length_ft() - cfg.finish_margin_ft;
-    const TubeLine line = shortest_tube_line(r.track, {cfg.start_s_ft, s1});
-    const TubeLine half = shortest_tube_line(r.track, {cfg.start_s_ft, s1, 0.5});
-    cols[5].push_back(line.center_ft);
-    cols[6].push_back(line.shortest_ft);
-    cols[7].push_back(half.shortest_ft);
-    saved_sum += 1.0 - line.shortest_ft / line.center_ft;
-    saved_half_sum += 1.0 - half.shortest_ft / half.center_ft;
     reasons.push_back(end_reason_name(r.end));
     std::string causes;
     for (int a = 0; a < n_agent; ++a) causes += (a ? ";" : "") + std::string(cause_name(r.cause[a]));
     scols[0].push_back(causes);
   }
   scols.push_back(reasons);
-  io::write_csv(o.out + "/races.csv",
-                {"race", "duration_s", "winner_team", "alive_at_end", "track_length_ft", "center_line_ft",
-                 "shortest_line_ft", "shortest_line_half_radius_ft"},
-                cols, {"terminations", "end"}, scols);
+  std::pair<double, double> saved{};
+  if (o.lines) saved = add_line_columns(rec, cfg, &names, &cols);
+  io::write_csv(o.out + "/races.csv", names, cols, {"terminations", "end"}, scols);
   std::printf("%d races (%d vs %d, %s pilot, seed %llu): %d of %d aircraft alive at the end\n", cfg.n_env,
               cfg.team_size, cfg.team_size, o.policy.c_str(), static_cast<unsigned long long>(cfg.seed), alive_total,
               cfg.n_env * n_agent);
   std::printf("blue won %d, red %d, drawn %d\n", blue_wins, cfg.n_env - blue_wins - draws, draws);
   std::printf("terminations:");
   for (int k = 1; k < kNumCauses; ++k) std::printf(" %s %d", cause_name(k), totals.terminations[k]);
-  std::printf("\nshortest line through the tube, start to finish: %.2f %% shorter than the center-line (mean); "
-              "within half the radius %.2f %%\n",
-              100.0 * saved_sum / cfg.n_env, 100.0 * saved_half_sum / cfg.n_env);
+  std::printf("\n");
+  if (o.lines)
+    std::printf("shortest line through the tube, start to finish: %.2f %% shorter than the center-line (mean); "
+                "within half the radius %.2f %%\n",
+                100.0 * saved.first, 100.0 * saved.second);
   std::printf("trajectories and tracks: %s/\n", o.out.c_str());
 }
 
@@ -173,6 +189,7 @@ void add_race_command(CLI::App& app) {
   cmd->add_option("--races", o->races, "Number of races (run in parallel)")->check(CLI::Range(1, 100000));
   cmd->add_option("--seed", o->seed, "Seed (default: the config's race.seed)")->check(kNonNegativeSeed);
   cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)")->check(CLI::Range(-1, 100000));
+  cmd->add_flag("--lines", o->lines, "Also measure each track's shortest line through the tube (races.csv; ~20 ms a track)");
   cmd->add_option("--out", o->out, "Output folder");
   cmd->add_option("--airspeed", o->airspeeds,
                   "The pilots' airspeed set point [ft/s]: one for both teams, or blue's then red's (default: the "
