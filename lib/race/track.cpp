@@ -14,7 +14,6 @@ namespace {
 using dynamics::kDegToRad;
 using dynamics::kPi;
 
-double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
 Vec3 normalized(Vec3 a) {
   const double n = norm(a);
   return n > 0.0 ? (1.0 / n) * a : Vec3{1.0, 0.0, 0.0};

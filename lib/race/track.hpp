@@ -3,6 +3,7 @@
 // radius, resampled at a fixed arc-length spacing so queries for many aircraft are O(1) each.
 // Coordinates are AeroBench's: north, east, altitude (up), in feet.
 #include <algorithm>
+#include <cmath>
 #include <memory_resource>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@ inline Vec3 operator+(Vec3 a, Vec3 b) { return {a.n + b.n, a.e + b.e, a.u + b.u}
 inline Vec3 operator-(Vec3 a, Vec3 b) { return {a.n - b.n, a.e - b.e, a.u - b.u}; }
 inline Vec3 operator*(double k, Vec3 a) { return {k * a.n, k * a.e, k * a.u}; }
 inline double dot(Vec3 a, Vec3 b) { return a.n * b.n + a.e * b.e + a.u * b.u; }
+inline double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
 
 struct Waypoint {
   Vec3 p;            // [ft]

@@ -7,8 +7,6 @@ namespace f16race::race {
 
 namespace {
 
-double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
-
 // The point of cross-section f (its disc of radius r) nearest to `target`: the target projected
 // onto the section's plane, then pulled inside the disc.
 Vec3 nearest_in_section(const TrackFrame& f, double r, Vec3 target) {
