@@ -27,6 +27,15 @@ def fail(msg):
     sys.exit(2)
 
 
+def load_json(path):
+    """A kept file, or one line naming it when it is not JSON (a cut-off copy, a stray file)."""
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except json.JSONDecodeError as e:
+        fail(f"{path}: not a kept summary (JSON error at line {e.lineno}); keep it again with --keep")
+
+
 def against_autopilot(rows, entry):
     """Races of `entry` against `autopilot`, from either side: wins and aircraft lost per race."""
     n = wins = 0
@@ -79,8 +88,7 @@ def read(keep_dir, final_dir):
     seeds = {}
     for p in glob.glob(os.path.join(keep_dir, "s*_step_*.json")):
         s = int(re.match(r"s(\d+)_", os.path.basename(p)).group(1))
-        with open(p) as f:
-            seeds.setdefault(s, []).append(json.load(f))
+        seeds.setdefault(s, []).append(load_json(p))
     if not seeds:
         fail(f"{keep_dir}: no sS_step_N.json files (run with --keep first)")
     slopes, firsts, finals, tube = [], [], [], {}
@@ -91,8 +99,7 @@ def read(keep_dir, final_dir):
         final_path = os.path.join(final_dir, f"s{s}.json")
         if not os.path.isfile(final_path):
             fail(f"{final_path}: missing (the seed's kept summary)")
-        with open(final_path) as f:
-            final = json.load(f)["ll_center_vs_ap"]
+        final = load_json(final_path)["ll_center_vs_ap"]
         xs = [d["env_steps"] / 1e6 for d in pts] + [FINAL_STEPS / 1e6]
         ys = [d["center"]["wins"] / d["center"]["races"] for d in pts] + [final]
         b = slope(xs, ys)

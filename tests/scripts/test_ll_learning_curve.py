@@ -87,5 +87,8 @@ with tempfile.TemporaryDirectory() as tmp:
     r = run(keep_dir, final)
     assert r.returncode == 0 and ": still learning" in r.stdout, r.stdout
     one_line_error(run(os.path.join(tmp, "none"), final), "no sS_step_N.json files")
+    # A cut-off kept file: one line naming it.
+    open(os.path.join(keep_dir, "s3_step_0002000000.json"), "w").write('{"env_steps": 2000000, "center":')
+    one_line_error(run(keep_dir, final), "s3_step_0002000000.json: not a kept summary")
     one_line_error(run("--keep", t), "usage")
 print("OK")
