@@ -35,6 +35,9 @@ struct RaceOptions {
   int plot_race = 0;
   std::vector<double> airspeeds;  // the pilots' set points: one for all, or blue's and red's
   bool lines = false;             // also each track's shortest line (docs/notebook/82; ~20 ms a track)
+  // The autopilot's racing line per team: the fraction of the local tube radius its lanes may
+  // move onto the taut line (0: its start lanes; docs/notebook/83). One for both, or blue's and red's.
+  std::vector<double> line_fracs;
 };
 
 // The race config with the command line's overrides, checked before any race is flown.
@@ -52,6 +55,9 @@ RaceConfig race_config(const RaceOptions& o) {
     throw io::InputError("--plot " + std::to_string(o.plot_race) + ": there are " + std::to_string(cfg.n_env) +
                          " races (0 to " + std::to_string(cfg.n_env - 1) + "); draw one of them, or -1 for none");
   if (o.airspeeds.size() > 2) throw io::InputError("--airspeed: one set point for both teams, or blue's and red's");
+  if (o.line_fracs.size() > 2) throw io::InputError("--racing-line: one radius fraction for both teams, or blue's and red's");
+  if (!o.line_fracs.empty() && o.policy != "autopilot")
+    throw io::InputError("--racing-line: only the autopilot flies a racing line; add --policy autopilot");
   return cfg;
 }
 
@@ -64,10 +70,17 @@ StepStats fly_races(RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, R
   ScriptedPilotConfig pilot[2];
   AutopilotPilotConfig autopilot[2];
   std::vector<std::int64_t> rows[2];
+  std::vector<TubeLine> lines[2];  // [n_env] per team that flies a racing line
   for (int team = 0; team < 2; ++team) {
     const double given = o.airspeeds.empty() ? 0.0 : o.airspeeds[std::min<std::size_t>(team, o.airspeeds.size() - 1)];
     pilot[team].speed_ftps = given > 0.0 ? given : cfg.start_speed_ftps;
     autopilot[team].airspeed_ftps = given > 0.0 ? given : cfg.autopilot_airspeed();
+    const double frac = o.line_fracs.empty() ? 0.0 : o.line_fracs[std::min<std::size_t>(team, o.line_fracs.size() - 1)];
+    if (frac > 0.0) {
+      for (int e = 0; e < cfg.n_env; ++e)
+        lines[team].push_back(shortest_tube_line(env.track(e), {cfg.start_s_ft, env.track(e).length_ft() - cfg.finish_margin_ft, 1.0 - frac}));
+      autopilot[team].lines = &lines[team];
+    }
     for (int i = 0; i < n; ++i)
       if (RaceEnv::team_of(i % n_agent, cfg.team_size) == team) rows[team].push_back(i);
   }
@@ -191,6 +204,11 @@ void add_race_command(CLI::App& app) {
   cmd->add_option("--plot", o->plot_race, "Which race to draw (-1: none)")->check(CLI::Range(-1, 100000));
   cmd->add_flag("--lines", o->lines, "Also measure each track's shortest line through the tube (races.csv; ~20 ms a track)");
   cmd->add_option("--out", o->out, "Output folder");
+  cmd->add_option("--racing-line", o->line_fracs,
+                  "The autopilot's lanes shifted onto the taut line through the tube, allowed this fraction of the "
+                  "local radius from the lane: one for both teams, or blue's then red's (default 0: the start lanes)")
+      ->delimiter(',')
+      ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--airspeed", o->airspeeds,
                   "The pilots' airspeed set point [ft/s]: one for both teams, or blue's then red's (default: the "
                   "start speed; the autopilot's race.autopilot_airspeed_ftps)")

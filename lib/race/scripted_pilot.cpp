@@ -15,10 +15,14 @@ using namespace f16race::dynamics;
 namespace {
 // The point lookahead_ft ahead along the center-line, moved to lane_fraction of the aircraft's
 // start offset in the tube's cross-section there.
-Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_fraction) {
-  const TrackFrame fr = env.track(i / env.n_agent()).frame_at(env.progress_ft(i) + lookahead_ft);
-  return fr.center + (lane_fraction * env.start_lateral_ft(i)) * fr.right +
-         (lane_fraction * env.start_vertical_ft(i)) * fr.up;
+// With a racing line, its offset there is added.
+Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_fraction,
+                    const TubeLine* line = nullptr) {
+  const double s = env.progress_ft(i) + lookahead_ft;
+  const TrackFrame fr = env.track(i / env.n_agent()).frame_at(s);
+  const TubeLine::Offset w = line ? line->offset_at(s) : TubeLine::Offset{};
+  return fr.center + (lane_fraction * env.start_lateral_ft(i) + w.right_ft) * fr.right +
+         (lane_fraction * env.start_vertical_ft(i) + w.up_ft) * fr.up;
 }
 
 // The point lookahead_ft ahead along the center-line, in the lane of aircraft i's HL goal: its
@@ -77,7 +81,8 @@ void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& k, float*
   for (std::int64_t row = 0; row < n; ++row) {
     const int i = static_cast<int>(rows ? rows[row] : row);
     const Vec3 aim = k.follow_goal ? goal_lane_aim_point(env, i, k.lookahead_ft)
-                                   : lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction);
+                                   : lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction,
+                                                    k.lines ? &(*k.lines)[i / env.n_agent()] : nullptr);
     double x[kNumStates];
     for (int s = 0; s < kNumStates; ++s) x[s] = sim.state(s)[i];
     // One waypoint, always ahead: AeroBench's law as it flies toward its current waypoint.

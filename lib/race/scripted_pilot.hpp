@@ -4,7 +4,10 @@
 // to show without a trained policy, and is a baseline opponent.
 #include <cstdint>
 
+#include <vector>
+
 #include "race/race_env.hpp"
+#include "race/track_line.hpp"
 
 namespace f16race::race {
 
@@ -43,6 +46,9 @@ struct AutopilotPilotConfig {
   // HL goal, at the same fraction of the tube radius at the aim point as at the goal (a low
   // level that flies exactly what the high level asks: train.ll_pilot autopilot).
   bool follow_goal = false;
+  // Non-null (start lanes only): each env's racing line, [n_env], its offsets added to the lane:
+  // the team flies its lanes shifted onto the line (docs/notebook/83).
+  const std::vector<TubeLine>* lines = nullptr;
 };
 // As scripted_actions: the aircraft in `rows`, or all of them.
 void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& pilot, float* actions,

@@ -1,5 +1,6 @@
 #include "race/track_line.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -68,21 +69,18 @@ int relax(const Sections& s, std::vector<Vec3>* points, int max_sweeps) {
 TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in) {
   const int n = std::max(2, static_cast<int>(std::ceil((in.s1_ft - in.s0_ft) / in.step_ft)) + 1);
   TubeLine out;
-  std::vector<double> lat, vert;  // the previous level's offsets, right and up [ft]
+  out.s0_ft = in.s0_ft, out.s1_ft = in.s1_ft;
+  std::vector<double>& lat = out.right_ft;  // the previous level's offsets until the last level's
+  std::vector<double>& vert = out.up_ft;
   for (int coarsen = 16; coarsen >= 1; coarsen /= 2) {
     const int m = coarsen == 1 ? n : (n - 1) / coarsen + 1;
     if (m < 3 && coarsen > 1) continue;
     const Sections s = sections(track, in, m);
     std::vector<Vec3> p(m);
     for (int k = 0; k < m; ++k) {
-      double y = 0.0, z = 0.0;
-      if (!lat.empty()) {  // linear in the fraction of the stretch
-        const double x = static_cast<double>(k) / (m - 1) * (lat.size() - 1);
-        const std::size_t j = std::min(static_cast<std::size_t>(x), lat.size() - 2);
-        y = lat[j] + (x - j) * (lat[j + 1] - lat[j]), z = vert[j] + (x - j) * (vert[j + 1] - vert[j]);
-      }
+      const TubeLine::Offset o = out.offset_at(in.s0_ft + (in.s1_ft - in.s0_ft) * k / (m - 1));
       const TrackFrame& f = s.frames[k];
-      p[k] = nearest_in_section(f, s.radius[k], f.center + y * f.right + z * f.up);
+      p[k] = nearest_in_section(f, s.radius[k], f.center + o.right_ft * f.right + o.up_ft * f.up);
     }
     if (coarsen == 1) {
       std::vector<Vec3> c(m);
@@ -98,6 +96,14 @@ TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in) {
     if (coarsen == 1) out.shortest_ft = polyline_ft(p);
   }
   return out;
+}
+
+TubeLine::Offset TubeLine::offset_at(double s_ft) const {
+  if (right_ft.size() < 2) return right_ft.empty() ? Offset{} : Offset{right_ft[0], up_ft[0]};
+  const double x = std::clamp((s_ft - s0_ft) / (s1_ft - s0_ft), 0.0, 1.0) * (right_ft.size() - 1);
+  const std::size_t j = std::min(static_cast<std::size_t>(x), right_ft.size() - 2);
+  const double w = x - j;
+  return {right_ft[j] + w * (right_ft[j + 1] - right_ft[j]), up_ft[j] + w * (up_ft[j + 1] - up_ft[j])};
 }
 
 }  // namespace f16race::race
