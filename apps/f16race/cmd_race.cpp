@@ -38,6 +38,7 @@ struct RaceOptions {
   // The autopilot's racing line per team: the fraction of the local tube radius its lanes may
   // move onto the taut line (0: its start lanes; docs/notebook/83). One for both, or blue's and red's.
   std::vector<double> line_fracs;
+  double line_max_offset = 1.0;  // a line's aim points held within this fraction of the radius
 };
 
 // The race config with the command line's overrides, checked before any race is flown.
@@ -80,6 +81,7 @@ StepStats fly_races(RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, R
       for (int e = 0; e < cfg.n_env; ++e)
         lines[team].push_back(shortest_tube_line(env.track(e), {cfg.start_s_ft, env.track(e).length_ft() - cfg.finish_margin_ft, 1.0 - frac}));
       autopilot[team].lines = &lines[team];
+      autopilot[team].line_max_offset_frac = o.line_max_offset;
     }
     for (int i = 0; i < n; ++i)
       if (RaceEnv::team_of(i % n_agent, cfg.team_size) == team) rows[team].push_back(i);
@@ -208,6 +210,10 @@ void add_race_command(CLI::App& app) {
                   "The autopilot's lanes shifted onto the taut line through the tube, allowed this fraction of the "
                   "local radius from the lane: one for both teams, or blue's then red's (default 0: the start lanes)")
       ->delimiter(',')
+      ->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--line-max-offset", o->line_max_offset,
+                  "On a racing line, the aim point's offset from the center-line held within this fraction of the "
+                  "local radius (default 1: not held)")
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--airspeed", o->airspeeds,
                   "The pilots' airspeed set point [ft/s]: one for both teams, or blue's then red's (default: the "

@@ -49,6 +49,9 @@ struct AutopilotPilotConfig {
   // Non-null (start lanes only): each env's racing line, [n_env], its offsets added to the lane:
   // the team flies its lanes shifted onto the line (docs/notebook/83).
   const std::vector<TubeLine>* lines = nullptr;
+  // On a line, the aim point's offset from the center-line is held within this fraction of the
+  // local radius (1: not held; docs/notebook/84).
+  double line_max_offset_frac = 1.0;
 };
 // As scripted_actions: the aircraft in `rows`, or all of them.
 void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& pilot, float* actions,
