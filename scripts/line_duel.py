@@ -19,8 +19,11 @@ RESAMPLES = 10000
 
 
 def races(folder):
-    with open(folder + "/races.csv", newline="") as f:
-        rows = list(csv.DictReader(f))
+    try:
+        with open(folder + "/races.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as e:
+        raise SystemExit(f"{folder}/races.csv: {e.strerror}; run `f16race race --racing-line ...` into it first")
     if not rows:
         raise SystemExit(f"{folder}/races.csv: no races; run `f16race race` into it first")
     return rows
@@ -76,7 +79,7 @@ def causes(flat, k):
 
 def main(argv):
     if len(argv) not in (2, 4) or (len(argv) == 4 and argv[2] != "--json"):
-        raise SystemExit(__doc__)
+        raise SystemExit("usage: scripts/line_duel.py LINE_BLUE_DIR LINE_RED_DIR [--json FILE]")
     ts = tracks(argv[0], argv[1])
     point = summary(ts)
     rng = random.Random(83)

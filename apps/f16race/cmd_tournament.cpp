@@ -35,7 +35,7 @@ std::string fingerprint(const eval::TournamentOptions& o) {
     << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
     << "\n--axis-controls " << o.axis_controls << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
-    << "\n--tracks " << o.tracks_config
+    << "\n--tracks " << o.tracks_config << "\n--goal-line " << o.goal_line_frac
     << "\n--out " << o.out_dir;
   return f.str();
 }
@@ -138,6 +138,10 @@ void add_tournament_command(CLI::App& app) {
                   "Race on this config's tracks and time limit (race.track, race.time_limit_s), e.g. configs/long.yaml; "
                   "default: the first run's")
       ->check(CLI::ExistingFile);
+  cmd->add_option("--goal-line", o->goal_line_frac,
+                  "Place every entry's goals around the racing line that keeps within this fraction of the tube "
+                  "radius (race.goal_line_frac; 0: the center-line); default: the first run's")
+      ->check(CLI::Range(0.0, 0.95));
   cmd->add_option("--out", o->out_dir,
                   "Output folder, replaced whole when the tournament is written (a folder holding other files than "
                   "a tournament's is refused)");

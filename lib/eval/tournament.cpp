@@ -399,6 +399,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     rc.track = t.race.track;
     rc.time_limit_s = t.race.time_limit_s;
   }
+  if (o.goal_line_frac >= 0.0) rc.goal_line_frac = o.goal_line_frac;
   res.race = rc;
   if (o.include_untrained) {
     pol.push_back(train::untrained_policy(pol.front().config, o.seed));

@@ -72,6 +72,9 @@ struct TournamentOptions {
   // Non-empty: race on this config file's tracks (race.track) and time limit (race.time_limit_s)
   // instead of the first run's, e.g. trained runs on configs/long.yaml's long tracks.
   std::string tracks_config;
+  // >= 0: every entry's goals placed around the racing line of this radius fraction
+  // (race.goal_line_frac; 0: the center-line) instead of the first run's setting.
+  double goal_line_frac = -1.0;
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams
   double epsilon = 0.0;           // HL exploration during evaluation

@@ -33,11 +33,35 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   const Vec3 cross = off - along;
   const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
   if (c > limit) off = along + (limit / c) * cross;
+  if (!lines_.empty()) {  // the bins around the racing line, the goal still inside the outer bins' radius
+    const TubeLine::Offset w = lines_[env].offset_at(goal_progress_ft_[i]);
+    off = off + w.right_ft * fr.right + w.up_ft * fr.up;
+    const Vec3 a = dot(off, fr.tangent) * fr.tangent, x = off - a;
+    const double cx = std::sqrt(dot(x, x));
+    if (cx > limit) off = a + (limit / cx) * x;
+  }
   goal_point_[i] = fr.center + off;
   goal_lateral_ft_[i] = dot(off, fr.right);
   goal_vertical_ft_[i] = dot(off, fr.up);
   const Vec3 d = goal_point_[i] - aircraft_position(sim_, i);
   goal_dist_ft_[i] = std::sqrt(dot(d, d));
+}
+
+void RaceEnv::goal_lane_here(int i, double* right_ft, double* up_ft) const {
+  *right_ft = goal_lateral_ft_[i];
+  *up_ft = goal_vertical_ft_[i];
+  if (lines_.empty()) return;
+  const TubeLine& line = lines_[i / n_agent_];
+  const TubeLine::Offset at_goal = line.offset_at(goal_progress_ft_[i]), here = line.offset_at(progress_ft_[i]);
+  *right_ft += here.right_ft - at_goal.right_ft;
+  *up_ft += here.up_ft - at_goal.up_ft;
+}
+
+void RaceEnv::compute_racing_line(int env) {
+  if (config_.goal_line_frac <= 0.0) return;
+  const Track& tr = tracks_[env];
+  lines_[env] = shortest_tube_line(
+      tr, {config_.start_s_ft, tr.length_ft() - config_.finish_margin_ft, 1.0 - config_.goal_line_frac});
 }
 
 void RaceEnv::set_hl_actions(const std::int64_t* bins) {

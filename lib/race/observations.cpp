@@ -213,10 +213,10 @@ void RaceEnv::write_goal_observation(int i) {
   const double ahead = std::min(goal_progress_ft_[i], tracks_[i / n_agent_].length_ft()) - progress_ft_[i];
   float* g = &goal_obs_[static_cast<std::size_t>(i) * kGoalDim];
   g[kGoalAhead] = static_cast<float>(std::clamp(ahead / config_.goal_ahead(), 0.0, 10.0));
-  g[kGoalLaneRight] =
-      static_cast<float>(std::clamp((goal_lateral_ft_[i] - lateral_ft_[i]) / radius_ft_[i], -10.0, 10.0));
-  g[kGoalLaneUp] =
-      static_cast<float>(std::clamp((goal_vertical_ft_[i] - vertical_ft_[i]) / radius_ft_[i], -10.0, 10.0));
+  double right_ft, up_ft;
+  goal_lane_here(i, &right_ft, &up_ft);
+  g[kGoalLaneRight] = static_cast<float>(std::clamp((right_ft - lateral_ft_[i]) / radius_ft_[i], -10.0, 10.0));
+  g[kGoalLaneUp] = static_cast<float>(std::clamp((up_ft - vertical_ft_[i]) / radius_ft_[i], -10.0, 10.0));
 }
 
 void RaceEnv::copy_final_observations(int env) {

@@ -91,6 +91,11 @@ struct RaceConfig {
   // horizon with the same bins, so a long HL interval (20 s covers ~16 000 ft) keeps a goal
   // ahead instead of one it has flown past. 0: never.
   double goal_refresh_ft = 3000.0;
+  // > 0: the goals' bins are offsets from the team's racing line instead of the center-line (the
+  // middle bin on the line): the taut line through the tube from the start to the finish line,
+  // each point within this fraction of the local radius (race/track_line.hpp), computed once per
+  // race. A goal stays within goal_bin_scale x the radius. 0: the center-line (docs/notebook/85).
+  double goal_line_frac = 0.0;
 
   // Observations.
   int preview_points = 6;

@@ -123,6 +123,7 @@ RaceEnv::RaceEnv(const RaceConfig& config, int first_env_id)
         track_memory_->data() + slice_bytes * e, slice_bytes, std::pmr::new_delete_resource()));
     tracks_.emplace_back(track_slices_.back().get(), config_.track);
   }
+  if (config_.goal_line_frac > 0.0) lines_.resize(n_env());
   rng_.reserve(n_env());
   first_env_id_ = first_env_id;
   for (int e = 0; e < n_env(); ++e) rng_.emplace_back(config_.seed, static_cast<std::uint64_t>(first_env_id + e));

@@ -22,6 +22,7 @@
 #include "random/random_stream.hpp"
 #include "race/terminations.hpp"
 #include "race/track.hpp"
+#include "race/track_line.hpp"
 
 namespace f16race::race {
 
@@ -215,6 +216,11 @@ class RaceEnv {
   void write_task_observations(int env, const float* cos_psi, const float* sin_psi);
   void write_goal_observation(int i);
   double goal_lane_error_ft(int i) const;
+  // The lane aircraft i's goal asks for, at the aircraft's own cross-section: the goal's offsets,
+  // moved along with the racing line when goals are placed on one (race.goal_line_frac).
+  void goal_lane_here(int i, double* right_ft, double* up_ft) const;
+  // Env's racing line for its race, when race.goal_line_frac > 0 (after a reset or a load).
+  void compute_racing_line(int env);
   // Places again at the horizon, with the same bins, the goals their live aircraft have (nearly) reached.
   void refresh_reached_goals(int env);
   // Pushes apart, across the track, the goals of env's live teammates closer than
@@ -239,6 +245,7 @@ class RaceEnv {
   std::unique_ptr<HugePageMemory> track_memory_;
   std::vector<std::unique_ptr<std::pmr::monotonic_buffer_resource>> track_slices_;
   std::vector<Track> tracks_;
+  std::vector<TubeLine> lines_;  // [n_env] the racing lines (race.goal_line_frac > 0), else empty
   std::vector<RandomStream> rng_;
   int first_env_id_ = 0;
   std::vector<double> time_s_, hl_time_left_s_;

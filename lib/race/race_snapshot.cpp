@@ -69,6 +69,7 @@ void RaceEnv::load_state(std::istream& in) {
     std::vector<Waypoint> wp;
     for (std::int64_t k = 0; k < n; k += 4) wp.push_back({{w[k], w[k + 1], w[k + 2]}, w[k + 3]});
     tracks_[e] = Track::from_waypoints(std::move(wp), config_.track.spacing_ft);
+    compute_racing_line(e);
   }
   visit_arrays(*this, [&](const char* name, auto& v, Extent, auto) { get_vec(in, &v, name); });
 }

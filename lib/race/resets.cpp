@@ -35,6 +35,7 @@ void RaceEnv::reseed_streams(std::uint64_t salt) {
 void RaceEnv::reset_env(int env) {
   RandomStream& rng = rng_[env];
   tracks_[env] = Track::generate(config_.track, rng);
+  compute_racing_line(env);
   const Track& tr = tracks_[env];
   time_s_[env] = 0.0;
   hl_time_left_s_[env] = 0.0;

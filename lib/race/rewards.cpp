@@ -64,7 +64,9 @@ double RaceEnv::separation_penalty(int i) const {
 
 double RaceEnv::goal_lane_error_ft(int i) const {
   // sqrt, not hypot: offsets are a few thousand feet, and hypot's overflow care costs per step.
-  const double dl = lateral_ft_[i] - goal_lateral_ft_[i], dv = vertical_ft_[i] - goal_vertical_ft_[i];
+  double right_ft, up_ft;
+  goal_lane_here(i, &right_ft, &up_ft);
+  const double dl = lateral_ft_[i] - right_ft, dv = vertical_ft_[i] - up_ft;
   return std::sqrt(dl * dl + dv * dv);
 }
 

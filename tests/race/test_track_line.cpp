@@ -50,6 +50,38 @@ TEST(TubeLine, CutsTheInsideOfABendWithinTheTube) {
   EXPECT_NEAR(half.shortest_ft, 17725.9, 0.5);
 }
 
+// The line's offsets describe the line measured: every point inside its section's disc, the
+// polyline through them as long as the line, the inside of the bend (right: the track turns from
+// north to east) taken at the corner, and offset_at linear between sections and held beyond the ends.
+TEST(TubeLine, OffsetsTraceTheLineInsideTheTube) {
+  const Track t = bend();
+  const double s0 = 1000.0, s1 = t.length_ft() - 1000.0;
+  const TubeLine half = shortest_tube_line(t, {s0, s1, 0.5});
+  const std::size_t n = half.right_ft.size();
+  ASSERT_EQ(half.up_ft.size(), n);
+  ASSERT_GT(n, 60u);
+  double len = 0.0;
+  Vec3 prev{};
+  for (std::size_t k = 0; k < n; ++k) {
+    const double s = s0 + (s1 - s0) * k / (n - 1);
+    const TrackFrame f = t.frame_at(s);
+    EXPECT_LE(std::hypot(half.right_ft[k], half.up_ft[k]), 0.5 * f.radius_ft + 1e-6);
+    const Vec3 p = f.center + half.right_ft[k] * f.right + half.up_ft[k] * f.up;
+    if (k > 0) len += dist(p, prev);
+    prev = p;
+  }
+  EXPECT_NEAR(len, half.shortest_ft, 1e-6);
+  // The corner (waypoint 2, at 10 000 ft along) on the inside, pressed against the half radius.
+  const TubeLine::Offset corner = half.offset_at(10000.0);
+  EXPECT_GT(corner.right_ft, 0.45 * 1000.0);
+  EXPECT_NEAR(corner.up_ft, 0.0, 1e-6);
+  const TubeLine::Offset a = half.offset_at(s0 - 500.0), b = half.offset_at(s1 + 500.0);
+  EXPECT_EQ(a.right_ft, half.right_ft.front());
+  EXPECT_EQ(b.right_ft, half.right_ft.back());
+  const double mid = s0 + (s1 - s0) * 10.5 / (n - 1);
+  EXPECT_NEAR(half.offset_at(mid).right_ft, 0.5 * (half.right_ft[10] + half.right_ft[11]), 1e-9);
+}
+
 // On drawn tracks (the default's six legs) the relaxation ends well inside its budget, and the
 // taut line does not depend on the cross-sections' spacing: halving it changes the length by
 // under 0.05 % of the center-line (the saving is ~2-4 %).
