@@ -43,7 +43,7 @@ Sections sections(const Track& track, const TubeLineInputs& in, int n) {
 // to the midpoint of its neighbours (the two ends to their one neighbour: the start and the
 // finish are whole cross-sections, not points). Each move shortens the string, so it converges
 // to the taut line. Returns the sweeps it took.
-int relax(const Sections& s, std::vector<Vec3>* points, int max_sweeps) {
+int relax(const Sections& s, std::vector<Vec3>* points, int max_sweeps, double tolerance_ft) {
   std::vector<Vec3>& p = *points;
   const int n = static_cast<int>(p.size());
   int sweeps = 0;
@@ -56,7 +56,7 @@ int relax(const Sections& s, std::vector<Vec3>* points, int max_sweeps) {
       moved = std::max(moved, norm(q - p[k]));
       p[k] = q;
     }
-    if (moved < 1e-5) break;
+    if (moved < tolerance_ft) break;
   }
   return sweeps;
 }
@@ -87,7 +87,7 @@ TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in) {
       for (int k = 0; k < m; ++k) c[k] = s.frames[k].center;
       out.center_ft = polyline_ft(c);
     }
-    out.sweeps += relax(s, &p, in.max_sweeps - out.sweeps);
+    out.sweeps += relax(s, &p, in.max_sweeps - out.sweeps, in.tolerance_ft);
     lat.resize(m), vert.resize(m);
     for (int k = 0; k < m; ++k) {
       lat[k] = dot(p[k] - s.frames[k].center, s.frames[k].right);

@@ -13,7 +13,8 @@ struct TubeLineInputs {
   double s1_ft = 0.0;        // its end
   double inset_frac = 0.0;   // the line keeps (1 - inset_frac) x the local radius from the center
   double step_ft = 250.0;    // cross-sections this far apart along the center-line
-  int max_sweeps = 200000;   // sweeps at most; it stops once no point moves 1e-5 ft in a sweep
+  int max_sweeps = 200000;   // sweeps at most; it stops once no point moves tolerance_ft in a sweep
+  double tolerance_ft = 1e-5;
 };
 
 struct TubeLine {

@@ -22,6 +22,7 @@
 #include "random/random_stream.hpp"
 #include "race/scripted_pilot.hpp"
 #include "race/soak.hpp"
+#include "race/track_line.hpp"
 
 namespace f16race::race {
 namespace {
@@ -420,8 +421,14 @@ TEST(RaceEnv, FullThrottleSettlesSteadilyInsideTheGovernorBand) {
 namespace f16race::race {
 namespace {
 
-TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
+// With goals on a racing line too: the line is not in the snapshot, it is drawn again from the
+// loaded track.
+class Snapshot : public ::testing::TestWithParam<double> {};
+INSTANTIATE_TEST_SUITE_P(RaceEnv, Snapshot, ::testing::Values(0.0, 0.25));
+
+TEST_P(Snapshot, RestoresABitIdenticalContinuation) {
   RaceConfig c = small_config(3, 2);
+  c.goal_line_frac = GetParam();
   RaceEnv a(c), b(c);
   RandomStream rng(3, 3);
   std::vector<float> act(static_cast<std::size_t>(a.n_aircraft()) * kActionDim);
@@ -441,6 +448,7 @@ TEST(RaceEnv, SnapshotRestoresABitIdenticalContinuation) {
   drive(a, 400, r1);
   drive(b, 400, r2);
   EXPECT_EQ(0, std::memcmp(a.obs_task(), b.obs_task(), sizeof(float) * a.n_aircraft() * a.task_dim()));
+  EXPECT_EQ(0, std::memcmp(a.obs_goal(), b.obs_goal(), sizeof(float) * a.n_aircraft() * kGoalDim));
   EXPECT_EQ(0, std::memcmp(a.obs_ado(), b.obs_ado(), sizeof(float) * a.n_aircraft() * (a.n_agent() - 1) * kAdoDim));
   for (int i = 0; i < a.n_aircraft(); ++i) EXPECT_EQ(a.sim().state(kAlt)[i], b.sim().state(kAlt)[i]);
   std::stringstream bad("short");
@@ -680,6 +688,46 @@ TEST(RaceEnv, GoalFrameBinsMoveTheGoalAlongRightAndUpOrNorthEastUp) {
     EXPECT_NEAR(off.e, 0.0, 1e-6);
     EXPECT_NEAR(off.u, 0.0, 1e-6);
   }
+}
+
+// race.goal_line_frac: the middle bin's goal lies on the race's taut line (points within a quarter
+// of the radius), and the lane the goal observation and the lane reward measure from moves with
+// the line: at the aircraft's own cross-section it is the line there, not at the goal.
+TEST(RaceEnv, MiddleBinGoalsLieOnTheRacingLine) {
+  RaceConfig c = small_config(4, 4);
+  c.goal_min_separation_ft = 0.0;  // the line itself: teammates' goals are not pushed apart
+  c.goal_line_frac = 0.25;
+  RaceEnv env(c);
+  std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+  std::vector<float> act(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
+  for (int s = 0; s < 50; ++s) {  // into the race: the line leaves the center-line at the bends
+    env.set_hl_actions(bins.data());
+    scripted_actions(env, ScriptedPilotConfig{}, act.data());
+    env.step(act.data());
+  }
+  double moved = 0.0;
+  for (int i = 0; i < env.n_aircraft(); ++i) {
+    const Track& tr = env.track(i / env.n_agent());
+    ASSERT_NE(env.racing_line(i / env.n_agent()), nullptr);
+    const TubeLine& line = *env.racing_line(i / env.n_agent());
+    // The race's line: within a few feet of the converged taut line through a quarter of the radius.
+    const TubeLine taut = shortest_tube_line(tr, {c.start_s_ft, tr.length_ft() - c.finish_margin_ft, 0.75});
+    for (std::size_t k = 0; k < taut.right_ft.size(); ++k)
+      ASSERT_NEAR(line.right_ft[k], taut.right_ft[k], 5.0) << "section " << k;
+    const TubeLine::Offset at_goal = line.offset_at(env.goal_progress_ft(i)), here = line.offset_at(env.progress_ft(i));
+    EXPECT_NEAR(env.goal_lateral_ft(i), at_goal.right_ft, 1e-6);
+    EXPECT_NEAR(env.goal_vertical_ft(i), at_goal.up_ft, 1e-6);
+    EXPECT_LE(std::hypot(at_goal.right_ft, at_goal.up_ft), 0.25 * tr.radius_at(env.goal_progress_ft(i)) + 1e-6);
+    const float* g = env.obs_goal() + static_cast<std::size_t>(i) * kGoalDim;
+    const Vec3 p{env.sim().state(dynamics::kPn)[i], env.sim().state(dynamics::kPe)[i], env.sim().state(kAlt)[i]};
+    const TrackQuery q = tr.project(p, -1);
+    EXPECT_NEAR(g[kGoalLaneRight], (here.right_ft - q.lateral_ft) / q.radius_ft, 1e-4);
+    EXPECT_NEAR(g[kGoalLaneUp], (here.up_ft - q.vertical_ft) / q.radius_ft, 1e-4);
+    moved = std::max(moved, std::abs(at_goal.right_ft - here.right_ft));
+  }
+  EXPECT_GT(moved, 50.0);  // the line moves between the aircraft and its goal: the test tells them apart
+  c.goal_line_frac = 0.0;
+  EXPECT_EQ(RaceEnv(c).racing_line(0), nullptr);
 }
 
 // A built-in pilot given rows flies exactly those aircraft, with the actions it gives them when
