@@ -12,7 +12,7 @@
 # race.lane_error_average_s 8 (read and removed: a build of 46d4f04). Every seed of them is kept.
 # 77 race.goal_bin_scale 0.5 (narrower lanes; read); 78 race.governor_sets_throttle_at_cap and 79
 # that switch with 77's lanes (read and removed: a build of 0b55350); 80 race.governor_band_mach
-# 0.01 (read and removed: a build of c3a8ae5).
+# 0.01 (read and removed: a build of c3a8ae5). 86 race.goal_line_frac 0.25 (goals on a racing line).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -45,7 +45,8 @@ main() {
         78) jobs+=("78 on $s --set race.governor_sets_throttle_at_cap=true") ;;
         79) jobs+=("79 on $s --set race.governor_sets_throttle_at_cap=true --set race.goal_bin_scale=0.5") ;;
         80) jobs+=("80 on $s --set race.governor_band_mach=0.01") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79 or 80)" >&2; exit 2 ;;
+        86) jobs+=("86 on $s --set race.goal_line_frac=0.25") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80 or 86)" >&2; exit 2 ;;
       esac
     done
   done

@@ -11,6 +11,15 @@ namespace f16race::race {
 
 using dynamics::kPi;
 
+namespace {
+// `off` with its cross-track part (across the tangent of `fr`) clipped to `limit`.
+Vec3 clip_across(Vec3 off, const TrackFrame& fr, double limit) {
+  const Vec3 along = dot(off, fr.tangent) * fr.tangent, cross = off - along;
+  const double c = norm(cross);
+  return c > limit ? along + (limit / c) * cross : off;
+}
+}  // namespace
+
 void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   const int env = i / n_agent_;
   goal_progress_ft_[i] = progress_ft_[i] + config_.goal_ahead();
@@ -29,22 +38,16 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
   // choose lies inside the tube.
   Vec3 off{offset(bins[0]), offset(bins[1]), offset(bins[2])};
   if (config_.goal_frame == GoalFrame::kTrack) off = off.n * fr.tangent + off.e * fr.right + off.u * fr.up;
-  const Vec3 along = dot(off, fr.tangent) * fr.tangent;
-  const Vec3 cross = off - along;
-  const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
-  if (c > limit) off = along + (limit / c) * cross;
+  const double limit = config_.goal_bin_scale * fr.radius_ft;
+  off = clip_across(off, fr, limit);
   if (!lines_.empty()) {  // the bins around the racing line, the goal still inside the outer bins' radius
     const TubeLine::Offset w = lines_[env].offset_at(goal_progress_ft_[i]);
-    off = off + w.right_ft * fr.right + w.up_ft * fr.up;
-    const Vec3 a = dot(off, fr.tangent) * fr.tangent, x = off - a;
-    const double cx = std::sqrt(dot(x, x));
-    if (cx > limit) off = a + (limit / cx) * x;
+    off = clip_across(off + w.right_ft * fr.right + w.up_ft * fr.up, fr, limit);
   }
   goal_point_[i] = fr.center + off;
   goal_lateral_ft_[i] = dot(off, fr.right);
   goal_vertical_ft_[i] = dot(off, fr.up);
-  const Vec3 d = goal_point_[i] - aircraft_position(sim_, i);
-  goal_dist_ft_[i] = std::sqrt(dot(d, d));
+  goal_dist_ft_[i] = norm(goal_point_[i] - aircraft_position(sim_, i));
 }
 
 void RaceEnv::goal_lane_here(int i, double* right_ft, double* up_ft) const {
@@ -104,15 +107,13 @@ void RaceEnv::refresh_reached_goals(int env) {
 
 void RaceEnv::shift_goal(int i, double right_ft, double up_ft) {
   const TrackFrame fr = tracks_[i / n_agent_].frame_at(goal_progress_ft_[i]);
-  Vec3 off = goal_point_[i] - fr.center + right_ft * fr.right + up_ft * fr.up;
-  const Vec3 along = dot(off, fr.tangent) * fr.tangent, cross = off - along;
-  const double c = std::sqrt(dot(cross, cross)), limit = config_.goal_bin_scale * fr.radius_ft;
-  if (c > limit) off = along + (limit / c) * cross;  // at the outer bins' radius the best it can do
+  // At the outer bins' radius the best it can do.
+  const Vec3 off = clip_across(goal_point_[i] - fr.center + right_ft * fr.right + up_ft * fr.up, fr,
+                               config_.goal_bin_scale * fr.radius_ft);
   goal_point_[i] = fr.center + off;
   goal_lateral_ft_[i] = dot(off, fr.right);
   goal_vertical_ft_[i] = dot(off, fr.up);
-  const Vec3 d = goal_point_[i] - aircraft_position(sim_, i);
-  goal_dist_ft_[i] = std::sqrt(dot(d, d));  // the progress reward counts from the moved goal
+  goal_dist_ft_[i] = norm(goal_point_[i] - aircraft_position(sim_, i));  // the progress reward counts from the moved goal
 }
 
 void RaceEnv::separate_goals(int env, int mover) {
@@ -128,8 +129,7 @@ void RaceEnv::separate_goals(int env, int mover) {
         const int i = env * n_agent_ + a, j = env * n_agent_ + b;
         if (team_of(a, ts) != team_of(b, ts) || !alive_[i] || !alive_[j]) continue;
         if (mover >= 0 && i != mover && j != mover) continue;
-        const Vec3 d = goal_point_[i] - goal_point_[j];
-        const double dist = std::sqrt(dot(d, d));
+        const double dist = norm(goal_point_[i] - goal_point_[j]);
         if (dist >= sep) continue;
         double dr = goal_lateral_ft_[i] - goal_lateral_ft_[j], du = goal_vertical_ft_[i] - goal_vertical_ft_[j];
         if (dr * dr + du * du < 1e-6) {  // one point: part along the team slots' directions

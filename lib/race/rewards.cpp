@@ -26,7 +26,7 @@ void RaceEnv::pay_rewards(int env, const double* progress_before_ft) {
     }
     hl_reward_[i] = static_cast<float>(race::hl_reward(team_rank_[i], prev_ego_rank_[i], ego_rank_[i]));
     const Vec3 d = goal_point_[i] - aircraft_position(sim_, i);
-    const double gd = std::sqrt(dot(d, d));
+    const double gd = norm(d);
     double r = ll_reward_[i];  // already holds the action-change penalty
     r += c.w_goal_progress * (goal_dist_ft_[i] - gd) / c.goal_scale_ft;
     // Paid per start-speed step of progress (capped at 2: a projection jump at a corner pays no more).
@@ -56,7 +56,7 @@ double RaceEnv::separation_penalty(int i) const {
     const int j = env * n_agent_ + b;
     if (b == a || !alive_[j] || team_of(b, c.team_size) != team) continue;
     const Vec3 d = aircraft_position(sim_, i) - aircraft_position(sim_, j);
-    const double closeness = 1.0 - std::sqrt(dot(d, d)) / c.separation_ft;
+    const double closeness = 1.0 - norm(d) / c.separation_ft;
     if (closeness > 0.0) sum += closeness * closeness;
   }
   return c.w_separation * sum;
