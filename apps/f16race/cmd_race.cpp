@@ -35,8 +35,8 @@ struct RaceOptions {
   int plot_race = 0;
   std::vector<double> airspeeds;  // the pilots' set points: one for all, or blue's and red's
   bool lines = false;             // also each track's shortest line (docs/notebook/82; ~20 ms a track)
-  // The autopilot's racing line per team: the fraction of the local tube radius its lanes may
-  // move onto the taut line (0: its start lanes; docs/notebook/83). One for both, or blue's and red's.
+  // The autopilot's racing line per team: its lanes shifted by the taut line whose points keep
+  // within this fraction of the radius (0: its start lanes; docs/notebook/83). One for both, or blue's and red's.
   std::vector<double> line_fracs;
   double line_max_offset = 1.0;  // a line's aim points held within this fraction of the radius
 };
@@ -78,8 +78,10 @@ StepStats fly_races(RaceEnv& env, const RaceConfig& cfg, const RaceOptions& o, R
     autopilot[team].airspeed_ftps = given > 0.0 ? given : cfg.autopilot_airspeed();
     const double frac = o.line_fracs.empty() ? 0.0 : o.line_fracs[std::min<std::size_t>(team, o.line_fracs.size() - 1)];
     if (frac > 0.0) {
-      for (int e = 0; e < cfg.n_env; ++e)
-        lines[team].push_back(shortest_tube_line(env.track(e), {cfg.start_s_ft, env.track(e).length_ft() - cfg.finish_margin_ft, 1.0 - frac}));
+      for (int e = 0; e < cfg.n_env; ++e) {  // each env's first race: the one recorded
+        const Track& tr = env.track(e);
+        lines[team].push_back(shortest_tube_line(tr, {cfg.start_s_ft, tr.length_ft() - cfg.finish_margin_ft, 1.0 - frac}));
+      }
       autopilot[team].lines = &lines[team];
       autopilot[team].line_max_offset_frac = o.line_max_offset;
     }
@@ -207,8 +209,9 @@ void add_race_command(CLI::App& app) {
   cmd->add_flag("--lines", o->lines, "Also measure each track's shortest line through the tube (races.csv; ~20 ms a track)");
   cmd->add_option("--out", o->out, "Output folder");
   cmd->add_option("--racing-line", o->line_fracs,
-                  "The autopilot's lanes shifted onto the taut line through the tube, allowed this fraction of the "
-                  "local radius from the lane: one for both teams, or blue's then red's (default 0: the start lanes)")
+                  "The autopilot's lanes shifted by the taut line through the tube whose points keep within this "
+                  "fraction of the local radius of the center-line: one for both teams, or blue's then red's "
+                  "(default 0: the start lanes)")
       ->delimiter(',')
       ->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--line-max-offset", o->line_max_offset,

@@ -60,6 +60,8 @@ void RaceEnv::goal_lane_here(int i, double* right_ft, double* up_ft) const {
   *up_ft += here.up_ft - at_goal.up_ft;
 }
 
+// Once per race, not per step; the solver's few kilobytes of vectors are the one allocation a
+// reset makes (an experiment's switch: docs/notebook/86 decides whether it stays).
 void RaceEnv::compute_racing_line(int env) {
   if (config_.goal_line_frac <= 0.0) return;
   const Track& tr = tracks_[env];

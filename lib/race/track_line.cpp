@@ -99,7 +99,7 @@ TubeLine shortest_tube_line(const Track& track, const TubeLineInputs& in) {
 }
 
 TubeLine::Offset TubeLine::offset_at(double s_ft) const {
-  if (right_ft.size() < 2) return right_ft.empty() ? Offset{} : Offset{right_ft[0], up_ft[0]};
+  if (right_ft.size() < 2 || s1_ft <= s0_ft) return right_ft.empty() ? Offset{} : Offset{right_ft[0], up_ft[0]};
   const double x = std::clamp((s_ft - s0_ft) / (s1_ft - s0_ft), 0.0, 1.0) * (right_ft.size() - 1);
   const std::size_t j = std::min(static_cast<std::size_t>(x), right_ft.size() - 2);
   const double w = x - j;
