@@ -238,6 +238,14 @@ def main():
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
+        # The low level under the middle bin (notebook 86's mechanism) and the tube losses.
+        for name, get in (("its low level under the middle bin (@center) vs the autopilot", lambda p: p.get("ll_center_vs_ap")),
+                          ("run's team lost to the tube per race vs the autopilot", lambda p: p["lost"]["tube"])):
+            t, c = [get(p) for p in per if get(p) is not None], [get(p) for p in base if get(p) is not None]
+            if t and c:
+                d, lo, hi = difference_ci(t, c)
+                print(f"{name[0].upper() + name[1:]}: treatment {sum(t) / len(t):.3f}, control {sum(c) / len(c):.3f}, "
+                      f"difference {d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
         t_off = [p["center_offset"]["size"] for p in per if "center_offset" in p]
         c_off = [p["center_offset"]["size"] for p in base if "center_offset" in p]
         if t_off and c_off:
