@@ -126,6 +126,15 @@
     }
     scene.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(c),
                              new THREE.LineBasicMaterial({ color: 0xf2d04b, transparent: true, opacity: 0.7 })));
+    // The racing line the goals were placed around (race.goal_line_frac), when there is one.
+    const rl = D.racing_line;
+    if (rl) {
+      const q = rl.n.map((_, i) => new THREE.Vector3(rl.e[i], rl.u[i], -rl.n[i]));
+      const dashed = new THREE.Line(new THREE.BufferGeometry().setFromPoints(q),
+                                    new THREE.LineDashedMaterial({ color: 0x7cf29a, dashSize: 300, gapSize: 200 }));
+      dashed.computeLineDistances();
+      scene.add(dashed);
+    }
     // The finish gate: a ring across the tube where the race counts as finished.
     const fi = Math.min(n - 1, Math.round(tr.finish_s_ft / tr.spacing_ft));
     const gate = new THREE.Mesh(new THREE.TorusGeometry(r[fi], r[fi] * 0.04, 8, 64),

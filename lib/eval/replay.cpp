@@ -72,6 +72,8 @@ RaceReplay run_replay(const ReplayOptions& o) {
   rc.seed = o.seed;
   race::RaceEnv env(rc);
   race::RaceRecorder rec(env);
+  // Taken now: when the race ends the env starts another on a new track.
+  const race::TubeLine line = env.racing_line(0) ? *env.racing_line(0) : race::TubeLine{};
   const int n_agent = env.n_agent(), ts = rc.team_size;
   std::vector<std::int64_t> bins(static_cast<std::size_t>(n_agent) * race::kHlDims, rc.hl_center_bin());
   std::vector<float> actions(static_cast<std::size_t>(n_agent) * race::kActionDim, 0.0f);
@@ -129,7 +131,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
     rec.after_step(env);
     block_counter.after_step(race::block_view(env));
   }
-  return RaceReplay{rec.trace(0), blue.name, red.name, block_counter.events(), rc};
+  return RaceReplay{rec.trace(0), blue.name, red.name, block_counter.events(), rc, line};
 }
 
 bool write_replay(const RaceReplay& r, const std::string& out_dir, std::string* message) {

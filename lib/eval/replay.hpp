@@ -30,6 +30,7 @@ struct RaceReplay {
   std::string blue, red;                 // entry names
   std::vector<race::BlockEvent> blocks;  // in the order they happened (race/block_events.hpp)
   race::RaceConfig race;                 // the race flown (n_env 1): its step, finish line and goal frame
+  race::TubeLine line;                   // the racing line its goals were placed around (empty: the center-line)
 };
 
 // Throws io::InputError naming the folder when a run is missing, corrupt or was trained for

@@ -104,6 +104,25 @@ std::string track_json(const RaceReplay& r, const Origin& o) {
          ",\"r\":" + array(n, [&](std::size_t i) { return whole(radius[i]); }) + "}";
 }
 
+// The racing line the goals were placed around (race.goal_line_frac), start to finish, at the
+// tube rings' spacing; "null" when the goals were around the center-line.
+std::string line_json(const RaceReplay& r, const Origin& o) {
+  const race::TubeLine& line = r.line;
+  if (line.right_ft.empty()) return "null";
+  const double spacing = 200.0;
+  const std::size_t n = static_cast<std::size_t>(std::ceil((line.s1_ft - line.s0_ft) / spacing)) + 1;
+  std::vector<race::Vec3> p(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double s = std::min(line.s1_ft, line.s0_ft + static_cast<double>(i) * spacing);
+    const race::TrackFrame f = r.trace.track.frame_at(s);
+    const race::TubeLine::Offset w = line.offset_at(s);
+    p[i] = f.center + w.right_ft * f.right + w.up_ft * f.up;
+  }
+  return "{\"n\":" + array(n, [&](std::size_t i) { return whole(p[i].n - o.n); }) +
+         ",\"e\":" + array(n, [&](std::size_t i) { return whole(p[i].e - o.e); }) +
+         ",\"u\":" + array(n, [&](std::size_t i) { return whole(p[i].u); }) + "}";
+}
+
 }  // namespace
 
 std::string replay_page_json(const RaceReplay& r) {
@@ -125,6 +144,7 @@ std::string replay_page_json(const RaceReplay& r) {
   s += ",\"goal_frame\":" + io::json_string(r.race.goal_frame == race::GoalFrame::kTrack ? "track" : "world");
   s += ",\"origin_ft\":[" + whole(o.n) + "," + whole(o.e) + ",0]";
   s += ",\"track\":" + track_json(r, o);
+  s += ",\"racing_line\":" + line_json(r, o);
   s += ",\"aircraft\":" + array(t.rows.size(), [&](std::size_t a) { return aircraft_json(r, static_cast<int>(a), stride, o); });
   s += ",\"blocks\":" + array(r.blocks.size(), [&](std::size_t i) {
          const race::BlockEvent& b = r.blocks[i];

@@ -9,6 +9,7 @@
 
 #include "eval/replay_page.hpp"
 #include "io/viewer_page.hpp"
+#include "race/track_line.hpp"
 
 namespace f16race::eval {
 namespace {
@@ -88,6 +89,29 @@ TEST(ReplayPage, SixtySecondsOfEightAircraftFitALaptop) {
   EXPECT_NEAR(mach, 737.5, 1.0);
   EXPECT_NE(json.find("\"thr\":[25,25,", a5), std::string::npos);
   EXPECT_EQ(array_size(json, "\"mach\"", a5), 375);
+}
+
+// The racing line (race.goal_line_frac) is drawn from start to finish at the rings' spacing,
+// each point the center-line's plus the line's offsets there; without one the key is null.
+TEST(ReplayPage, CarriesTheRacingLineWhenTheGoalsWerePlacedAroundOne) {
+  RaceReplay r = straight_race(10.0, 0.08);
+  EXPECT_NE(replay_page_json(r).find("\"racing_line\":null,"), std::string::npos);
+  const double s1 = r.trace.track.length_ft() - 1500.0;
+  r.line = race::shortest_tube_line(r.trace.track, {1500.0, s1, 0.75});
+  const std::string json = replay_page_json(r);
+  const std::size_t at = json.find("\"racing_line\":{\"n\":[");
+  ASSERT_NE(at, std::string::npos);
+  const int n = array_size(json, "\"n\"", at);
+  EXPECT_EQ(n, static_cast<int>(std::ceil((s1 - 1500.0) / 200.0)) + 1);
+  EXPECT_EQ(array_size(json, "\"u\"", at), n);
+  // Its last point: the finish section's, offset by the line's last offsets (relative to the
+  // page's origin, whole feet).
+  const race::TrackFrame f = r.trace.track.frame_at(s1);
+  const race::Vec3 p = f.center + r.line.right_ft.back() * f.right + r.line.up_ft.back() * f.up;
+  const std::size_t u = json.find("\"u\":[", at);
+  const std::size_t end = json.find(']', u);
+  EXPECT_EQ(json.substr(json.rfind(',', end) + 1, end - json.rfind(',', end) - 1), std::to_string(std::lround(p.u)));
+  EXPECT_GT(std::abs(r.line.right_ft[r.line.right_ft.size() / 3]), 10.0);  // a line that leaves the center
 }
 
 TEST(ReplayPage, FineStepsAreThinnedToTwentyHertz) {
