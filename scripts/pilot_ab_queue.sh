@@ -14,7 +14,7 @@
 # that switch with 77's lanes (read and removed: a build of 0b55350); 80 race.governor_band_mach
 # 0.01 (read and removed: a build of c3a8ae5). 86 race.goal_line_frac 0.25 (goals on a racing line;
 # adopted: configs/default.yaml sets it since e0d56f0, so 86's `on` arm is the control of later A/Bs
-# and 69's `off` arm needs a build before it, e.g. 5563639 with --set race.goal_line_frac=0).
+# and 69's `off` arm is this build with --set race.goal_line_frac=0: the same bytes).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
