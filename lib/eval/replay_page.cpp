@@ -84,23 +84,30 @@ std::string aircraft_json(const RaceReplay& r, int a, int stride, const Origin& 
   return s + "}";
 }
 
+// ft: the tube's rings and the lines' points; ~20 ft off the spline at most on these turns.
+constexpr double kSampleSpacingFt = 200.0;
+
+// "n":[...],"e":[...],"u":[...] of points, n and e relative to the page's origin, whole feet.
+std::string points_json(const std::vector<race::Vec3>& p, const Origin& o) {
+  const std::size_t n = p.size();
+  return "\"n\":" + array(n, [&](std::size_t i) { return whole(p[i].n - o.n); }) +
+         ",\"e\":" + array(n, [&](std::size_t i) { return whole(p[i].e - o.e); }) +
+         ",\"u\":" + array(n, [&](std::size_t i) { return whole(p[i].u); });
+}
+
 std::string track_json(const RaceReplay& r, const Origin& o) {
   const race::Track& tr = r.trace.track;
-  const double spacing = 200.0;  // ft: the tube's rings; ~20 ft off the spline at most on these turns
-  const std::size_t n = static_cast<std::size_t>(std::ceil(tr.length_ft() / spacing)) + 1;
+  const std::size_t n = static_cast<std::size_t>(std::ceil(tr.length_ft() / kSampleSpacingFt)) + 1;
   std::vector<race::Vec3> p(n);
   std::vector<double> radius(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double s = std::min(tr.length_ft(), static_cast<double>(i) * spacing);
+    const double s = std::min(tr.length_ft(), static_cast<double>(i) * kSampleSpacingFt);
     p[i] = tr.point_at(s);
     radius[i] = tr.radius_at(s);
   }
   return "{\"length_ft\":" + decimals(tr.length_ft(), 1) +
          ",\"finish_s_ft\":" + decimals(tr.length_ft() - r.race.finish_margin_ft, 1) +
-         ",\"spacing_ft\":" + whole(spacing) +
-         ",\"n\":" + array(n, [&](std::size_t i) { return whole(p[i].n - o.n); }) +
-         ",\"e\":" + array(n, [&](std::size_t i) { return whole(p[i].e - o.e); }) +
-         ",\"u\":" + array(n, [&](std::size_t i) { return whole(p[i].u); }) +
+         ",\"spacing_ft\":" + whole(kSampleSpacingFt) + "," + points_json(p, o) +
          ",\"r\":" + array(n, [&](std::size_t i) { return whole(radius[i]); }) + "}";
 }
 
@@ -109,18 +116,15 @@ std::string track_json(const RaceReplay& r, const Origin& o) {
 std::string line_json(const RaceReplay& r, const Origin& o) {
   const race::TubeLine& line = r.line;
   if (line.right_ft.empty()) return "null";
-  const double spacing = 200.0;
-  const std::size_t n = static_cast<std::size_t>(std::ceil((line.s1_ft - line.s0_ft) / spacing)) + 1;
+  const std::size_t n = static_cast<std::size_t>(std::ceil((line.s1_ft - line.s0_ft) / kSampleSpacingFt)) + 1;
   std::vector<race::Vec3> p(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double s = std::min(line.s1_ft, line.s0_ft + static_cast<double>(i) * spacing);
+    const double s = std::min(line.s1_ft, line.s0_ft + static_cast<double>(i) * kSampleSpacingFt);
     const race::TrackFrame f = r.trace.track.frame_at(s);
     const race::TubeLine::Offset w = line.offset_at(s);
     p[i] = f.center + w.right_ft * f.right + w.up_ft * f.up;
   }
-  return "{\"n\":" + array(n, [&](std::size_t i) { return whole(p[i].n - o.n); }) +
-         ",\"e\":" + array(n, [&](std::size_t i) { return whole(p[i].e - o.e); }) +
-         ",\"u\":" + array(n, [&](std::size_t i) { return whole(p[i].u); }) + "}";
+  return "{" + points_json(p, o) + "}";
 }
 
 }  // namespace
