@@ -14,7 +14,8 @@
 # that switch with 77's lanes (read and removed: a build of 0b55350); 80 race.governor_band_mach
 # 0.01 (read and removed: a build of c3a8ae5). 86 race.goal_line_frac 0.25 (goals on a racing line;
 # adopted: configs/default.yaml sets it since e0d56f0, so 86's `on` arm is the control of later A/Bs
-# and 69's `off` arm is this build with --set race.goal_line_frac=0: the same bytes).
+# and 69's `off` arm is this build with --set race.goal_line_frac=0: the same bytes). 87: the
+# default config with no override, the control of A/Bs run on its machine (AMD EPYC family 25).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -48,7 +49,8 @@ main() {
         79) jobs+=("79 on $s --set race.governor_sets_throttle_at_cap=true --set race.goal_bin_scale=0.5") ;;
         80) jobs+=("80 on $s --set race.governor_band_mach=0.01") ;;
         86) jobs+=("86 on $s --set race.goal_line_frac=0.25") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80 or 86)" >&2; exit 2 ;;
+        87) jobs+=("87 on $s") ;;  # the default config as it is (86's arm) on a second CPU
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86 or 87)" >&2; exit 2 ;;
       esac
     done
   done
