@@ -15,7 +15,8 @@
 # 0.01 (read and removed: a build of c3a8ae5). 86 race.goal_line_frac 0.25 (goals on a racing line;
 # adopted: configs/default.yaml sets it since e0d56f0, so 86's `on` arm is the control of later A/Bs
 # and 69's `off` arm is this build with --set race.goal_line_frac=0: the same bytes). 87: the
-# default config with no override, the control of A/Bs run on its machine (AMD EPYC family 25).
+# default config with no override, the control of A/Bs run on its machine (AMD EPYC family 25);
+# 88 race.preview_on_line (the task's preview points on the racing line), against 87.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -50,7 +51,8 @@ main() {
         80) jobs+=("80 on $s --set race.governor_band_mach=0.01") ;;
         86) jobs+=("86 on $s --set race.goal_line_frac=0.25") ;;
         87) jobs+=("87 on $s") ;;  # the default config as it is (86's arm) on a second CPU
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86 or 87)" >&2; exit 2 ;;
+        88) jobs+=("88 on $s --set race.preview_on_line=true") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87 or 88)" >&2; exit 2 ;;
       esac
     done
   done
