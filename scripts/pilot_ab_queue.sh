@@ -16,7 +16,8 @@
 # adopted: configs/default.yaml sets it since e0d56f0, so 86's `on` arm is the control of later A/Bs
 # and 69's `off` arm is this build with --set race.goal_line_frac=0: the same bytes). 87: the
 # default config with no override, the control of A/Bs run on its machine (AMD EPYC family 25);
-# 88 race.preview_on_line (the task's preview points on the racing line), against 87.
+# 88 race.preview_on_line (the task's preview points on the racing line) and 89
+# race.lane_scales_with_radius (lanes inside the local tube), each against 87.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -52,7 +53,8 @@ main() {
         86) jobs+=("86 on $s --set race.goal_line_frac=0.25") ;;
         87) jobs+=("87 on $s") ;;  # the default config as it is (86's arm) on a second CPU
         88) jobs+=("88 on $s --set race.preview_on_line=true") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87 or 88)" >&2; exit 2 ;;
+        89) jobs+=("89 on $s --set race.lane_scales_with_radius=true") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88 or 89)" >&2; exit 2 ;;
       esac
     done
   done
