@@ -19,11 +19,14 @@ measure, the arms' tube exits per race in training's first tenth of updates (met
 Standard library.
 
     scripts/pilot_seeds_table.py --keep EXPERIMENT_DIR SEED KEEP_DIR
+    scripts/pilot_seeds_table.py --add-center-lost EXPERIMENT_DIR SEED KEEP_FILE
 
 writes KEEP_DIR/sSEED.json: the seed's row and measures, the CPU, the binary and the training
 wall time. A folder of such files reads as an EXPERIMENT_DIR (a seed's kept file stands for its
 run and tournament), so an A/B whose seeds ran on several machines, and whose run folders are
-gone, is still read from the repository.
+gone, is still read from the repository. --add-center-lost adds to a kept file what later
+kept files hold as `center_lost` (the middle bin's losses against the autopilot, notebook 89),
+from the seed's tournament.
 """
 import csv
 import json
@@ -137,7 +140,7 @@ def measure_seed(folder, s):
     early_tube = first_tenth_per_race(os.path.join(folder, me, "metrics.csv"), "term_tube")
     return dict(row=row, ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
                 early_tube=early_tube, ll_center_vs_ap=lc["w"] / lc["n"] if lc["n"] else None,
-                clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"],
+                clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"], center_lost=lc["lost"],
                 other_lost=sum(ap["lost"][k] + ap["opp_lost"][k] for k in others))
 
 
@@ -204,6 +207,15 @@ def keep(folder, s, dest):
     kept_json.write(os.path.join(dest, f"s{s}.json"), m)
 
 
+def add_center_lost(folder, s, kept_file):
+    """Adds `center_lost` (the run's middle bin against the autopilot: its team's losses per race by
+    cause) to a seed's kept file from the seed's tournament, for files kept before it was measured."""
+    rows = list(csv.DictReader(open(os.path.join(folder, f"t_s{s}", "races.csv"))))
+    m = json.load(open(kept_file))
+    m["center_lost"] = head_to_head(rows, f"s{s}@center", "autopilot")["lost"]
+    kept_json.write(kept_file, m)
+
+
 def mean_ci(xs):
     m = sum(xs) / len(xs)
     return m, (boot(xs) if len(xs) > 1 else (m, m))
@@ -211,6 +223,10 @@ def mean_ci(xs):
 
 def main():
     args = sys.argv[1:]
+    if args[:1] == ["--add-center-lost"]:
+        if len(args) != 4 or not args[2].isdigit():
+            sys.exit("usage: scripts/pilot_seeds_table.py --add-center-lost EXPERIMENT_DIR SEED KEEP_FILE")
+        return add_center_lost(args[1], int(args[2]), args[3])
     if args[:1] == ["--keep"]:
         if len(args) != 4 or not args[2].isdigit():
             sys.exit("usage: scripts/pilot_seeds_table.py --keep EXPERIMENT_DIR SEED KEEP_DIR")
@@ -238,9 +254,12 @@ def main():
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
-        # The low level under the middle bin (notebook 86's mechanism) and the tube losses.
+        # The low level under the middle bin (notebook 86's mechanism) and the tube losses, of the
+        # run and (where kept: notebook 89) of its middle bin.
         for name, get in (("its low level under the middle bin (@center) vs the autopilot", lambda p: p.get("ll_center_vs_ap")),
-                          ("run's team lost to the tube per race vs the autopilot", lambda p: p["lost"]["tube"])):
+                          ("run's team lost to the tube per race vs the autopilot", lambda p: p["lost"]["tube"]),
+                          ("@center's team lost to the tube per race vs the autopilot",
+                           lambda p: p["center_lost"]["tube"] if "center_lost" in p else None)):
             t, c = [get(p) for p in per if get(p) is not None], [get(p) for p in base if get(p) is not None]
             if t and c:
                 d, lo, hi = difference_ci(t, c)

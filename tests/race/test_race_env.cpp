@@ -690,6 +690,13 @@ TEST(RaceEnv, GoalFrameBinsMoveTheGoalAlongRightAndUpOrNorthEastUp) {
   }
 }
 
+// One LL step of the scripted pilot, with these HL bins applied at each decision (every dt_hl).
+void scripted_step(RaceEnv& env, const std::vector<std::int64_t>& bins, std::vector<float>& act) {
+  env.set_hl_actions(bins.data());
+  scripted_actions(env, ScriptedPilotConfig{}, act.data());
+  env.step(act.data());
+}
+
 // race.goal_line_frac: the middle bin's goal lies on the race's taut line (points within a quarter
 // of the radius), and the lane the goal observation and the lane reward measure from moves with
 // the line: at the aircraft's own cross-section it is the line there, not at the goal.
@@ -700,11 +707,7 @@ TEST(RaceEnv, MiddleBinGoalsLieOnTheRacingLine) {
   RaceEnv env(c);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
   std::vector<float> act(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
-  for (int s = 0; s < 50; ++s) {  // into the race: the line leaves the center-line at the bends
-    env.set_hl_actions(bins.data());
-    scripted_actions(env, ScriptedPilotConfig{}, act.data());
-    env.step(act.data());
-  }
+  for (int s = 0; s < 50; ++s) scripted_step(env, bins, act);  // into the race: the line leaves the center-line
   double moved = 0.0;
   for (int i = 0; i < env.n_aircraft(); ++i) {
     const Track& tr = env.track(i / env.n_agent());
@@ -746,11 +749,7 @@ TEST(RaceEnv, LanesScaleWithTheLocalRadiusAndStayInsideTheTube) {
   std::vector<float> act(static_cast<std::size_t>(feet.n_aircraft()) * kActionDim, 0.0f);
   double worst_feet = 0.0, worst_radii = 0.0, rescaled = 0.0;
   for (int s = 0; s < 300; ++s) {
-    for (RaceEnv* env : {&feet, &radii}) {
-      env->set_hl_actions(bins.data());  // applied at each decision, every 8 s
-      scripted_actions(*env, ScriptedPilotConfig{}, act.data());
-      env->step(act.data());
-    }
+    for (RaceEnv* env : {&feet, &radii}) scripted_step(*env, bins, act);
     for (int i = 0; i < radii.n_aircraft(); ++i) {
       ASSERT_EQ(feet.sim().state(dynamics::kPn)[i], radii.sim().state(dynamics::kPn)[i]);
       if (!radii.alive(i)) continue;
@@ -792,13 +791,8 @@ TEST(RaceEnv, PreviewOnLineMovesThePreviewPointsOntoTheRacingLine) {
   RaceEnv on_line(c);
   std::vector<std::int64_t> bins(static_cast<std::size_t>(center.n_aircraft()) * kHlDims, c.hl_center_bin());
   std::vector<float> act(static_cast<std::size_t>(center.n_aircraft()) * kActionDim, 0.0f);
-  for (int s = 0; s < 50; ++s) {  // into the race: the line leaves the center-line at the bends
-    for (RaceEnv* env : {&center, &on_line}) {
-      env->set_hl_actions(bins.data());
-      scripted_actions(*env, ScriptedPilotConfig{}, act.data());
-      env->step(act.data());
-    }
-  }
+  for (int s = 0; s < 50; ++s)  // into the race: the line leaves the center-line at the bends
+    for (RaceEnv* env : {&center, &on_line}) scripted_step(*env, bins, act);
   const int np = c.preview_points, td = center.task_dim();
   double moved = 0.0;
   for (int i = 0; i < center.n_aircraft(); ++i) {

@@ -66,6 +66,9 @@ def fake_seed(folder, s, wins):
         for k in range(10):
             out = ["1" if (k == 0 and c == "tube") else "0" for t in ("blue", "red") for c in table.CAUSES]
             lines.append(",".join([me, opp, me if k < wins else opp, str(40 + k), "1" if k == 0 else "0", "0"] + out))
+    for k in range(10):  # the middle bin alone against the autopilot: a tube loss in 2 of 10 races
+        out = ["1" if (k < 2 and t == "blue" and c == "tube") else "0" for t in ("blue", "red") for c in table.CAUSES]
+        lines.append(",".join([me + "@center", "autopilot", "autopilot", "40", "1" if k < 2 else "0", "0"] + out))
     open(os.path.join(folder, f"t_{me}", "races.csv"), "w").write("\n".join(lines) + "\n")
 
 
@@ -84,6 +87,16 @@ with tempfile.TemporaryDirectory() as tmp:
     m = json.load(open(os.path.join(exp, "s1.json")))
     check(m["train_wall_s"] == 12.5 and abs(m["lost"]["tube"] - 0.1) < 1e-12 and m["cpu"],
           f"kept provenance and measures: wall {m['train_wall_s']}, tube {m['lost']['tube']}")
+    check(abs(m["center_lost"]["tube"] - 0.2) < 1e-12, f"kept middle bin's tube losses: {m['center_lost']['tube']}")
+    # --add-center-lost restores the measure in a file kept without it, from the seed's tournament.
+    old = os.path.join(tmp, "old_s2.json")
+    k = subprocess.run([sys.executable, script, "--keep", exp, "2", tmp], capture_output=True, text=True)
+    m2 = json.load(open(os.path.join(tmp, "s2.json")))
+    del m2["center_lost"]
+    json.dump(m2, open(old, "w"))
+    a = subprocess.run([sys.executable, script, "--add-center-lost", exp, "2", old], capture_output=True, text=True)
+    check(a.returncode == 0 and abs(json.load(open(old))["center_lost"]["tube"] - 0.2) < 1e-12,
+          f"--add-center-lost adds the middle bin's losses: {a.stdout.strip()}{a.stderr.strip()}")
     bad = subprocess.run([sys.executable, script, "--keep", exp, "3", kept], capture_output=True, text=True)
     check(bad.returncode != 0 and "t_s3" in bad.stderr and not os.path.exists(kept),
           f"an unfinished seed is refused in one line: {bad.stderr.strip()}")
