@@ -54,6 +54,8 @@ inline constexpr Retirement kNotebook73Keys{"after docs/notebook/73's verdict", 
 inline constexpr Retirement kNotebook78Keys{"after docs/notebook/78's and 79's verdicts", "0b55350"};
 // race.governor_band_mach: measured not to help (docs/notebook/80-a-governor-with-less-droop.md).
 inline constexpr Retirement kNotebook80Keys{"after docs/notebook/80's verdict", "c3a8ae5"};
+// race.preview_on_line: measured not to help (docs/notebook/88-the-preview-on-the-racing-line.md).
+inline constexpr Retirement kNotebook88Keys{"after docs/notebook/88's verdict", "b8dcef3"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {

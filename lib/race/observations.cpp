@@ -169,7 +169,6 @@ void RaceEnv::write_task_observations(int env, const float* cos_psi, const float
   float qr[kMaxAgents * kMaxPreview];
   tr.preview(na, np, c.preview_spacing_ft, &progress_ft_[base], sim_.state(kPn) + base, sim_.state(kPe) + base,
              sim_.state(kAlt) + base, qn, qe, qu, qr);
-  if (c.preview_on_line) shift_preview_onto_line(env, qn, qe, qu);
   const float inv_np = 1.0f / static_cast<float>(np);
   float g[4][kMaxAgents * kMaxPreview];
 #pragma omp simd
@@ -204,27 +203,6 @@ void RaceEnv::write_task_observations(int env, const float* cos_psi, const float
     u[kTaskHlTimeLeft] = static_cast<float>(std::max(hl_time_left_s_[env], 0.0) / c.dt_hl_s);
     u[kTaskEgoRank] = static_cast<float>(ego_rank_[i]) / static_cast<float>(na - 1);
     u[kTaskTeamRank] = static_cast<float>(team_rank_[i]);
-  }
-}
-
-// The line's offset at each point's arc length (clamped as Track::preview clamps it), along the
-// center-line's right and up there. The radius entry stays the tube's: the walls are where they were.
-void RaceEnv::shift_preview_onto_line(int env, float* d_n, float* d_e, float* d_u) const {
-  const Track& tr = tracks_[env];
-  const TubeLine& line = lines_[env];
-  const int np = config_.preview_points;
-  for (int a = 0; a < n_agent_; ++a) {
-    const double s0 = progress_ft_[env * n_agent_ + a];
-    for (int p = 0; p < np; ++p) {
-      const double s = std::clamp(s0 + (p + 1) * config_.preview_spacing_ft, 0.0, tr.length_ft());
-      const TubeLine::Offset w = line.offset_at(s);
-      const TrackFrame fr = tr.frame_at(s);
-      const Vec3 shift = w.right_ft * fr.right + w.up_ft * fr.up;
-      const int k = a * np + p;
-      d_n[k] += static_cast<float>(shift.n);
-      d_e[k] += static_cast<float>(shift.e);
-      d_u[k] += static_cast<float>(shift.u);
-    }
   }
 }
 

@@ -84,7 +84,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("lane_scales_with_radius", &c->lane_scales_with_radius);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
-  r.read("preview_on_line", &c->preview_on_line);
+  r.retired("preview_on_line", "false", io::kNotebook88Keys);
   r.retired("observe_team_lanes", "false");  // docs/notebook/08, 09
   r.retired("lane_error_average_s", "0", io::kNotebook74Keys);
   r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
@@ -155,8 +155,6 @@ void validate_race_config(const RaceConfig& c, const std::string& source) {
       fail("start_speed_ftps (" + v(c.start_speed_ftps) + ") is Mach " + v(std::round(start_mach * 1000.0) / 1000.0) +
            " at " + v(highest_ft) + " ft, too close to mach_max (" + v(c.mach_max) + "): start slower (or raise mach_max)");
   }
-  if (c.preview_on_line && c.goal_line_frac <= 0.0)
-    fail("preview_on_line (true) needs a racing line to preview: set goal_line_frac > 0 (it is " + v(c.goal_line_frac) + ")");
   if (c.goal_refresh_ft >= c.goal_ahead())
     fail("goal_refresh_ft (" + v(c.goal_refresh_ft) + ") must be < goal_ahead_ft (" + v(c.goal_ahead()) +
          (c.goal_ahead_ft > 0.0 ? "" : ": 0, so the preview horizon preview_points x preview_spacing_ft") +

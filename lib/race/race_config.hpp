@@ -105,9 +105,6 @@ struct RaceConfig {
   // Observations.
   int preview_points = 6;
   double preview_spacing_ft = 2000.0;
-  // With a racing line (goal_line_frac > 0): the task's preview points on the line instead of the
-  // center-line, so the low level sees where the line it is asked to fly goes (docs/notebook/88).
-  bool preview_on_line = false;
 
   // LL reward weights (per LL step unless noted).
   double w_goal_progress = 1.0;      // closing speed toward the goal, per goal_scale_ft

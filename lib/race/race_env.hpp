@@ -216,9 +216,6 @@ class RaceEnv {
   void write_observations(int env);
   // The track preview and task entries; cos_psi, sin_psi: [n_agent] the env's headings.
   void write_task_observations(int env, const float* cos_psi, const float* sin_psi);
-  // race.preview_on_line: moves env's preview points [n_agent * preview_points] (relative to each
-  // aircraft, as Track::preview wrote them) from the center-line onto the racing line.
-  void shift_preview_onto_line(int env, float* d_n, float* d_e, float* d_u) const;
   void write_goal_observation(int i);
   double goal_lane_error_ft(int i) const;
   // The lane aircraft i's goal asks for, at the aircraft's own cross-section: the goal's offsets,

@@ -780,50 +780,6 @@ TEST(RaceEnv, LanesScaleWithTheLocalRadiusAndStayInsideTheTube) {
   EXPECT_GT(rescaled, 0.2);    // the tube's radius changed between goal and aircraft
 }
 
-// race.preview_on_line: each preview point lies on the race's racing line at its arc length (the
-// center-line point moved by the line's offset there), the radius entry and every other
-// observation as without it, and the flight itself untouched.
-TEST(RaceEnv, PreviewOnLineMovesThePreviewPointsOntoTheRacingLine) {
-  RaceConfig c = small_config(4, 4);
-  c.goal_line_frac = 0.25;
-  RaceEnv center(c);
-  c.preview_on_line = true;
-  RaceEnv on_line(c);
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(center.n_aircraft()) * kHlDims, c.hl_center_bin());
-  std::vector<float> act(static_cast<std::size_t>(center.n_aircraft()) * kActionDim, 0.0f);
-  for (int s = 0; s < 50; ++s)  // into the race: the line leaves the center-line at the bends
-    for (RaceEnv* env : {&center, &on_line}) scripted_step(*env, bins, act);
-  const int np = c.preview_points, td = center.task_dim();
-  double moved = 0.0;
-  for (int i = 0; i < center.n_aircraft(); ++i) {
-    ASSERT_EQ(center.sim().state(dynamics::kPn)[i], on_line.sim().state(dynamics::kPn)[i]);
-    const Track& tr = on_line.track(i / on_line.n_agent());
-    const TubeLine& line = *on_line.racing_line(i / on_line.n_agent());
-    const double psi = on_line.sim().state(dynamics::kPsi)[i];
-    const float* a = center.obs_task() + static_cast<std::size_t>(i) * td;
-    const float* b = on_line.obs_task() + static_cast<std::size_t>(i) * td;
-    // A preview entry back to the point in the heading frame (x forward, y right, z up) [ft].
-    auto point = [](const float* t) {
-      const double r = 5000.0 * t[kPreviewRange], se = t[kPreviewSinElevation], rh = r * std::sqrt(1.0 - se * se);
-      return Vec3{rh * t[kPreviewAzimuth + 1], rh * t[kPreviewAzimuth], r * se};
-    };
-    for (int p = 0; p < np; ++p) {
-      const double s = std::min(on_line.progress_ft(i) + (p + 1) * c.preview_spacing_ft, tr.length_ft());
-      const TubeLine::Offset w = line.offset_at(s);
-      const TrackFrame fr = tr.frame_at(s);
-      const Vec3 shift = w.right_ft * fr.right + w.up_ft * fr.up;
-      const Vec3 want{std::cos(psi) * shift.n + std::sin(psi) * shift.e, -std::sin(psi) * shift.n + std::cos(psi) * shift.e,
-                      shift.u};
-      const Vec3 got = point(b + kPreviewWidth * p) - point(a + kPreviewWidth * p);
-      EXPECT_LT(norm(got - want), 2.0) << "aircraft " << i << " point " << p;  // float entries of ranges ~10 000 ft
-      EXPECT_EQ(a[kPreviewWidth * p + kPreviewRadius], b[kPreviewWidth * p + kPreviewRadius]);
-      moved = std::max(moved, norm(shift));
-    }
-    for (int k = kPreviewWidth * np; k < td; ++k) EXPECT_EQ(a[k], b[k]) << "task entry " << k;
-  }
-  EXPECT_GT(moved, 50.0);  // the line leaves the center-line ahead: the test tells the two apart
-}
-
 // A built-in pilot given rows flies exactly those aircraft, with the actions it gives them when
 // flying everyone, and leaves the other rows as they were (a tournament or replay hands it one
 // team's aircraft).
@@ -948,7 +904,6 @@ TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
       {"{start_speed_ftps: 600}", "start_speed_ftps (600) is Mach 0.572 at 16800 ft, too close to mach_max (0.6)"},
       {"{mach_max: 0.1}", "mach_max (0.1) must be 0 (no limit) or >= 0.2"},
       {"{mach_max: 0}", "mach_governor needs a mach_max > 0"},
-      {"{preview_on_line: true}", "preview_on_line (true) needs a racing line to preview: set goal_line_frac > 0 (it is 0)"},
   };
   for (const auto& [yaml, message] : cases) {
     const std::string e = race_config_error(yaml);
