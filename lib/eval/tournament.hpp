@@ -69,6 +69,10 @@ struct TournamentOptions {
   bool axis_controls = false;     // adds RUN@center_x, @center_y, @center_z for every run
   bool include_autopilot = false;  // adds "autopilot": AeroBench's waypoint autopilot, no learning
   double autopilot_airspeed_ftps = 0.0;  // its set point; 0: the first run's race.autopilot_airspeed_ftps
+  // The autopilot's start lanes shifted onto each race's racing line (the race's goal_line_frac,
+  // which must be > 0), its aim points held within 0.8 of the radius: the classic pilot given the
+  // line the learned team's goals are placed around (docs/notebook/83, 84).
+  bool autopilot_on_line = false;
   // Non-empty: race on this config file's tracks (race.track) and time limit (race.time_limit_s)
   // instead of the first run's, e.g. trained runs on configs/long.yaml's long tracks.
   std::string tracks_config;

@@ -61,6 +61,7 @@ std::string tournament_marker_options(const TournamentOptions& o) {
     << " controls=" << yes_no(o.controls) << " axis_controls=" << yes_no(o.axis_controls)
     << " autopilot_airspeed=" << o.autopilot_airspeed_ftps << " tracks=" << tracks_identity(o.tracks_config);
   if (o.goal_line_frac >= 0.0) s << " goal_line=" << o.goal_line_frac;  // absent: older markers read the same
+  if (o.autopilot_on_line) s << " autopilot_on_line=yes";
   s << " runs=";
   for (std::size_t k = 0; k < o.runs.size(); ++k) s << (k ? "," : "") << run_names(o.runs[k]);
   return s.str();

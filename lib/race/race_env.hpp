@@ -116,6 +116,7 @@ class RaceEnv {
   const Track& track(int env) const { return tracks_[env]; }
   // The race's racing line when goals are placed around one (race.goal_line_frac > 0), else null.
   const TubeLine* racing_line(int env) const { return lines_.empty() ? nullptr : &lines_[env]; }
+  const std::vector<TubeLine>& racing_lines() const { return lines_; }  // [n_env], or empty
   double race_time_s(int env) const { return time_s_[env]; }
   bool alive(int i) const { return alive_[i] != 0; }
   int cause(int i) const { return cause_[i]; }

@@ -489,6 +489,50 @@ TEST(TournamentAutopilot, ListedOutOfStatisticsAndOutfliesTheUntrainedNetworks) 
   EXPECT_NE(text.find(set_point.str()), std::string::npos) << text;
 }
 
+// --autopilot-on-line: the autopilot entry flies its lanes shifted onto each race's racing line,
+// so the same races end otherwise; without a line to fly, or without the entry, it is refused.
+TEST(TournamentAutopilot, OnTheRacingLineFliesOtherRaces) {
+  TournamentOptions o;
+  o.runs = {trained_run("ap_line", 1, 2)};
+  o.include_untrained = false;
+  o.include_autopilot = true;
+  o.controls = true;
+  o.races_per_pair = 8;
+  o.batch_envs = 8;
+  o.bootstrap_replicates = 100;
+  o.goal_line_frac = 0.25;
+  auto races = [&](bool on_line, const std::string& name) {
+    o.autopilot_on_line = on_line;
+    o.out_dir = (fs::temp_directory_path() / ("f16race_tour_" + name)).string();
+    fs::remove_all(o.out_dir);
+    write_tournament_report(run_tournament(o), o);
+    std::ifstream csv(o.out_dir + "/races.csv");
+    return std::string((std::istreambuf_iterator<char>(csv)), {});
+  };
+  const std::string lanes = races(false, "ap_lanes_out"), line = races(true, "ap_line_out");
+  EXPECT_FALSE(lanes.empty());
+  EXPECT_NE(lanes, line);
+  std::ifstream done(o.out_dir + "/done.txt");
+  const std::string marker((std::istreambuf_iterator<char>(done)), {});
+  EXPECT_NE(marker.find(" autopilot_on_line=yes"), std::string::npos) << marker;
+  auto refusal = [&](TournamentOptions bad) {
+    try {
+      run_tournament(bad);
+    } catch (const io::InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(accepted)");
+  };
+  TournamentOptions center = o;
+  center.goal_line_frac = 0.0;
+  EXPECT_NE(refusal(center).find("races on the center-line (race.goal_line_frac 0); give --goal-line F"),
+            std::string::npos);
+  TournamentOptions no_entry = o;
+  no_entry.include_autopilot = false;
+  EXPECT_NE(refusal(no_entry).find("--autopilot-on-line sets the autopilot entry's lanes; add --with-autopilot"),
+            std::string::npos);
+}
+
 TEST(Tournament, RefusesMissingAndMismatchedRuns) {
   TournamentOptions o;
   o.runs = {"/nonexistent/run"};
