@@ -17,7 +17,9 @@
 # and 69's `off` arm is this build with --set race.goal_line_frac=0: the same bytes). 87: the
 # default config with no override, the control of A/Bs run on its machine (AMD EPYC family 25);
 # 88 race.preview_on_line (the task's preview points on the racing line) and 89
-# race.lane_scales_with_radius (lanes inside the local tube), each against 87.
+# race.lane_scales_with_radius (lanes inside the local tube), each against 87 (88 read and
+# removed: a build of b8dcef3); 91 train.ll_throttle governor, against 87; 92 89's lanes on top
+# of 91's throttle, against 91.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -54,7 +56,9 @@ main() {
         87) jobs+=("87 on $s") ;;  # the default config as it is (86's arm) on a second CPU
         88) jobs+=("88 on $s --set race.preview_on_line=true") ;;
         89) jobs+=("89 on $s --set race.lane_scales_with_radius=true") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88 or 89)" >&2; exit 2 ;;
+        91) jobs+=("91 on $s --set train.ll_throttle=governor") ;;
+        92) jobs+=("92 on $s --set train.ll_throttle=governor --set race.lane_scales_with_radius=true") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91 or 92)" >&2; exit 2 ;;
       esac
     done
   done

@@ -257,6 +257,9 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     << "| action | [B, 3] | mean clipped to [-1, 1], what the environment applies |\n\n"
     << "Action to AeroBench commands: throttle = (a0 + 1)/2; Nz_ref = " << rc.nz_ref_min_g << " + (a1 + 1)/2 · "
     << rc.nz_ref_max_g - rc.nz_ref_min_g << " g; ps_ref = a2 · " << rc.ps_ref_max_radps << " rad/s; Ny_r_ref = 0.\n";
+  if (p.config.loop.ll_throttle == train::LowLevelThrottle::kGovernor)
+    o << "This run's throttle is the governor's (train.ll_throttle governor): `action`'s a0 is 1, full throttle,\n"
+      << "which the race's Mach governor caps; `mean`'s a0 is not used.\n";
   return o.str();
 }
 
@@ -349,8 +352,11 @@ torch::jit::Module make_ll_module(const train::RunPolicy& p) {
       << "\n";
   }
   o << "    mean = actor_out\n"
-    << "    return {'mean': mean, 'log_std': self.net_log_std.expand([b, " << nc.action_dim << "]), "
-    << "'value': critic_out.squeeze(1), 'action': torch.clamp(mean, -1.0, 1.0)}\n";
+    << "    action = torch.clamp(mean, -1.0, 1.0)\n";
+  if (p.config.loop.ll_throttle == train::LowLevelThrottle::kGovernor)  // full throttle; the governor caps it
+    o << "    action = torch.cat([torch.ones_like(action[:, :1]), action[:, 1:]], 1)\n";
+  o << "    return {'mean': mean, 'log_std': self.net_log_std.expand([b, " << nc.action_dim << "]), "
+    << "'value': critic_out.squeeze(1), 'action': action}\n";
   m.define(o.str());
   m.eval();
   return m;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "race/race_env.hpp"
+#include "train/run_policy.hpp"
 #include "train/trainer_state.hpp"
 
 namespace f16race::train {
@@ -136,6 +137,8 @@ torch::Tensor Trainer::State::ll_actions(bool learn, agents::PpoAction* act) {
     work.ll_forward_alive += models::count_alive(obs.ado_alive, ll_rows.owns_all(0) ? torch::Tensor() : mine) +
                             (ll_rows.rows(1).numel() > 0 ? models::count_alive(obs.ado_alive, ll_rows.rows(1)) : 0);
     work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
+    // Every aircraft of a training race flies this run's low level (its own or a pool snapshot's).
+    apply_ll_throttle(cfg, nullptr, actions.size(0), actions.data_ptr<float>());
   }
   timing.inference += since(t_act);
   return actions;

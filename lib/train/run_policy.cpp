@@ -133,6 +133,12 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
     return;
   }
   scatter_rows(rows, p.ll->act(obs, rows, gen, false).mean, actions);  // the Gaussian's mean
+  apply_ll_throttle(p.config, rows.data_ptr<std::int64_t>(), rows.numel(), actions);
+}
+
+void apply_ll_throttle(const TrainConfig& config, const std::int64_t* rows, std::int64_t n_rows, float* actions) {
+  if (config.loop.ll_throttle != LowLevelThrottle::kGovernor) return;
+  for (std::int64_t k = 0; k < n_rows; ++k) actions[(rows ? rows[k] : k) * race::kActionDim] = 1.0f;
 }
 
 void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,

@@ -58,6 +58,11 @@ void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other);
 void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const models::LlObs& obs,
                        const torch::Tensor& rows, at::Generator& gen, float* actions);
 
+// train.ll_throttle governor: the throttle action (column 0 of `actions` [*, 3]) of the `n_rows`
+// aircraft in `rows` (ascending indices; null: rows 0 .. n_rows - 1) set to full; the race's Mach
+// governor caps it. A policy throttle leaves them untouched.
+void apply_ll_throttle(const TrainConfig& config, const std::int64_t* rows, std::int64_t n_rows, float* actions);
+
 // Writes policy p's HL bins [n_env * n_agent, 3] for the aircraft in `rows` (ascending indices as
 // above), eps-greedy with `epsilon`. The one high-level act of the tournament and replay.
 void policy_hl_bins(const RunPolicy& p, const models::HlObs& obs, const torch::Tensor& rows, double epsilon,

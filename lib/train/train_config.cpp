@@ -105,6 +105,9 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("ll_pilot", &pilot, {"ppo", "autopilot"});
   c->ll_pilot = pilot == "autopilot" ? LowLevelPilot::kAutopilot : LowLevelPilot::kPpo;
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
+  std::string throttle = c->ll_throttle == LowLevelThrottle::kGovernor ? "governor" : "policy";
+  r.read("ll_throttle", &throttle, {"policy", "governor"});
+  c->ll_throttle = throttle == "governor" ? LowLevelThrottle::kGovernor : LowLevelThrottle::kPolicy;
   r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
   r.retired("hl_average_share", "0");  // docs/notebook/33, 35
   r.skip("tail_member");  // read_tail_member's, from run folders only
@@ -182,6 +185,9 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
   if (c.loop.ll_pilot == LowLevelPilot::kAutopilot && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.ll_pilot is autopilot, so only the high level learns: "
                           "train.hl_phase_updates must be > 0");
+  if (c.loop.ll_throttle == LowLevelThrottle::kGovernor && !c.race.mach_governor)
+    throw io::ConfigError(source + ": train.ll_throttle is governor (full throttle, capped by the Mach governor) "
+                          "and race.mach_governor is false: set race.mach_governor: true or train.ll_throttle: policy");
   if (!c.loop.ll_from.empty() && c.loop.ll_pilot == LowLevelPilot::kAutopilot)
     throw io::ConfigError(source + ": train.ll_from names a trained low level and train.ll_pilot is autopilot: "
                           "use one of the two");

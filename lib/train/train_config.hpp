@@ -20,6 +20,10 @@ namespace f16race::train {
 // the lane of each aircraft's HL goal at a held airspeed, so that only the high level learns and
 // what it learns is measured without the low level's own learning in the way.
 enum class LowLevelPilot { kPpo, kAutopilot };
+// Who sets the low level's throttle: the policy (its first action, the paper's), or the race's
+// Mach governor alone: full throttle, capped by race.mach_governor, as the autopilot flies with its
+// set point above the cap. The policy's throttle output is then not used (docs/notebook/91).
+enum class LowLevelThrottle { kPolicy, kGovernor };
 
 struct LoopConfig {
   std::int64_t total_env_steps = 200000;  // LL steps summed over envs (paper: 1 M per env x 1024 envs)
@@ -30,6 +34,7 @@ struct LoopConfig {
   int log_every_updates = 1;              // plain log line cadence when stdout is not a terminal
   LowLevelPilot ll_pilot = LowLevelPilot::kPpo;  // autopilot: no LL phase, every update is an ES update
   double autopilot_airspeed_ftps = 0.0;          // its set point; 0: race.start_speed_ftps, as the `autopilot` entry
+  LowLevelThrottle ll_throttle = LowLevelThrottle::kPolicy;
   // Share of total_env_steps at the end of a run in which the LL is frozen and only the HL learns
   // (every update an ES update): the bilevel problem's outer level against the final inner one.
   double hl_tail_share = 0.0;

@@ -96,6 +96,10 @@ void Trainer::State::load_frozen_low_level() {
   if (name.empty())
     throw io::InputError(from + ": train.ll_from names no trained run (no checkpoint/LATEST there): give a run "
                          "folder written by f16race train");
+  // The pilot flies with the throttle it learned with: its policy's, or the governor's alone.
+  if (read_run_config(from).config.loop.ll_throttle != cfg.loop.ll_throttle)
+    throw io::InputError(from + ": train.ll_from's low level was trained with another train.ll_throttle than this "
+                         "config's: use its value from " + from + "/config.yaml");
   const std::string path = from + "/checkpoint/" + name + "/ll.pt";
   const auto shapes = [this] {  // a load replaces tensors whole: a different network would just take their place
     std::vector<std::vector<std::int64_t>> out;

@@ -101,6 +101,21 @@ INSTANTIATE_TEST_SUITE_P(AllHeads, ExportVariants,
                            return std::get<0>(param_info.param) + (std::get<1>(param_info.param) ? "" : "_unnormalised");
                          });
 
+// train.ll_throttle governor: the exported `action` is the greedy action with the throttle full,
+// as the tournament and replay fly it (greedy_ll_actions); `mean` is still the network's.
+TEST(Export, GovernorThrottleRunsExportAFullThrottle) {
+  train::RunPolicy p = policy_with_stats("es_d2");
+  p.config.loop.ll_throttle = train::LowLevelThrottle::kGovernor;
+  torch::jit::Module ll = round_trip(make_ll_module(p), "ll_governor");
+  const ExampleObs x = random_example_obs(p.dims, 23, 77);
+  const auto lo = ll.forward({x.ego, x.goal, x.ado, x.ado_alive, x.task}).toGenericDict();
+  const torch::Tensor mean = lo.at("mean").toTensor(), action = lo.at("action").toTensor();
+  EXPECT_LT(diff(mean, ll_reference(p, x).mean), 1e-5);
+  EXPECT_TRUE(action.select(1, 0).eq(1.0).all().item<bool>());
+  EXPECT_TRUE(action.slice(1, 1).equal(mean.slice(1, 1).clamp(-1.0, 1.0)));
+  EXPECT_FALSE(mean.select(1, 0).eq(1.0).all().item<bool>());
+}
+
 // An ensemble's high level (train.hl_tail_members, RUN+RUN): the exported module answers with the
 // mean of its critics' q (and atom probabilities), each on its own normalised observations, and
 // the greedy bins of that mean, for the joint, decoupled and distributional heads.

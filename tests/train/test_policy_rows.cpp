@@ -84,6 +84,34 @@ TEST(GreedyLowLevel, NetworkMeanOrGoalFollowingAutopilotOnTheGivenRowsOnly) {
     for (float v : got) untouched += v == 42.0f;
     EXPECT_EQ(untouched, static_cast<int>(n) - 3 * race::kActionDim);
   }
+  // train.ll_throttle governor: the network's Nz and roll on those rows, the throttle full.
+  TrainConfig cg = c;
+  cg.loop.ll_throttle = LowLevelThrottle::kGovernor;
+  const RunPolicy p = untrained_policy(cg, 7);
+  std::vector<float> got(n, 42.0f), want(n, 42.0f);
+  greedy_ll_actions(p, env, obs, rows, gen, got.data());
+  scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, want.data());
+  for (std::int64_t r : {1, 2, 6}) {
+    EXPECT_NE(want[r * race::kActionDim], 1.0f);
+    want[r * race::kActionDim] = 1.0f;
+  }
+  EXPECT_EQ(got, want);
+}
+
+// apply_ll_throttle: every given row's throttle (or rows 0 .. n-1 without an index) full under
+// train.ll_throttle governor, nothing else touched; the policy's throttle untouched.
+TEST(GreedyLowLevel, GovernorThrottleSetsOnlyTheThrottleOfTheGivenRows) {
+  TrainConfig c;
+  std::vector<float> a(4 * race::kActionDim, -0.5f);
+  const std::int64_t rows[] = {1, 3};
+  apply_ll_throttle(c, rows, 2, a.data());
+  EXPECT_EQ(a, std::vector<float>(4 * race::kActionDim, -0.5f));
+  c.loop.ll_throttle = LowLevelThrottle::kGovernor;
+  apply_ll_throttle(c, rows, 2, a.data());
+  EXPECT_EQ(a, (std::vector<float>{-0.5f, -0.5f, -0.5f, 1, -0.5f, -0.5f, -0.5f, -0.5f, -0.5f, 1, -0.5f, -0.5f}));
+  apply_ll_throttle(c, nullptr, 1, a.data());
+  EXPECT_EQ(a[0], 1.0f);
+  EXPECT_EQ(a[6], -0.5f);
 }
 
 }  // namespace

@@ -212,6 +212,39 @@ TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
             std::string::npos);
 }
 
+// train.ll_throttle governor: the flight changes (other samples, other weights from the same
+// seed), a stopped run resumes to the same end; without the Mach governor the key is refused, and
+// a frozen pilot is flown only with the throttle it learned with.
+TEST(Trainer, GovernorThrottleTrainsOtherWeightsAndResumesExactly) {
+  const std::string extra = "train.ll_throttle=governor";
+  Trainer policy(smoke(), fresh_dir("thr_policy"));
+  policy.run();
+  const std::string pilot_dir = fresh_dir("thr_whole");
+  Trainer a(smoke(extra), pilot_dir);
+  a.run();
+  EXPECT_NE(a.ll_parameters(), policy.ll_parameters());
+  const std::string split = fresh_dir("thr_split");
+  {
+    Trainer b(smoke(extra), split);
+    b.run(nullptr, 3);
+  }
+  auto resumed = Trainer::resume(split);
+  resumed->run();
+  EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
+  EXPECT_NE(error_of("race: {mach_governor: false}\ntrain: {ll_throttle: governor}")
+                .find("train.ll_throttle is governor (full throttle, capped by the Mach governor) and "
+                      "race.mach_governor is false"),
+            std::string::npos);
+  EXPECT_NE(error_of("train: {ll_throttle: full}").find("train.ll_throttle: 'full' is not one of: policy, governor"),
+            std::string::npos);
+  try {
+    Trainer bad(smoke("train.ll_from=" + pilot_dir), fresh_dir("thr_bad"));
+    ADD_FAILURE() << "a governor-throttle pilot was flown with the policy's throttle";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("another train.ll_throttle than this config's"), std::string::npos) << e.what();
+  }
+}
+
 // train.ll_from: a run flies another run's trained low level, frozen, from its first update: its
 // LL weights are the pilot's to the bit before and after training, only the high level learns,
 // and the run resumes exactly without reading the pilot's folder again.
