@@ -246,9 +246,14 @@ std::string readme(const train::RunPolicy& p, const ExportReport& rep) {
     o << "| probs | [B, 3, " << nb << ", " << hl.n_atoms << "] | C51 return distribution per axis and bin over "
       << hl.n_atoms << " atoms evenly spaced in [" << hl.v_min << ", " << hl.v_max << "] |\n";
   const double half = 0.5 * (nb - 1);
-  o << "\nThe goal point is the center-line point " << rc.goal_ahead() << " ft ahead of the aircraft, offset along world\n"
-    << "north, east and up by (b − " << half << ") · " << rc.goal_bin_scale << " R / " << half
-    << " for the local tube radius R, with the cross-track part clipped to " << rc.goal_bin_scale << " R.\n\n";
+  const bool track = rc.goal_frame == race::GoalFrame::kTrack;
+  o << "\nThe goal point is the center-line point " << rc.goal_ahead() << " ft ahead of the aircraft, offset along "
+    << (track ? "the track's\ntangent, right and up there" : "world\nnorth, east and up") << " by (b − " << half << ") · "
+    << rc.goal_bin_scale << " R / " << half << " for the local tube radius R";
+  if (rc.goal_line_frac > 0.0)
+    o << ", plus the race's racing line there\n(the taut line through the tube within " << rc.goal_line_frac
+      << " R of the center-line, race.goal_line_frac)";
+  o << ", with the cross-track part clipped to " << rc.goal_bin_scale << " R (docs/race.md, \"Actions\").\n\n";
   o << "## ll_policy.pt: forward(ego, goal, ado, ado_alive, task) -> Dict[str, Tensor]\n\n"
     << "| key | shape | meaning |\n|---|---|---|\n"
     << "| mean | [B, 3] | Gaussian policy mean (the greedy action), normalised units |\n"
