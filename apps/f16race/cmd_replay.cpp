@@ -81,7 +81,7 @@ void add_replay_command(CLI::App& app) {
                   "RUN@center_x/_y/_z its high level with that goal axis on the middle bin")
       ->required();
   cmd->add_option("--opponent", o->replay.opponent,
-                  "Red team: a run folder (@center, @random, @center_x/_y/_z allowed), self (default), untrained, scripted or autopilot (AeroBench's waypoint autopilot)");
+                  "Red team: a run folder (@center, @random, @center_x/_y/_z allowed), self (default), untrained, scripted, autopilot (AeroBench's waypoint autopilot) or autopilot@line (the autopilot on the race's racing line)");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
   cmd->add_option("--out", o->out,

@@ -34,11 +34,15 @@ struct Side {
   HlOverride hl = HlOverride::none;
 };
 
+// The autopilot on the race's racing line, as `tournament --autopilot-on-line` flies it.
+constexpr const char* kAutopilotOnLine = "autopilot@line";
+
 std::string with_rule(const std::string& name, HlOverride rule) {
   return rule == HlOverride::none ? name : name + "@" + hl_override_name(rule);
 }
 
 Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint64_t seed) {
+  if (spec == kAutopilotOnLine) return Side{spec, std::nullopt};  // not a RUN@rule
   const auto [path, rule] = parse_entry_spec(spec);
   if (path == "scripted" || path == "autopilot") {
     if (rule != HlOverride::none) throw io::InputError(spec + ": the " + path + " pilot has no high level to fix");
@@ -81,6 +85,13 @@ RaceReplay run_replay(const ReplayOptions& o) {
   pilot.speed_ftps = rc.start_speed_ftps;
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = rc.autopilot_airspeed();
+  if (red.name == kAutopilotOnLine) {
+    if (!env.racing_line(0))
+      throw io::InputError(o.run + ": trained on the center-line (race.goal_line_frac 0): " + kAutopilotOnLine +
+                           " flies the race's racing line, and this race has none; use --opponent autopilot");
+    autopilot.lines = &env.racing_lines();
+    autopilot.line_max_offset_frac = 0.8;  // as tournament --autopilot-on-line
+  }
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
@@ -118,7 +129,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
     }
     // A built-in pilot flies the red team's rows only (the blue side is always a run).
     if (!red.policy) {
-      if (red.name == "autopilot") race::autopilot_actions(env, autopilot, actions.data(), red_rows.data(), ts);
+      if (red.name != "scripted") race::autopilot_actions(env, autopilot, actions.data(), red_rows.data(), ts);
       else race::scripted_actions(env, pilot, actions.data(), red_rows.data(), ts);
     }
     const models::LlObs obs = train::ll_obs_view(env);

@@ -17,7 +17,8 @@ struct ReplayOptions {
   // level with that axis on the middle bin (see eval/tournament.hpp)
   std::string run;
   // red: a run folder (with an optional @rule as for blue), "self" (default: the same spec as
-  // `run`), "untrained", "scripted" or "autopilot"
+  // `run`), "untrained", "scripted", "autopilot" or "autopilot@line" (its start lanes shifted onto
+  // the race's racing line, as tournament --autopilot-on-line)
   std::string opponent;
   std::uint64_t seed = 1;  // track and starting positions
   double epsilon = 0.0;    // HL exploration of both teams

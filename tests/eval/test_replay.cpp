@@ -71,6 +71,37 @@ TEST(Replay, RacesEveryOpponentKindToTheEnd) {
   EXPECT_EQ(a.trace.rows[1].back().pn_ft, b.trace.rows[1].back().pn_ft);
 }
 
+// "autopilot@line": the autopilot flies its start lanes shifted onto the race's racing line, so
+// its aircraft fly otherwise than on their lanes from the first bend; a run trained on the
+// center-line has no line to give it and is refused in one line.
+TEST(Replay, TheAutopilotOnTheRacingLineFliesOtherTrajectories) {
+  const std::string run = tiny_run("line_run", {"race.goal_line_frac=0.25"});
+  ReplayOptions o;
+  o.run = run;
+  o.seed = 5;
+  o.opponent = "autopilot";
+  const RaceReplay lanes = run_replay(o);
+  o.opponent = "autopilot@line";
+  const RaceReplay line = run_replay(o);
+  EXPECT_EQ(line.red, "autopilot@line");
+  ASSERT_FALSE(line.line.right_ft.empty());
+  double apart = 0.0;  // how far red's first aircraft flies from where it flew on its lane
+  const auto& a = lanes.trace.rows[2];
+  const auto& b = line.trace.rows[2];
+  for (std::size_t k = 0; k < std::min(a.size(), b.size()); ++k)
+    apart = std::max(apart, std::hypot(a[k].pn_ft - b[k].pn_ft, a[k].pe_ft - b[k].pe_ft));
+  EXPECT_GT(apart, 50.0);
+  EXPECT_EQ(lanes.trace.rows[0].front().pn_ft, line.trace.rows[0].front().pn_ft);  // the same race
+  o.run = tiny_run("center_run");
+  try {
+    run_replay(o);
+    ADD_FAILURE() << "a center-line run gave the autopilot a line";
+  } catch (const io::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("trained on the center-line (race.goal_line_frac 0)"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Replay, BlocksAgreeWithTheRecordedTrajectories) {
   // Every block of a replay, checked against the trajectories the recorder wrote: opponents, the
   // blocker ahead by at most 1000 ft and within 300 ft in the cross-section where the window
