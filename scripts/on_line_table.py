@@ -12,26 +12,24 @@ bootstrap 95 % CI (10 000 resamples, random.Random(90), as notebook 90). Standar
 """
 import csv
 import os
-import random
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from pilot_seeds_table import head_to_head, wilson  # noqa: E402
-
-
-def boot90(xs, reps=10000):
-    rng = random.Random(90)
-    n = len(xs)
-    ms = sorted(sum(rng.choice(xs) for _ in range(n)) / n for _ in range(reps))
-    return ms[int(0.025 * reps)], ms[int(0.975 * reps) - 1]
+from pilot_seeds_table import boot, head_to_head, wilson  # noqa: E402
 
 
 def seed_row(folder):
-    rows = list(csv.DictReader(open(os.path.join(folder, "races.csv"))))
+    path = os.path.join(folder, "races.csv")
+    if not os.path.isfile(path):
+        sys.exit(f"{path}: no such file; give a tournament folder (tournament --with-autopilot --autopilot-on-line)")
+    rows = list(csv.DictReader(open(path)))
     if not rows:
         sys.exit(f"{folder}/races.csv: no races; rerun the tournament")
     me = next(e for e in (rows[0]["blue"], rows[0]["red"]) if e != "autopilot")
-    h = head_to_head(rows, me, "autopilot")
+    try:
+        h = head_to_head(rows, me, "autopilot")
+    except (KeyError, ValueError) as e:
+        sys.exit(f"{path}: not a tournament's races.csv ({e!r}); rerun the tournament")
     return dict(w=h["w"] / h["n"], lo_hi=wilson(h["w"], h["n"]), tube=h["lost"]["tube"],
                 ap_tube=h["opp_lost"]["tube"], coll=h["lost"]["collision"],
                 clean=h["clean_w"] / max(h["clean_n"], 1), clean_n=h["clean_n"])
@@ -48,8 +46,8 @@ def main(folders):
         print(f"| {i} | {s['w']:.3f} [{s['lo_hi'][0]:.3f}, {s['lo_hi'][1]:.3f}] | {s['tube']:.3f} / "
               f"{s['ap_tube']:.3f} | {s['coll']:.3f} | {s['clean']:.3f} ({s['clean_n']}) |")
     mean = lambda k: sum(s[k] for s in seeds) / len(seeds)  # noqa: E731
-    lo, hi = boot90([s["w"] for s in seeds])
-    clo, chi = boot90([s["clean"] for s in seeds])
+    lo, hi = boot([s["w"] for s in seeds], seed=90)
+    clo, chi = boot([s["clean"] for s in seeds], seed=90)
     print(f"\nmean over seeds {mean('w'):.3f}, bootstrap 95 % [{lo:.3f}, {hi:.3f}] (10 000 resamples, "
           f"Random(90)); clean races {mean('clean'):.3f} [{clo:.3f}, {chi:.3f}]; tube losses per race "
           f"{mean('tube'):.3f} (learned) / {mean('ap_tube'):.3f} (autopilot)")
