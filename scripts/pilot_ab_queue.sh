@@ -18,8 +18,9 @@
 # default config with no override, the control of A/Bs run on its machine (AMD EPYC family 25);
 # 88 race.preview_on_line (the task's preview points on the racing line) and 89
 # race.lane_scales_with_radius (lanes inside the local tube), each against 87 (88 read and
-# removed: a build of b8dcef3); 91 train.ll_throttle governor, against 87; 92 89's lanes on top
-# of 91's throttle, against 91.
+# removed: a build of b8dcef3); 91 train.ll_throttle governor, against 87 (adopted:
+# configs/default.yaml sets it, so 91's arm is the control of later A/Bs); 92 89's lanes on top
+# of 91's throttle, against 91 (89 and 92 read and removed: a build of 0bda7d6).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 

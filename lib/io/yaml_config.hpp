@@ -56,6 +56,9 @@ inline constexpr Retirement kNotebook78Keys{"after docs/notebook/78's and 79's v
 inline constexpr Retirement kNotebook80Keys{"after docs/notebook/80's verdict", "c3a8ae5"};
 // race.preview_on_line: measured not to help (docs/notebook/88-the-preview-on-the-racing-line.md).
 inline constexpr Retirement kNotebook88Keys{"after docs/notebook/88's verdict", "b8dcef3"};
+// race.lane_scales_with_radius: measured not to help
+// (docs/notebook/92-lanes-inside-the-local-tube-at-full-throttle.md).
+inline constexpr Retirement kNotebook92Keys{"after docs/notebook/92's verdict", "0bda7d6"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {

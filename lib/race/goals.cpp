@@ -57,20 +57,10 @@ void RaceEnv::goal_lane_here(int i, double* right_ft, double* up_ft) const {
     at_goal = line.offset_at(goal_progress_ft_[i]);
     here = line.offset_at(progress_ft_[i]);
   }
-  if (!config_.lane_scales_with_radius) {  // the goal's offset from the line in feet, as placed
-    *right_ft = goal_lateral_ft_[i] + (here.right_ft - at_goal.right_ft);
-    *up_ft = goal_vertical_ft_[i] + (here.up_ft - at_goal.up_ft);
-    return;
-  }
-  // The same fraction of the local radius as of the radius at the goal, and inside the outer
-  // bins' radius here as at the goal.
-  const double scale = radius_ft_[i] / tracks_[i / n_agent_].radius_at(goal_progress_ft_[i]);
-  double r = here.right_ft + scale * (goal_lateral_ft_[i] - at_goal.right_ft);
-  double u = here.up_ft + scale * (goal_vertical_ft_[i] - at_goal.up_ft);
-  const double limit = config_.goal_bin_scale * radius_ft_[i], m = std::sqrt(r * r + u * u);
-  if (m > limit) r *= limit / m, u *= limit / m;
-  *right_ft = r;
-  *up_ft = u;
+  // The goal's offset from the line in feet, as placed, carried along the line
+  // (as a fraction of the local radius: docs/notebook/89 and 92, not adopted).
+  *right_ft = goal_lateral_ft_[i] + (here.right_ft - at_goal.right_ft);
+  *up_ft = goal_vertical_ft_[i] + (here.up_ft - at_goal.up_ft);
 }
 
 // Once per race, not per step; the solver's few kilobytes of vectors are the one allocation a

@@ -96,11 +96,6 @@ struct RaceConfig {
   // each point within this fraction of the local radius (race/track_line.hpp), computed once per
   // race. A goal stays within goal_bin_scale x the radius. 0: the center-line (docs/notebook/85).
   double goal_line_frac = 0.0;
-  // The lane the goal asks for at the aircraft's own cross-section (the goal observation's and
-  // the lane reward's) keeps its offset from the line as a fraction of the local radius, within
-  // goal_bin_scale of it. false: in feet, as placed at the goal, where the tube may be twice as
-  // wide as here: a quarter of the outer bins' lanes left the tube on the way (docs/notebook/89).
-  bool lane_scales_with_radius = false;
 
   // Observations.
   int preview_points = 6;

@@ -17,6 +17,7 @@
 #include <initializer_list>
 #include <iterator>
 #include <sstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,21 @@ TrainConfig smoke(std::initializer_list<std::string> overrides) {
 TrainConfig smoke(const std::string& extra = "") { return extra.empty() ? smoke({}) : smoke({extra}); }
 
 std::string fresh_dir(const std::string& name) { return test_support::fresh_temp_path("train_test_" + name); }
+
+// The run `config` gives, stopped (with its checkpoint) after `stop_after` updates in a fresh
+// folder named `name`, then resumed there and run to its end: the "killed and resumed" half of
+// the resume tests.
+std::unique_ptr<Trainer> stopped_and_resumed(const TrainConfig& config, const std::string& name,
+                                             std::int64_t stop_after) {
+  const std::string dir = fresh_dir(name);
+  {
+    Trainer t(config, dir);
+    t.run(nullptr, stop_after);
+  }
+  auto resumed = Trainer::resume(dir);
+  resumed->run();
+  return resumed;
+}
 
 std::string error_of(const std::string& yaml) {
   try {
@@ -198,14 +214,7 @@ TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
   EXPECT_GT(full.hl_grad_steps, 0);
   EXPECT_EQ(a.ll_parameters(), ll0);
   EXPECT_NE(a.hl_parameters(), hl0);
-  const std::string split = fresh_dir("ap_split");
-  {
-    Trainer b(smoke(extra), split);
-    b.run(nullptr, 3);
-  }
-  auto resumed = Trainer::resume(split);
-  resumed->run();
-  EXPECT_EQ(resumed->hl_parameters(), a.hl_parameters());
+  EXPECT_EQ(stopped_and_resumed(smoke(extra), "ap_split", 3)->hl_parameters(), a.hl_parameters());
   EXPECT_NE(error_of("train: {ll_pilot: fly}").find("train.ll_pilot: 'fly' is not one of: ppo, autopilot"),
             std::string::npos);
   EXPECT_NE(error_of("train: {ll_pilot: autopilot, hl_phase_updates: 0}").find("train.hl_phase_updates must be > 0"),
@@ -223,14 +232,7 @@ TEST(Trainer, GovernorThrottleTrainsOtherWeightsAndResumesExactly) {
   Trainer a(smoke(extra), pilot_dir);
   a.run();
   EXPECT_NE(a.ll_parameters(), policy.ll_parameters());
-  const std::string split = fresh_dir("thr_split");
-  {
-    Trainer b(smoke(extra), split);
-    b.run(nullptr, 3);
-  }
-  auto resumed = Trainer::resume(split);
-  resumed->run();
-  EXPECT_EQ(resumed->ll_parameters(), a.ll_parameters());
+  EXPECT_EQ(stopped_and_resumed(smoke(extra), "thr_split", 3)->ll_parameters(), a.ll_parameters());
   EXPECT_NE(error_of("race: {mach_governor: false}\ntrain: {ll_throttle: governor}")
                 .find("train.ll_throttle is governor (full throttle, capped by the Mach governor) and "
                       "race.mach_governor is false"),
@@ -354,14 +356,8 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
     EXPECT_TRUE(same(full.rows[i].ll_return, plain.rows[i].ll_return)) << "update " << i;
     EXPECT_TRUE(same(full.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
   }
-  const std::string split = fresh_dir("ctail_split");
-  {
-    Trainer c(centered, split);
-    c.run(nullptr, static_cast<std::int64_t>(k) + 2);
-  }
-  auto resumed = Trainer::resume(split);
-  resumed->run();
-  EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
+  EXPECT_EQ(stopped_and_resumed(centered, "ctail_split", static_cast<std::int64_t>(k) + 2)->hl_parameters(),
+            b.hl_parameters());
   EXPECT_NE(error_of("pool: {p_center_tail: 0.25}").find("pool.p_center_tail = 0.25 applies to the HL-only tail"),
             std::string::npos);
 }
@@ -393,14 +389,8 @@ TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
   for (std::size_t i = k + 1; i < other.rows.size(); ++i)
     differs = differs || !same(other.rows[i].es_loss, plain.rows[i].es_loss);
   EXPECT_TRUE(differs) << "the member's tail should learn from other draws";
-  const std::string split = fresh_dir("member_split");
-  {
-    Trainer c(member, split);
-    c.run(nullptr, static_cast<std::int64_t>(k) + 3);
-  }
-  auto resumed = Trainer::resume(split);
-  resumed->run();
-  EXPECT_EQ(resumed->hl_parameters(), b.hl_parameters());
+  EXPECT_EQ(stopped_and_resumed(member, "member_split", static_cast<std::int64_t>(k) + 3)->hl_parameters(),
+            b.hl_parameters());
 }
 
 // A finished run extended by a tail (its config's budget raised, train.hl_tail_share set, the
