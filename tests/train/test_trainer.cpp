@@ -69,6 +69,24 @@ std::unique_ptr<Trainer> stopped_and_resumed(const TrainConfig& config, const st
   return resumed;
 }
 
+// The first update of smoke(tail)'s HL-only tail at hl_tail_share 0.5 (half of its 600 env steps).
+std::size_t first_tail_update(const TrainSummary& run) {
+  std::size_t k = 0;
+  while (k < run.rows.size() && run.rows[k].env_steps < 300) ++k;
+  return k;
+}
+
+bool same_or_both_nan(double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); }
+
+// Rows [0, n) of two runs' metrics agree: the same steps, LL and HL returns.
+void expect_same_rows(const TrainSummary& a, const TrainSummary& b, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_EQ(a.rows[i].env_steps, b.rows[i].env_steps) << "update " << i;
+    EXPECT_TRUE(same_or_both_nan(a.rows[i].ll_return, b.rows[i].ll_return)) << "update " << i;
+    EXPECT_TRUE(same_or_both_nan(a.rows[i].hl_return, b.rows[i].hl_return)) << "update " << i;
+  }
+}
+
 std::string error_of(const std::string& yaml) {
   try {
     read_train_config(YAML::Load(yaml), "cfg.yaml");
@@ -305,8 +323,7 @@ TEST(Trainer, HlTailFreezesTheLowLevelForTheLastShareOfTheSteps) {
   const std::string extra = "train.hl_tail_share=0.5";
   Trainer a(smoke(extra), fresh_dir("tail_whole"));
   const TrainSummary full = a.run();
-  std::size_t k = 0;  // the update that crosses half the budget: the last one that may be an LL update
-  while (k < full.rows.size() && full.rows[k].env_steps < 300) ++k;
+  const std::size_t k = first_tail_update(full);  // crosses half the budget: the last that may be an LL update
   ASSERT_LT(k + 2, full.rows.size());
   EXPECT_EQ(full.rows[0].phase, "ll");
   for (std::size_t i = k + 1; i < full.rows.size(); ++i) EXPECT_EQ(full.rows[i].phase, "hl") << "update " << i;
@@ -346,16 +363,10 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
   const TrainSummary full = b.run();
   EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
   EXPECT_NE(b.hl_parameters(), a.hl_parameters());
-  std::size_t k = 0;  // the first update in the tail: both runs agree on every row before it
-  while (k < full.rows.size() && full.rows[k].env_steps < 300) ++k;
+  const std::size_t k = first_tail_update(full);  // both runs agree on every row before it
   ASSERT_LT(k + 2, full.rows.size());
   ASSERT_EQ(plain.rows.size(), full.rows.size());
-  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
-  for (std::size_t i = 0; i < k; ++i) {
-    EXPECT_EQ(full.rows[i].env_steps, plain.rows[i].env_steps) << "update " << i;
-    EXPECT_TRUE(same(full.rows[i].ll_return, plain.rows[i].ll_return)) << "update " << i;
-    EXPECT_TRUE(same(full.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
-  }
+  expect_same_rows(full, plain, k);
   EXPECT_EQ(stopped_and_resumed(centered, "ctail_split", static_cast<std::int64_t>(k) + 2)->hl_parameters(),
             b.hl_parameters());
   EXPECT_NE(error_of("pool: {p_center_tail: 0.25}").find("pool.p_center_tail = 0.25 applies to the HL-only tail"),
@@ -375,19 +386,13 @@ TEST(Trainer, TailMemberDrawsAnotherTailOfTheSameLowLevel) {
   const TrainSummary other = b.run();
   EXPECT_EQ(b.ll_parameters(), a.ll_parameters());
   EXPECT_NE(b.hl_parameters(), a.hl_parameters());
-  std::size_t k = 0;  // the first update in the tail
-  while (k < other.rows.size() && other.rows[k].env_steps < 300) ++k;
+  const std::size_t k = first_tail_update(other);
   ASSERT_LT(k + 2, other.rows.size());
   ASSERT_EQ(plain.rows.size(), other.rows.size());
-  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
-  for (std::size_t i = 0; i <= k; ++i) {  // row k is the update that crossed into the tail
-    EXPECT_EQ(other.rows[i].env_steps, plain.rows[i].env_steps) << "update " << i;
-    EXPECT_TRUE(same(other.rows[i].ll_return, plain.rows[i].ll_return)) << "update " << i;
-    EXPECT_TRUE(same(other.rows[i].hl_return, plain.rows[i].hl_return)) << "update " << i;
-  }
+  expect_same_rows(other, plain, k + 1);  // row k is the update that crossed into the tail
   bool differs = false;
   for (std::size_t i = k + 1; i < other.rows.size(); ++i)
-    differs = differs || !same(other.rows[i].es_loss, plain.rows[i].es_loss);
+    differs = differs || !same_or_both_nan(other.rows[i].es_loss, plain.rows[i].es_loss);
   EXPECT_TRUE(differs) << "the member's tail should learn from other draws";
   EXPECT_EQ(stopped_and_resumed(member, "member_split", static_cast<std::int64_t>(k) + 3)->hl_parameters(),
             b.hl_parameters());
@@ -509,8 +514,7 @@ TEST(Trainer, TailMembersAreTheRunsForksAndItsPolicyTheirEnsemble) {
   }
 
   // Stopped two updates after the fork, resumed: the same members, forked once.
-  std::size_t k = 0;
-  while (k < alone_sum.rows.size() && alone_sum.rows[k].env_steps < 300) ++k;
+  const std::size_t k = first_tail_update(alone_sum);
   const std::string split = fresh_dir("members_split");
   {
     Trainer t(ens, split);
