@@ -21,7 +21,8 @@
 # removed: a build of b8dcef3); 91 train.ll_throttle governor, against 87 (adopted:
 # configs/default.yaml sets it, so 91's arm is the control of later A/Bs); 92 89's lanes on top
 # of 91's throttle, against 91 (89 and 92 read and removed: a build of 0bda7d6); 94
-# race.w_tube_wall 0.15 (a wall term inside the tube), against 91; 95 the same from 0.9 R.
+# race.w_tube_wall 0.15 (a wall term inside the tube), against 91; 95 the same from 0.9 R (94 and 95
+# read and removed: a build of 833c6d1).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 

@@ -59,6 +59,8 @@ inline constexpr Retirement kNotebook88Keys{"after docs/notebook/88's verdict", 
 // race.lane_scales_with_radius: measured not to help
 // (docs/notebook/92-lanes-inside-the-local-tube-at-full-throttle.md).
 inline constexpr Retirement kNotebook92Keys{"after docs/notebook/92's verdict", "0bda7d6"};
+// race.w_tube_wall, race.tube_wall_frac: measured not to help (docs/notebook/, entries 94 and 95).
+inline constexpr Retirement kNotebook95Keys{"after docs/notebook/94's and 95's verdicts", "833c6d1"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {

@@ -96,8 +96,8 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("w_separation", &c->w_separation, -1e6, 1e6);
   r.read("goal_min_separation_ft", &c->goal_min_separation_ft, 0.0, 1e5);
   r.read("w_tube", &c->w_tube, -1e6, 1e6);
-  r.read("w_tube_wall", &c->w_tube_wall, -1e6, 1e6);
-  r.read("tube_wall_frac", &c->tube_wall_frac, 0.0, 0.99);
+  r.retired("w_tube_wall", "0", io::kNotebook95Keys);
+  r.retired("tube_wall_frac", "0.8", io::kNotebook95Keys);
   r.read("w_collision", &c->w_collision, -1e6, 1e6);
   r.read("w_termination", &c->w_termination, -1e6, 1e6);
   r.read("w_action_change", &c->w_action_change, -1e6, 1e6);

@@ -121,11 +121,6 @@ struct RaceConfig {
   // team's decision never sends two aircraft to one point.
   double goal_min_separation_ft = 500.0;
   double w_tube = 0.5;               // per second outside the tube, scaled by how far outside
-  // Per step, w_tube_wall x ((dist / R - tube_wall_frac) / (1 - tube_wall_frac))^2 beyond
-  // tube_wall_frac of the radius: a gradient towards the inside before the exit's termination,
-  // which comes once, 3 s after the exit (0: none; docs/notebook/94 decides whether it stays).
-  double w_tube_wall = 0.0;
-  double tube_wall_frac = 0.8;
   double w_collision = 5.0;          // once, when taken out by a collision
   double w_termination = 5.0;        // once, for any other termination
   double w_action_change = 0.02;     // |a_t - a_{t-1}|^2

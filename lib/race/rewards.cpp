@@ -36,8 +36,6 @@ void RaceEnv::pay_rewards(int env, const double* progress_before_ft) {
     r -= separation_penalty(i);
     goal_dist_ft_[i] = gd;
     if (dist_ft_[i] > radius_ft_[i]) r -= c.w_tube * c.dt_ll_s * (dist_ft_[i] - radius_ft_[i]) / radius_ft_[i];
-    const double wall = (dist_ft_[i] / radius_ft_[i] - c.tube_wall_frac) / (1.0 - c.tube_wall_frac);
-    if (c.w_tube_wall != 0.0 && wall > 0.0) r -= c.w_tube_wall * wall * wall;
     const double p = sim_.state(kP)[i], q = sim_.state(kQ)[i], rr = sim_.state(kR)[i];
     r -= c.w_rates * (p * p + q * q + rr * rr);
     if (cause_[i] == kCauseCollision && terminated_[i]) r -= c.w_collision;
