@@ -57,8 +57,8 @@ void RaceEnv::goal_lane_here(int i, double* right_ft, double* up_ft) const {
     at_goal = line.offset_at(goal_progress_ft_[i]);
     here = line.offset_at(progress_ft_[i]);
   }
-  // The goal's offset from the line in feet, as placed, carried along the line
-  // (as a fraction of the local radius: docs/notebook/89 and 92, not adopted).
+  // The goal's offset from the line in feet, as placed, carried along the line (keeping it as a
+  // fraction of the local radius instead was measured and not adopted: docs/notebook/89, 92).
   *right_ft = goal_lateral_ft_[i] + (here.right_ft - at_goal.right_ft);
   *up_ft = goal_vertical_ft_[i] + (here.up_ft - at_goal.up_ft);
 }
