@@ -25,10 +25,10 @@ def seed_row(folder):
     rows = list(csv.DictReader(open(path)))
     if not rows:
         sys.exit(f"{folder}/races.csv: no races; rerun the tournament")
-    me = next(e for e in (rows[0]["blue"], rows[0]["red"]) if e != "autopilot")
     try:
+        me = next(e for e in (rows[0]["blue"], rows[0]["red"]) if e != "autopilot")
         h = head_to_head(rows, me, "autopilot")
-    except (KeyError, ValueError) as e:
+    except (KeyError, ValueError, StopIteration) as e:
         sys.exit(f"{path}: not a tournament's races.csv ({e!r}); rerun the tournament")
     return dict(w=h["w"] / h["n"], lo_hi=wilson(h["w"], h["n"]), tube=h["lost"]["tube"],
                 ap_tube=h["opp_lost"]["tube"], coll=h["lost"]["collision"],

@@ -74,5 +74,9 @@ with tempfile.TemporaryDirectory() as tmp:
     out = subprocess.run([sys.executable, script, foreign], capture_output=True, text=True)
     err = out.stderr.strip().splitlines()
     check(out.returncode == 1 and len(err) == 1 and "not a tournament" in err[0], f"a foreign races.csv: {err}")
+    open(os.path.join(foreign, "races.csv"), "w").write("name,score\nx,1\n")  # no entry columns at all
+    out = subprocess.run([sys.executable, script, foreign], capture_output=True, text=True)
+    err = out.stderr.strip().splitlines()
+    check(out.returncode == 1 and len(err) == 1 and "not a tournament" in err[0], f"a csv without entries: {err}")
 
 sys.exit(1 if failures else 0)
