@@ -36,7 +36,7 @@ std::string fingerprint(const eval::TournamentOptions& o) {
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
     << "\n--axis-controls " << o.axis_controls << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
     << "\n--tracks " << o.tracks_config << "\n--goal-line " << o.goal_line_frac
-    << "\n--autopilot-on-line " << o.autopilot_on_line
+    << "\n--autopilot-on-line " << o.autopilot_on_line << "\n--autopilot-shift-up " << o.autopilot_shift_up_frac
     << "\n--out " << o.out_dir;
   return f.str();
 }
@@ -138,6 +138,10 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--autopilot-on-line", o->autopilot_on_line,
                 "The autopilot entry flies its start lanes shifted onto each race's racing line (the race's "
                 "race.goal_line_frac, or --goal-line), its aim points held within 0.8 of the radius");
+  cmd->add_option("--autopilot-shift-up", o->autopilot_shift_up_frac,
+                  "The autopilot entry's aim points moved up by this fraction of the tube radius (negative: down), "
+                  "held within 0.8 of it")
+      ->check(CLI::Range(-0.8, 0.8));
   cmd->add_option("--tracks", o->tracks_config,
                   "Race on this config's tracks and time limit (race.track, race.time_limit_s), e.g. configs/long.yaml; "
                   "default: the first run's")

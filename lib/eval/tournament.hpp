@@ -73,6 +73,9 @@ struct TournamentOptions {
   // which must be > 0), its aim points held within 0.8 of the radius: the classic pilot given the
   // line the learned team's goals are placed around (docs/notebook/83, 84).
   bool autopilot_on_line = false;
+  // The autopilot's aim points moved up by this fraction of the local radius (negative: down),
+  // held within 0.8 of it: under a Mach governor lower air is faster (docs/notebook/96).
+  double autopilot_shift_up_frac = 0.0;
   // Non-empty: race on this config file's tracks (race.track) and time limit (race.time_limit_s)
   // instead of the first run's, e.g. trained runs on configs/long.yaml's long tracks.
   std::string tracks_config;

@@ -326,7 +326,10 @@ void excluded_md(const TournamentResult& r, const TournamentStatistics& s, const
           "point "
        << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at "
        << (o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : r.race.autopilot_airspeed())
-       << " ft/s (its set point, race.autopilot_airspeed_ftps or --autopilot-airspeed).";
+       << " ft/s (its set point, race.autopilot_airspeed_ftps or --autopilot-airspeed)";
+  if (has_autopilot && o.autopilot_shift_up_frac != 0.0)
+    md << ", its aim points moved up by " << o.autopilot_shift_up_frac << " of the tube radius (--autopilot-shift-up)";
+  if (has_autopilot) md << ".";
   if (has_control)
     md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "
           "(the middle bin on every axis, or uniform random bins at every HL decision); `RUN@center_x`, `_y`, `_z` "

@@ -15,16 +15,17 @@ using namespace f16race::dynamics;
 namespace {
 // The point lookahead_ft ahead along the center-line, moved to lane_fraction of the aircraft's
 // start offset in the tube's cross-section there.
-// With a racing line, its offset there is added, and the sum held within max_offset_frac of the
-// radius: a lane near the wall plus the line's cut would aim outside the tube (docs/notebook/83).
+// With a racing line, its offset there is added (and shift_up_frac of the radius upward), and the
+// sum held within max_offset_frac of the radius: a lane near the wall plus the line's cut would aim
+// outside the tube (docs/notebook/83).
 Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_fraction,
-                    const TubeLine* line = nullptr, double max_offset_frac = 1.0) {
+                    const TubeLine* line = nullptr, double max_offset_frac = 1.0, double shift_up_frac = 0.0) {
   const double s = env.progress_ft(i) + lookahead_ft;
   const TrackFrame fr = env.track(i / env.n_agent()).frame_at(s);
   double y = lane_fraction * env.start_lateral_ft(i), z = lane_fraction * env.start_vertical_ft(i);
-  if (line) {
-    const TubeLine::Offset w = line->offset_at(s);
-    y += w.right_ft, z += w.up_ft;
+  if (line || shift_up_frac != 0.0) {
+    const TubeLine::Offset w = line ? line->offset_at(s) : TubeLine::Offset{};
+    y += w.right_ft, z += w.up_ft + shift_up_frac * fr.radius_ft;
     const double r = std::sqrt(y * y + z * z), limit = max_offset_frac * fr.radius_ft;
     if (r > limit) y *= limit / r, z *= limit / r;
   }
@@ -89,7 +90,7 @@ void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& k, float*
     const Vec3 aim = k.follow_goal ? goal_lane_aim_point(env, i, k.lookahead_ft)
                                    : lane_aim_point(env, i, k.lookahead_ft, k.lane_fraction,
                                                     k.lines ? &(*k.lines)[i / env.n_agent()] : nullptr,
-                                                    k.line_max_offset_frac);
+                                                    k.line_max_offset_frac, k.shift_up_frac);
     double x[kNumStates];
     for (int s = 0; s < kNumStates; ++s) x[s] = sim.state(s)[i];
     // One waypoint, always ahead: AeroBench's law as it flies toward its current waypoint.

@@ -52,6 +52,9 @@ struct AutopilotPilotConfig {
   // On a line, the aim point's offset from the center-line is held within this fraction of the
   // local radius (1: not held; docs/notebook/84).
   double line_max_offset_frac = 1.0;
+  // Start lanes only: the aim point moved up by this fraction of the local radius (negative: down),
+  // then held within line_max_offset_frac. Under a Mach governor lower air is faster (docs/notebook/96).
+  double shift_up_frac = 0.0;
 };
 // As scripted_actions: the aircraft in `rows`, or all of them.
 void autopilot_actions(const RaceEnv& env, const AutopilotPilotConfig& pilot, float* actions,

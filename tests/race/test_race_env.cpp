@@ -415,6 +415,7 @@ TEST(RaceEnv, FullThrottleSettlesSteadilyInsideTheGovernorBand) {
   EXPECT_NEAR(std::min(mean[0], mean[1]), 0.5830, 0.0005);
 }
 
+
 }  // namespace
 }  // namespace f16race::race
 
@@ -824,6 +825,40 @@ TEST(RaceEnv, GoalFollowingAutopilotFliesTheLaneTheHighLevelChose) {
   EXPECT_LT(std::abs(slope[0]), 0.4);
 }
 
+// --autopilot-shift-up: the start-lane autopilot moved down 0.4 of the radius flies lower in
+// the tube by about that much once the lane error has closed (time constant ~8.6 s, above): after
+// 20 s the mean vertical offset (/ R) is 0.4 x (1 - exp(-20 / 8.6)) = 0.36 lower, less the hold
+// within 0.8 R for aircraft that started low.
+TEST(RaceEnv, ShiftedAutopilotFliesLowerInTheTube) {
+  RaceConfig c = small_config(4, 2);
+  double mean_up[2] = {0.0, 0.0};
+  for (int shifted = 0; shifted < 2; ++shifted) {
+    RaceEnv env(c);
+    AutopilotPilotConfig k;
+    k.airspeed_ftps = c.autopilot_airspeed();
+    k.shift_up_frac = shifted ? -0.4 : 0.0;
+    k.line_max_offset_frac = 0.8;
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, c.hl_center_bin());
+    std::vector<float> a(static_cast<std::size_t>(env.n_aircraft()) * kActionDim, 0.0f);
+    for (int s = 0; s < 250; ++s) {
+      env.set_hl_actions(bins.data());
+      autopilot_actions(env, k, a.data());
+      env.step(a.data());
+    }
+    int n = 0;
+    for (int i = 0; i < env.n_aircraft(); ++i) {
+      if (!env.alive(i)) continue;
+      mean_up[shifted] += env.vertical_ft(i) / env.track(i / env.n_agent()).radius_at(env.progress_ft(i));
+      ++n;
+    }
+    ASSERT_GE(n, env.n_aircraft() - 2);
+    mean_up[shifted] /= n;
+  }
+  std::printf("mean vertical offset / R after 20 s: %.3f, moved down 0.4: %.3f\n", mean_up[0], mean_up[1]);
+  EXPECT_LT(mean_up[1] - mean_up[0], -0.25);
+  EXPECT_GT(mean_up[1] - mean_up[0], -0.45);
+}
+
 // A bad race: section is refused on load, one line naming the keys (under race:) and their
 // values: every cross-key rule, and tracks too long to sample (gigabytes per race).
 std::string race_config_error(const std::string& yaml) {
@@ -857,6 +892,7 @@ TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
       {"{start_speed_ftps: 600}", "start_speed_ftps (600) is Mach 0.572 at 16800 ft, too close to mach_max (0.6)"},
       {"{mach_max: 0.1}", "mach_max (0.1) must be 0 (no limit) or >= 0.2"},
       {"{mach_max: 0}", "mach_governor needs a mach_max > 0"},
+      {"{governor_holds: tas}", "race.governor_holds"},
   };
   for (const auto& [yaml, message] : cases) {
     const std::string e = race_config_error(yaml);
@@ -925,6 +961,48 @@ TEST(RaceEnv, MachGovernorHoldsFullThrottleInsideTheEnvelope) {
       EXPECT_GT(envelope, 0);
     }
   }
+}
+
+// Held on airspeed, the governor gives aircraft at different heights one top speed: full throttle
+// in level flight for 40 s ends just below the Mach mach_max - 0.01 would be at governor_top_ft,
+// and each aircraft's own Mach stays lower, the more so the lower it flies. Held on Mach, the
+// lower of two aircraft is the faster, by the ratio of their speeds of sound.
+TEST(RaceEnv, AirspeedGovernorHoldsOneSpeedAtEveryAltitude) {
+  double vt_end[2][2], alt_end[2][2];
+  for (const bool airspeed : {false, true}) {
+    RaceConfig c = small_config(1, 1);
+    c.governor_holds = airspeed ? GovernorHolds::kAirspeed : GovernorHolds::kMach;
+    c.tube_grace_s = 1e6;
+    c.turn_rate_max_dps = 1e3;
+    c.time_limit_s = 1e3;
+    RaceEnv env(c);
+    auto& sim = env.mutable_sim();
+    sim.state(kAlt)[0] = 6000.0;  // far apart in height: ~22 ft/s of Mach 0.58 between them
+    sim.state(kAlt)[1] = 16000.0;
+    std::vector<float> a(2 * kActionDim);
+    for (int i = 0; i < 2; ++i) {
+      a[i * 3 + 0] = 1.0f;
+      a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
+    }
+    double top_mach_peak = 0.0;
+    for (int s = 0; s < 500; ++s) {
+      const StepStats st = env.step(a.data());
+      ASSERT_EQ(st.terminations[kCauseEnvelope], 0);
+      for (int i = 0; i < 2; ++i)
+        top_mach_peak = std::max(top_mach_peak, dynamics::air_data(sim.state(dynamics::kVt)[i], c.governor_top_ft()).mach);
+    }
+    for (int i = 0; i < 2; ++i) vt_end[airspeed][i] = sim.state(dynamics::kVt)[i], alt_end[airspeed][i] = sim.state(kAlt)[i];
+    if (airspeed) {
+      EXPECT_LE(top_mach_peak, c.mach_max - 0.01 + 0.005);
+      EXPECT_GT(top_mach_peak, c.mach_max - 0.01 - kGovernorBandMach);
+    }
+  }
+  std::printf("after 40 s at 6 000 / 16 000 ft: held on Mach %.1f / %.1f ft/s, on airspeed %.1f / %.1f ft/s\n",
+              vt_end[0][0], vt_end[0][1], vt_end[1][0], vt_end[1][1]);
+  for (const int m : {0, 1}) ASSERT_GT(alt_end[m][1] - alt_end[m][0], 8000.0) << "level flight kept them apart";
+  // Different drag at the two heights leaves a few ft/s of the band's droop between them.
+  EXPECT_LT(std::abs(vt_end[1][0] - vt_end[1][1]), 6.0) << vt_end[1][0] << " " << vt_end[1][1];
+  EXPECT_GT(vt_end[0][0] - vt_end[0][1], 15.0) << vt_end[0][0] << " " << vt_end[0][1];
 }
 
 }  // namespace
