@@ -63,7 +63,6 @@ def pilots(arm_dirs):
     if len(rows) < 4:
         fail(f"{len(rows)} pilots: a correlation needs at least 4")
     rng = random.Random(1)
-    up, v, ap = zip(*rows)
     print(f"{len(rows)} pilots ({', '.join(arm_dirs)})")
     for name, i, j in (("up, airspeed", 0, 1), ("up, vs autopilot", 0, 2), ("airspeed, vs autopilot", 1, 2)):
         boots = []
@@ -72,6 +71,7 @@ def pilots(arm_dirs):
             boots.append(corr([r[i] for r in s], [r[j] for r in s]))
         lo, hi = ci([b for b in boots if b == b])  # a resample of one repeated pilot has no correlation
         print(f"corr({name}): {corr([r[i] for r in rows], [r[j] for r in rows]):+.2f} bootstrap 95% [{lo:+.2f}, {hi:+.2f}]")
+    up, v, ap = zip(*rows)
     print(f"slope: airspeed {slope(up, v):+.2f} ft/s per R of vertical offset; vs autopilot {slope(v, ap):+.3f} per ft/s")
 
 
