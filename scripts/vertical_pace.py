@@ -11,6 +11,11 @@
         radius (tournament --autopilot-shift-up X): each seed's winrate and the autopilot's tube
         losses per race, and the paired difference of each shift against the first, bootstrapped over
         the seeds.
+    scripts/vertical_pace.py tuned CONTROL_DIR TREATMENT_DIR SHIFT [SHIFT ...]
+        Notebook 96's rule: in each arm (DIR as for shifts) the tuned autopilot is the shift with
+        the lowest mean winrate of the eight runs; the difference of the arms' means against their
+        tuned autopilots (treatment - control, seeds resampled within each arm) and each arm's
+        Claim A count (seeds whose Wilson 95 % lower bound is above 0.6).
 
 Standard library only; one line on stderr and exit 1 on a missing or malformed file.
 """
@@ -107,13 +112,39 @@ def shifts(root, values):
               f"lower in {sum(v < 0 for v in d)} of 8 seeds")
 
 
+def wilson_lo(p, n, z=1.96):
+    return (p + z * z / (2 * n) - z * ((p * (1 - p) + z * z / (4 * n)) / n) ** 0.5) / (1 + z * z / n)
+
+
+def tuned(control, treatment, values):
+    arms = {}
+    for name, root in (("control", control), ("treatment", treatment)):
+        res = {}
+        for x in values:
+            rows = [seed_result(os.path.join(root, f"shift{x}", f"t_s{s}", "races.csv"), s) for s in range(1, 9)]
+            res[x] = [w for w, _ in rows]
+        best = min(values, key=lambda x: st.mean(res[x]))
+        n = len(list(csv.DictReader(open(os.path.join(root, f"shift{best}", "t_s1", "races.csv")))))
+        claim = sum(wilson_lo(w, n) > 0.6 for w in res[best])
+        arms[name] = res[best]
+        print(f"{name}: tuned autopilot moved {best} R; the runs' mean {st.mean(res[best]):.3f}; Claim A {claim} of 8 "
+              f"({', '.join(f'{x} R {st.mean(res[x]):.3f}' for x in values)})")
+    rng = random.Random(1)
+    boots = [st.mean(rng.choices(arms["treatment"], k=8)) - st.mean(rng.choices(arms["control"], k=8)) for _ in range(BOOT)]
+    lo, hi = ci(boots)
+    print(f"treatment - control against their tuned autopilots: {st.mean(arms['treatment']) - st.mean(arms['control']):+.3f} "
+          f"bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
+
+
 def main(argv):
     if len(argv) >= 2 and argv[0] == "pilots":
         pilots(argv[1:])
     elif len(argv) >= 3 and argv[0] == "shifts":
         shifts(argv[1], argv[2:])
+    elif len(argv) >= 4 and argv[0] == "tuned":
+        tuned(argv[1], argv[2], argv[3:])
     else:
-        fail("usage: vertical_pace.py pilots ARM_DIR ... | shifts DIR SHIFT SHIFT ...")
+        fail("usage: vertical_pace.py pilots ARM_DIR ... | shifts DIR SHIFT SHIFT ... | tuned CONTROL_DIR TREATMENT_DIR SHIFT ...")
 
 
 if __name__ == "__main__":

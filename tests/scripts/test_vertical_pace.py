@@ -73,6 +73,25 @@ with tempfile.TemporaryDirectory() as tmp:
         ok = -0.3 < lo < -0.25 < hi < -0.2
     check(ok, f"the paired difference and its bootstrap interval: {diff}")
 
+    # A treatment whose runs score 0.9 at shift 0 and 0.8 at -0.3: its tuned autopilot is -0.3 R
+    # (mean 0.8), the control's also -0.3 R (0.45); every treatment seed meets Claim A
+    # (0.8 of 10 races has its Wilson bound at 0.49: 10 races are too few), none of the control's.
+    treat = os.path.join(tmp, "treat")
+    for s in range(1, 9):
+        races(os.path.join(treat, "shift0", f"t_s{s}"), s, wins=9, draws=0, ap_tube_races=0)
+        races(os.path.join(treat, "shift-0.3", f"t_s{s}"), s, wins=8, draws=0, ap_tube_races=0)
+    out = run("tuned", root, treat, "0", "-0.3")
+    check(out.returncode == 0, f"tuned: exit {out.returncode} {out.stderr.strip()}")
+    check("control: tuned autopilot moved -0.3 R; the runs' mean 0.450; Claim A 0 of 8" in out.stdout, "the control's tuned shift")
+    check("treatment: tuned autopilot moved -0.3 R; the runs' mean 0.800; Claim A 0 of 8" in out.stdout,
+          "the treatment's tuned shift; 10 races cannot clear the bar")
+    diff = [l for l in out.stdout.splitlines() if l.startswith("treatment - control")]
+    ok = len(diff) == 1 and ": +0.350 bootstrap 95% [" in diff[0]
+    if ok:
+        lo, hi = (float(x) for x in diff[0].split("[")[1].split("]")[0].split(", "))
+        ok = 0.3 <= lo < 0.35 < hi <= 0.4  # the control's seeds are 0.5 or 0.4, the treatment's all 0.8
+    check(ok, f"the difference of the arms and its interval: {diff}")
+
     out = run("shifts", root, "0", "-0.5")
     check(out.returncode == 1 and out.stderr.count("\n") == 1 and "shift-0.5/t_s1/races.csv" in out.stderr,
           f"a missing shift: one line naming the file: {out.stderr.strip()}")
