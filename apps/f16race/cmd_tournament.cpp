@@ -140,7 +140,7 @@ void add_tournament_command(CLI::App& app) {
                 "race.goal_line_frac, or --goal-line), its aim points held within 0.8 of the radius");
   cmd->add_option("--autopilot-shift-up", o->autopilot_shift_up_frac,
                   "The autopilot entry's aim points moved up by this fraction of the tube radius (negative: down), "
-                  "held within 0.8 of it")
+                  "held within 0.8 of it (default: the first run's race.autopilot_shift_up_frac)")
       ->check(CLI::Range(-0.8, 0.8));
   cmd->add_option("--tracks", o->tracks_config,
                   "Race on this config's tracks and time limit (race.track, race.time_limit_s), e.g. configs/long.yaml; "

@@ -85,6 +85,8 @@ RaceReplay run_replay(const ReplayOptions& o) {
   pilot.speed_ftps = rc.start_speed_ftps;
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = rc.autopilot_airspeed();
+  autopilot.shift_up_frac = rc.autopilot_shift_up_frac;  // the tuned baseline (docs/notebook/96)
+  if (autopilot.shift_up_frac != 0.0) autopilot.line_max_offset_frac = 0.8;
   if (red.name == kAutopilotOnLine) {
     if (!env.racing_line(0))
       throw io::InputError(o.run + ": trained on the center-line (race.goal_line_frac 0): " + kAutopilotOnLine +

@@ -274,10 +274,8 @@ std::vector<RaceRecord> race_games(const TournamentOptions& o, const std::vector
   std::vector<float> actions(static_cast<std::size_t>(nl) * n_agent * 3, 0.0f);
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : rc.autopilot_airspeed();
-  if (o.autopilot_shift_up_frac != 0.0) {
-    autopilot.shift_up_frac = o.autopilot_shift_up_frac;
-    autopilot.line_max_offset_frac = 0.8;
-  }
+  autopilot.shift_up_frac = autopilot_shift_up(o, rc);
+  if (autopilot.shift_up_frac != 0.0) autopilot.line_max_offset_frac = 0.8;
   if (o.autopilot_on_line) {  // each race's line, drawn by the env at the race's start
     autopilot.lines = &env.racing_lines();
     autopilot.line_max_offset_frac = 0.8;
@@ -410,7 +408,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   if (o.goal_line_frac >= 0.0) rc.goal_line_frac = o.goal_line_frac;
   if (o.autopilot_on_line && !o.include_autopilot)
     throw io::InputError("tournament: --autopilot-on-line sets the autopilot entry's lanes; add --with-autopilot");
-  if (o.autopilot_shift_up_frac != 0.0 && !o.include_autopilot)
+  if (!std::isnan(o.autopilot_shift_up_frac) && !o.include_autopilot)
     throw io::InputError("tournament: --autopilot-shift-up moves the autopilot entry's lanes; add --with-autopilot");
   if (o.autopilot_on_line && rc.goal_line_frac <= 0.0)
     throw io::InputError("tournament: --autopilot-on-line: " + pol.front().run_dir +

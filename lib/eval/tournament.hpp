@@ -3,8 +3,10 @@
 // batches on the batched simulator with both teams acting greedily. Optional control entries fly
 // a run's trained low level under a fixed high level, to show what the high level adds.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <string>
 #include <utility>
@@ -74,8 +76,8 @@ struct TournamentOptions {
   // line the learned team's goals are placed around (docs/notebook/83, 84).
   bool autopilot_on_line = false;
   // The autopilot's aim points moved up by this fraction of the local radius (negative: down),
-  // held within 0.8 of it: under a Mach governor lower air is faster (docs/notebook/96).
-  double autopilot_shift_up_frac = 0.0;
+  // held within 0.8 of it; NaN: the first run's race.autopilot_shift_up_frac (docs/notebook/96).
+  double autopilot_shift_up_frac = std::numeric_limits<double>::quiet_NaN();
   // Non-empty: race on this config file's tracks (race.track) and time limit (race.time_limit_s)
   // instead of the first run's, e.g. trained runs on configs/long.yaml's long tracks.
   std::string tracks_config;
@@ -93,6 +95,11 @@ struct TournamentOptions {
   // (epsilon 0): a group's or an exploring tournament's races depend on the batch.
   std::string journal_path;
 };
+
+// The autopilot entry's height shift: the option when given, else the race's.
+inline double autopilot_shift_up(const TournamentOptions& o, const race::RaceConfig& rc) {
+  return std::isnan(o.autopilot_shift_up_frac) ? rc.autopilot_shift_up_frac : o.autopilot_shift_up_frac;
+}
 
 struct Entry {
   std::string name;     // folder name, "untrained", or "<run name>@center" / "@random"

@@ -62,7 +62,7 @@ std::string tournament_marker_options(const TournamentOptions& o) {
     << " autopilot_airspeed=" << o.autopilot_airspeed_ftps << " tracks=" << tracks_identity(o.tracks_config);
   if (o.goal_line_frac >= 0.0) s << " goal_line=" << o.goal_line_frac;  // absent: older markers read the same
   if (o.autopilot_on_line) s << " autopilot_on_line=yes";
-  if (o.autopilot_shift_up_frac != 0.0) s << " autopilot_shift_up=" << o.autopilot_shift_up_frac;
+  if (!std::isnan(o.autopilot_shift_up_frac)) s << " autopilot_shift_up=" << o.autopilot_shift_up_frac;
   s << " runs=";
   for (std::size_t k = 0; k < o.runs.size(); ++k) s << (k ? "," : "") << run_names(o.runs[k]);
   return s.str();

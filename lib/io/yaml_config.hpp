@@ -61,6 +61,8 @@ inline constexpr Retirement kNotebook88Keys{"after docs/notebook/88's verdict", 
 inline constexpr Retirement kNotebook92Keys{"after docs/notebook/92's verdict", "0bda7d6"};
 // race.w_tube_wall, race.tube_wall_frac: measured not to help (docs/notebook/, entries 94 and 95).
 inline constexpr Retirement kNotebook95Keys{"after docs/notebook/94's and 95's verdicts", "833c6d1"};
+// race.governor_holds (airspeed): measured not to help (docs/notebook/96-height-is-pace-under-a-mach-governor.md).
+inline constexpr Retirement kNotebook96Keys{"after docs/notebook/96's verdict", "d48ab5e"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {

@@ -62,12 +62,11 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("turn_rate_max_dps", &c->turn_rate_max_dps, 1.0, 360.0);
   r.read("mach_max", &c->mach_max, 0.0, 3.0);
   r.read("mach_governor", &c->mach_governor);
-  std::string holds = c->governor_holds == GovernorHolds::kMach ? "mach" : "airspeed";
-  r.read("governor_holds", &holds, {"mach", "airspeed"});
-  c->governor_holds = holds == "mach" ? GovernorHolds::kMach : GovernorHolds::kAirspeed;
+  r.retired("governor_holds", "mach", io::kNotebook96Keys);
   r.retired("governor_band_mach", "0.04", io::kNotebook80Keys);
   r.retired("governor_sets_throttle_at_cap", "false", io::kNotebook78Keys);
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 3000.0);
+  r.read("autopilot_shift_up_frac", &c->autopilot_shift_up_frac, -0.8, 0.8);
   std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";
   r.read("tube_exit", &exit, {"grace", "terminate"});
   c->tube_exit = exit == "grace" ? TubeExit::kGrace : TubeExit::kTerminate;

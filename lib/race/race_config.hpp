@@ -15,8 +15,6 @@ class ConfigWriter;
 namespace f16race::race {
 
 enum class TubeExit { kTerminate, kGrace };
-// What the Mach governor holds (RaceConfig::governor_holds).
-enum class GovernorHolds { kMach, kAirspeed };
 // Axes of the HL goal offsets: world north/east/up (the paper's d_pn, d_pe, d_pa) or the track
 // frame at the goal (along, right, up), where each axis is one kind of lane change.
 enum class GoalFrame { kWorld, kTrack };
@@ -69,15 +67,13 @@ struct RaceConfig {
   // at mach_max - 0.01. The cap is proportional: an aircraft settles kGovernorBandMach x its
   // throttle below the top, so one with more drag settles lower (docs/notebook/78).
   bool mach_governor = true;
-  // kMach: the governor reads the aircraft's Mach, so lower, warmer air lets it fly faster (at
-  // the cap ~2.2 ft/s per 1 000 ft). kAirspeed: it reads the Mach the aircraft's true airspeed
-  // would be at the highest point of the tracks' tubes (governor_top_ft), one speed limit for
-  // every altitude and still Mach <= mach_max - 0.01 everywhere below (docs/notebook/96).
-  GovernorHolds governor_holds = GovernorHolds::kMach;
-  double governor_top_ft() const { return track.alt_max_ft + track.radius_max_ft; }
   // The `autopilot` baseline's airspeed set point (tournament, replay, race); 0: start_speed_ftps.
   // Tuned over set points against the start speed (docs/race.md "The autopilot baseline").
   double autopilot_airspeed_ftps = 640.0;
+  // Its aim points moved up by this fraction of the local tube radius (negative: down), held
+  // within 0.8 R. Under the Mach governor lower air is faster: tuned over heights, 0.3 R down is
+  // the autopilot's best (docs/notebook/96); 0 keeps the start lanes.
+  double autopilot_shift_up_frac = 0.0;
   TubeExit tube_exit = TubeExit::kGrace;
   double tube_grace_s = 3.0;         // time allowed outside the tube before termination
 

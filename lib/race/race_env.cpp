@@ -236,12 +236,8 @@ void RaceEnv::apply_actions(int i0, int i1, const float* actions) {
     ll_reward_[i] = static_cast<float>(-c.w_action_change * da2);
     double throttle = 0.5 * (la[0] + 1.0);
     // Mach of the state the step starts from (the envelope check reads the state it ends in).
-    if (c.mach_governor) {
-      const double governed_mach = c.governor_holds == GovernorHolds::kMach
-                                       ? aircraft_mach(sim_, i)
-                                       : air_data(sim_.state(kVt)[i], c.governor_top_ft()).mach;
-      throttle = std::min(throttle, governor_throttle_limit(governed_mach, c.mach_max));
-    }
+    if (c.mach_governor)
+      throttle = std::min(throttle, governor_throttle_limit(aircraft_mach(sim_, i), c.mach_max));
     sim_.ref(kThrottleDelta)[i] = throttle - lqr::kThrottleEquil;
     sim_.ref(kNzRef)[i] = c.nz_ref_min_g + 0.5 * (la[1] + 1.0) * (c.nz_ref_max_g - c.nz_ref_min_g);
     sim_.ref(kPsRef)[i] = la[2] * c.ps_ref_max_radps;

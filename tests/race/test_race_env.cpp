@@ -892,7 +892,6 @@ TEST(RaceConfig, CrossKeyRulesNameTheKeysAndTheirValues) {
       {"{start_speed_ftps: 600}", "start_speed_ftps (600) is Mach 0.572 at 16800 ft, too close to mach_max (0.6)"},
       {"{mach_max: 0.1}", "mach_max (0.1) must be 0 (no limit) or >= 0.2"},
       {"{mach_max: 0}", "mach_governor needs a mach_max > 0"},
-      {"{governor_holds: tas}", "race.governor_holds"},
   };
   for (const auto& [yaml, message] : cases) {
     const std::string e = race_config_error(yaml);
@@ -963,46 +962,30 @@ TEST(RaceEnv, MachGovernorHoldsFullThrottleInsideTheEnvelope) {
   }
 }
 
-// Held on airspeed, the governor gives aircraft at different heights one top speed: full throttle
-// in level flight for 40 s ends just below the Mach mach_max - 0.01 would be at governor_top_ft,
-// and each aircraft's own Mach stays lower, the more so the lower it flies. Held on Mach, the
-// lower of two aircraft is the faster, by the ratio of their speeds of sound.
-TEST(RaceEnv, AirspeedGovernorHoldsOneSpeedAtEveryAltitude) {
-  double vt_end[2][2], alt_end[2][2];
-  for (const bool airspeed : {false, true}) {
-    RaceConfig c = small_config(1, 1);
-    c.governor_holds = airspeed ? GovernorHolds::kAirspeed : GovernorHolds::kMach;
-    c.tube_grace_s = 1e6;
-    c.turn_rate_max_dps = 1e3;
-    c.time_limit_s = 1e3;
-    RaceEnv env(c);
-    auto& sim = env.mutable_sim();
-    sim.state(kAlt)[0] = 6000.0;  // far apart in height: ~22 ft/s of Mach 0.58 between them
-    sim.state(kAlt)[1] = 16000.0;
-    std::vector<float> a(2 * kActionDim);
-    for (int i = 0; i < 2; ++i) {
-      a[i * 3 + 0] = 1.0f;
-      a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
-    }
-    double top_mach_peak = 0.0;
-    for (int s = 0; s < 500; ++s) {
-      const StepStats st = env.step(a.data());
-      ASSERT_EQ(st.terminations[kCauseEnvelope], 0);
-      for (int i = 0; i < 2; ++i)
-        top_mach_peak = std::max(top_mach_peak, dynamics::air_data(sim.state(dynamics::kVt)[i], c.governor_top_ft()).mach);
-    }
-    for (int i = 0; i < 2; ++i) vt_end[airspeed][i] = sim.state(dynamics::kVt)[i], alt_end[airspeed][i] = sim.state(kAlt)[i];
-    if (airspeed) {
-      EXPECT_LE(top_mach_peak, c.mach_max - 0.01 + 0.005);
-      EXPECT_GT(top_mach_peak, c.mach_max - 0.01 - kGovernorBandMach);
-    }
+// Held on Mach, the governor lets the lower of two aircraft fly faster, by the ratio of their
+// speeds of sound: full throttle in level flight for 40 s at 6 000 and 16 000 ft ends ~23 ft/s
+// apart (636 and 613 ft/s). Height in the tube is pace (docs/notebook/96).
+TEST(RaceEnv, MachGovernorLetsTheLowerAircraftFlyFaster) {
+  RaceConfig c = small_config(1, 1);
+  c.tube_grace_s = 1e6;
+  c.turn_rate_max_dps = 1e3;
+  c.time_limit_s = 1e3;
+  RaceEnv env(c);
+  auto& sim = env.mutable_sim();
+  sim.state(kAlt)[0] = 6000.0;
+  sim.state(kAlt)[1] = 16000.0;
+  std::vector<float> a(2 * kActionDim);
+  for (int i = 0; i < 2; ++i) {
+    a[i * 3 + 0] = 1.0f;
+    a[i * 3 + 1] = static_cast<float>(2.0 * (env.sim().ref(dynamics::kNzRef)[i] - c.nz_ref_min_g) / (c.nz_ref_max_g - c.nz_ref_min_g) - 1.0);
   }
-  std::printf("after 40 s at 6 000 / 16 000 ft: held on Mach %.1f / %.1f ft/s, on airspeed %.1f / %.1f ft/s\n",
-              vt_end[0][0], vt_end[0][1], vt_end[1][0], vt_end[1][1]);
-  for (const int m : {0, 1}) ASSERT_GT(alt_end[m][1] - alt_end[m][0], 8000.0) << "level flight kept them apart";
-  // Different drag at the two heights leaves a few ft/s of the band's droop between them.
-  EXPECT_LT(std::abs(vt_end[1][0] - vt_end[1][1]), 6.0) << vt_end[1][0] << " " << vt_end[1][1];
-  EXPECT_GT(vt_end[0][0] - vt_end[0][1], 15.0) << vt_end[0][0] << " " << vt_end[0][1];
+  for (int s = 0; s < 500; ++s) ASSERT_EQ(env.step(a.data()).terminations[kCauseEnvelope], 0);
+  const double v_low = sim.state(dynamics::kVt)[0], v_high = sim.state(dynamics::kVt)[1];
+  std::printf("after 40 s at 6 000 / 16 000 ft: %.1f / %.1f ft/s\n", v_low, v_high);
+  ASSERT_GT(sim.state(kAlt)[1] - sim.state(kAlt)[0], 8000.0) << "level flight kept them apart";
+  // The speeds of sound at the two heights differ by 3.7 %; the band's droop takes a little of it.
+  EXPECT_GT(v_low - v_high, 15.0);
+  EXPECT_LT(v_low - v_high, 30.0);
 }
 
 }  // namespace

@@ -110,7 +110,7 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
             std::string::npos);
 }
 
-// The keys issue 51 and notebooks 69, 70, 71, 73, 74, 78, 80, 88, 92 and 95 retired (io::ConfigReader::retired), as a run folder's
+// The keys issue 51 and notebooks 69, 70, 71, 73, 74, 78, 80, 88, 92, 95 and 96 retired (io::ConfigReader::retired), as a run folder's
 // config.yaml from an older build lists them: at the value this build behaves as they change
 // nothing; at another value the config is refused in one line naming the key, the value and the
 // commit to build.
@@ -118,7 +118,7 @@ TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
   const char* old_defaults = R"(
 race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0, governor_sets_throttle_at_cap: false,
        governor_band_mach: 0.04, preview_on_line: false, lane_scales_with_radius: false, w_tube_wall: 0,
-       tube_wall_frac: 0.80000000000000004}
+       tube_wall_frac: 0.80000000000000004, governor_holds: mach}
 ll: {inference: eigen, normalize_returns: false, init_at_trim: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
 train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
@@ -130,7 +130,7 @@ pool: {p_center: 0.0, p_autopilot: 0}
                           "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
                           "p_autopilot", "normalize_returns", "init_at_trim", "lane_error_average_s",
                           "governor_sets_throttle_at_cap", "governor_band_mach", "preview_on_line",
-                          "lane_scales_with_radius", "tube_wall"})
+                          "lane_scales_with_radius", "tube_wall", "governor_holds"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -180,6 +180,9 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(error_of("race: {tube_wall_frac: 0.9}"),
             "cfg.yaml: race.tube_wall_frac: 0.9 was removed after docs/notebook/94's and 95's verdicts; build commit "
             "833c6d1 to use it");
+  EXPECT_EQ(error_of("race: {governor_holds: airspeed}"),
+            "cfg.yaml: race.governor_holds: airspeed was removed after docs/notebook/96's verdict; build commit "
+            "d48ab5e to use it");
   // A key never known is still an unknown key, not a retired one.
   EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
 }
