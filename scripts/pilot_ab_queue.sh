@@ -23,7 +23,7 @@
 # of 91's throttle, against 91 (89 and 92 read and removed: a build of 0bda7d6); 94
 # race.w_tube_wall 0.15 (a wall term inside the tube), against 91; 95 the same from 0.9 R (94 and 95
 # read and removed: a build of 833c6d1); 96 race.governor_holds airspeed (one speed limit at
-# every height), against 91.
+# every height), against 91 (read and removed: a build of d48ab5e).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
