@@ -35,7 +35,7 @@ std::string fingerprint(const eval::TournamentOptions& o) {
     << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
     << "\n--axis-controls " << o.axis_controls << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
-    << "\n--tracks " << o.tracks_config << "\n--goal-line " << o.goal_line_frac
+    << "\n--tracks " << o.tracks_config << "\n--goal-line " << o.goal_line_frac << "\n--goal-shift-up " << o.goal_shift_up_frac
     << "\n--autopilot-on-line " << o.autopilot_on_line << "\n--autopilot-shift-up " << o.autopilot_shift_up_frac
     << "\n--out " << o.out_dir;
   return f.str();
@@ -146,6 +146,10 @@ void add_tournament_command(CLI::App& app) {
                   "Race on this config's tracks and time limit (race.track, race.time_limit_s), e.g. configs/long.yaml; "
                   "default: the first run's")
       ->check(CLI::ExistingFile);
+  cmd->add_option("--goal-shift-up", o->goal_shift_up_frac,
+                  "Move every entry's goals up by this fraction of the tube radius (race.goal_shift_up_frac; "
+                  "negative: down); default: the first run's")
+      ->check(CLI::Range(-0.8, 0.8));
   cmd->add_option("--goal-line", o->goal_line_frac,
                   "Place every entry's goals around the racing line that keeps within this fraction of the tube "
                   "radius (race.goal_line_frac; 0: the center-line); default: the first run's")

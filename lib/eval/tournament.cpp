@@ -406,6 +406,7 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
     rc.time_limit_s = t.race.time_limit_s;
   }
   if (o.goal_line_frac >= 0.0) rc.goal_line_frac = o.goal_line_frac;
+  if (!std::isnan(o.goal_shift_up_frac)) rc.goal_shift_up_frac = o.goal_shift_up_frac;
   if (o.autopilot_on_line && !o.include_autopilot)
     throw io::InputError("tournament: --autopilot-on-line sets the autopilot entry's lanes; add --with-autopilot");
   if (!std::isnan(o.autopilot_shift_up_frac) && !o.include_autopilot)

@@ -84,6 +84,9 @@ struct TournamentOptions {
   // >= 0: every entry's goals placed around the racing line of this radius fraction
   // (race.goal_line_frac; 0: the center-line) instead of the first run's setting.
   double goal_line_frac = -1.0;
+  // NaN: the first run's race.goal_shift_up_frac; else every entry's goals moved up by this
+  // fraction of the radius (negative: down; docs/notebook/97).
+  double goal_shift_up_frac = std::numeric_limits<double>::quiet_NaN();
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams
   double epsilon = 0.0;           // HL exploration during evaluation

@@ -44,6 +44,8 @@ void RaceEnv::place_goal(int i, const std::int64_t* bins) {
     const TubeLine::Offset w = lines_[env].offset_at(goal_progress_ft_[i]);
     off = clip_across(off + w.right_ft * fr.right + w.up_ft * fr.up, fr, limit);
   }
+  if (config_.goal_shift_up_frac != 0.0)
+    off = clip_across(off + (config_.goal_shift_up_frac * fr.radius_ft) * fr.up, fr, limit);
   goal_point_[i] = fr.center + off;
   goal_lateral_ft_[i] = dot(off, fr.right);
   goal_vertical_ft_[i] = dot(off, fr.up);

@@ -83,6 +83,7 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.retired("goal_origin", "center");  // lane: docs/notebook/12
   r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("goal_line_frac", &c->goal_line_frac, 0.0, 0.95);
+  r.read("goal_shift_up_frac", &c->goal_shift_up_frac, -0.8, 0.8);
   r.retired("lane_scales_with_radius", "false", io::kNotebook92Keys);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);

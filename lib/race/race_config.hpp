@@ -100,6 +100,9 @@ struct RaceConfig {
   // each point within this fraction of the local radius (race/track_line.hpp), computed once per
   // race. A goal stays within goal_bin_scale x the radius. 0: the center-line (docs/notebook/85).
   double goal_line_frac = 0.0;
+  // Every goal moved up by this fraction of the radius at the goal (negative: down), still within
+  // goal_bin_scale x the radius: under the Mach governor lower air is faster (docs/notebook/97).
+  double goal_shift_up_frac = 0.0;
 
   // Observations.
   int preview_points = 6;

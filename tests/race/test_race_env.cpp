@@ -691,6 +691,28 @@ TEST(RaceEnv, GoalFrameBinsMoveTheGoalAlongRightAndUpOrNorthEastUp) {
   }
 }
 
+// race.goal_shift_up_frac moves every goal up (negative: down) by that fraction of the radius at
+// the goal: the middle bin 0.3 R below the center-line, the top bin 0.3 R below its place, and the
+// bottom bin held at the outer bins' radius (0.8 R), not pushed out of the tube.
+TEST(RaceEnv, GoalShiftMovesEveryGoalDownWithinTheOuterBins) {
+  RaceConfig c = small_config(4, 4);
+  c.goal_min_separation_ft = 0.0;
+  c.goal_shift_up_frac = -0.3;
+  const std::int64_t mid = c.hl_center_bin();
+  const std::pair<std::int64_t, double> cases[] = {{mid, -0.3}, {c.hl_bins - 1, c.goal_bin_scale - 0.3}, {0, -c.goal_bin_scale}};
+  for (const auto& [up_bin, up_expected] : cases) {
+    RaceEnv env(c);
+    std::vector<std::int64_t> bins(static_cast<std::size_t>(env.n_aircraft()) * kHlDims, mid);
+    for (int i = 0; i < env.n_aircraft(); ++i) bins[static_cast<std::size_t>(i) * kHlDims + 2] = up_bin;
+    env.set_hl_actions(bins.data());
+    for (int i = 0; i < env.n_aircraft(); ++i) {
+      const TrackFrame fr = env.track(i / env.n_agent()).frame_at(env.progress_ft(i) + c.goal_ahead());
+      EXPECT_NEAR(env.goal_vertical_ft(i) / fr.radius_ft, up_expected, 1e-9) << "up bin " << up_bin;
+      EXPECT_NEAR(env.goal_lateral_ft(i), 0.0, 1e-9);
+    }
+  }
+}
+
 // One LL step of the scripted pilot, with these HL bins applied at each decision (every dt_hl).
 void scripted_step(RaceEnv& env, const std::vector<std::int64_t>& bins, std::vector<float>& act) {
   env.set_hl_actions(bins.data());
