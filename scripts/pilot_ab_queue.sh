@@ -23,7 +23,8 @@
 # of 91's throttle, against 91 (89 and 92 read and removed: a build of 0bda7d6); 94
 # race.w_tube_wall 0.15 (a wall term inside the tube), against 91; 95 the same from 0.9 R (94 and 95
 # read and removed: a build of 833c6d1); 96 race.governor_holds airspeed (one speed limit at
-# every height), against 91 (read and removed: a build of d48ab5e).
+# every height), against 91 (read and removed: a build of d48ab5e); 98 race.goal_shift_up_frac -0.3
+# (goals 0.3 R lower), against 91's runs raced against the autopilot tuned over heights (96's control_tuned).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -65,7 +66,8 @@ main() {
         94) jobs+=("94 on $s --set race.w_tube_wall=0.15") ;;
         95) jobs+=("95 on $s --set race.w_tube_wall=0.15 --set race.tube_wall_frac=0.9") ;;
         96) jobs+=("96 on $s --set race.governor_holds=airspeed") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91, 92, 94, 95 or 96)" >&2; exit 2 ;;
+        98) jobs+=("98 on $s --set race.goal_shift_up_frac=-0.3") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91, 92, 94, 95, 96 or 98)" >&2; exit 2 ;;
       esac
     done
   done
