@@ -7,6 +7,7 @@ it, the mean offset from the center line, right and up, / the local tube radius.
 
     scripts/lane_offset.py RUN [--races N]                    # prints right, up and their size
     scripts/lane_offset.py --add KEEP_JSON RUN [--races N]    # adds "center_offset" to a kept seed
+    scripts/lane_offset.py RUN --goal-shift-up X              # the replays' goals moved up by X R (notebook 97)
 
 N defaults to 12. F16RACE names the binary (default build/f16race). Standard library.
 """
@@ -53,7 +54,7 @@ def race_sums(folder):
     return right, up, n
 
 
-def center_offset(run, races):
+def center_offset(run, races, extra=()):
     binary = os.environ.get("F16RACE", os.path.join(os.path.dirname(__file__), "..", "build", "f16race"))
     right = up = 0.0
     n = 0
@@ -61,7 +62,7 @@ def center_offset(run, races):
         for seed in range(1, races + 1):
             out = os.path.join(tmp, f"r{seed}")
             done = subprocess.run([binary, "--threads", "1", "replay", "--run", run + "@center", "--opponent",
-                                   "autopilot", "--seed", str(seed), "--out", out], capture_output=True, text=True)
+                                   "autopilot", "--seed", str(seed), "--out", out, *extra], capture_output=True, text=True)
             if done.returncode != 0:
                 sys.exit(f"{run}: replay --seed {seed} failed: {done.stderr.strip()}")
             r, u, k = race_sums(out)
@@ -75,6 +76,10 @@ def center_offset(run, races):
 def main():
     args = sys.argv[1:]
     races = 12
+    extra = []
+    if len(args) >= 3 and args[-2] == "--goal-shift-up":  # the replays' goals moved (notebook 97)
+        extra = ["--goal-shift-up", args[-1]]
+        args = args[:-2]
     if len(args) >= 2 and args[-2] == "--races":
         if not args[-1].isdigit() or int(args[-1]) < 1:
             sys.exit(f"--races {args[-1]}: give a whole number of races, at least 1")
@@ -92,8 +97,8 @@ def main():
         kept_json.write(kept, m)
         return
     if len(args) != 1:
-        sys.exit("usage: scripts/lane_offset.py [--add KEEP_JSON] RUN [--races N]")
-    o = center_offset(args[0], races)
+        sys.exit("usage: scripts/lane_offset.py [--add KEEP_JSON] RUN [--races N] [--goal-shift-up X]")
+    o = center_offset(args[0], races, extra)
     print(f"{args[0]}@center vs autopilot, {races} races: offset right {o['right']:+.3f} R, up {o['up']:+.3f} R, "
           f"size {o['size']:.3f} R ({o['samples']} samples)")
 

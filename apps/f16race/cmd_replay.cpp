@@ -84,6 +84,10 @@ void add_replay_command(CLI::App& app) {
                   "Red team: a run folder (@center, @random, @center_x/_y/_z allowed), self (default), untrained, scripted, autopilot (AeroBench's waypoint autopilot) or autopilot@line (the autopilot on the race's racing line)");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
+  cmd->add_option("--goal-shift-up", o->replay.goal_shift_up_frac,
+                  "Move every goal up by this fraction of the tube radius (race.goal_shift_up_frac; negative: down); "
+                  "default: the run's")
+      ->check(CLI::Range(-0.8, 0.8));
   cmd->add_option("--out", o->out,
                   "Output folder, replaced whole by the new replay (a folder holding other files than a replay's "
                   "is refused)");

@@ -2,6 +2,7 @@
 
 #include <torch/torch.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -74,6 +75,7 @@ RaceReplay run_replay(const ReplayOptions& o) {
   race::RaceConfig rc = blue.policy->config.race;
   rc.n_env = 1;
   rc.seed = o.seed;
+  if (!std::isnan(o.goal_shift_up_frac)) rc.goal_shift_up_frac = o.goal_shift_up_frac;
   race::RaceEnv env(rc);
   race::RaceRecorder rec(env);
   // Taken now: when the race ends the env starts another on a new track.

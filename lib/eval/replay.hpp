@@ -2,6 +2,7 @@
 // One race between a trained run (blue) and an opponent (red), recorded for inspection: both
 // teams greedy (the HL's best bins, the LL's mean action) unless epsilon > 0.
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,9 @@ struct ReplayOptions {
   std::string opponent;
   std::uint64_t seed = 1;  // track and starting positions
   double epsilon = 0.0;    // HL exploration of both teams
+  // NaN: the run's race.goal_shift_up_frac; else every goal moved up by this fraction of the radius
+  // (as tournament --goal-shift-up; docs/notebook/97).
+  double goal_shift_up_frac = std::numeric_limits<double>::quiet_NaN();
 };
 
 // One replayed race: its trace, who flew it and the blocks in it (dynamics::ReplayResult is the

@@ -29,7 +29,8 @@ def write(agent, lat, vert):
         for k in range(61):
             t = round(0.2 * k, 6)
             f.write(f"{t},0,{lat(t)},{vert(t)},1000\n")
-write(0, lambda t: 200.0, lambda t: -3000.0 if t < 5 else 400.0)
+shift = float(a[a.index("--goal-shift-up") + 1]) if "--goal-shift-up" in a else 0.0  # blue 0 follows it
+write(0, lambda t: 200.0, lambda t: -3000.0 if t < 5 else 400.0 + 1000.0 * shift)
 write(1, lambda t: -400.0, lambda t: 0.0 if t <= 10 else 5000.0)
 write(2, lambda t: 9000.0, lambda t: 9000.0)
 '''
@@ -43,6 +44,11 @@ with tempfile.TemporaryDirectory() as tmp:
     r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--races", "3"], capture_output=True, text=True, env=env)
     assert r.returncode == 0, r.stderr
     assert f"right {right:+.3f} R, up {up:+.3f} R" in r.stdout, (r.stdout, right, up)
+    # --goal-shift-up reaches the replays (notebook 97): blue 0 flies 0.3 R lower in the stand-in.
+    r = subprocess.run([sys.executable, SCRIPT, "runs/x", "--races", "2", "--goal-shift-up", "-0.3"], capture_output=True,
+                       text=True, env=env)
+    assert r.returncode == 0, r.stderr
+    assert f"up {(0.4 - 0.3) * 36 / 62:+.3f} R" in r.stdout, r.stdout
     kept = os.path.join(tmp, "s1.json")
     json.dump({"ap": 0.5}, open(kept, "w"))
     r = subprocess.run([sys.executable, SCRIPT, "--add", kept, "runs/x", "--races", "2"], capture_output=True,
