@@ -24,7 +24,8 @@
 # race.w_tube_wall 0.15 (a wall term inside the tube), against 91; 95 the same from 0.9 R (94 and 95
 # read and removed: a build of 833c6d1); 96 race.governor_holds airspeed (one speed limit at
 # every height), against 91 (read and removed: a build of d48ab5e); 98 race.goal_shift_up_frac -0.3
-# (goals 0.3 R lower), against 91's runs raced against the autopilot tuned over heights (96's control_tuned).
+# (goals 0.3 R lower), against 91's runs raced against the autopilot tuned over heights (96's control_tuned;
+# adopted: configs/default.yaml sets it since cd866df, so 98's arm is the control of later A/Bs).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
