@@ -60,8 +60,8 @@ std::string tournament_marker_options(const TournamentOptions& o) {
     << " untrained_in_statistics=" << yes_no(o.untrained_in_statistics) << " autopilot=" << yes_no(o.include_autopilot)
     << " controls=" << yes_no(o.controls) << " axis_controls=" << yes_no(o.axis_controls)
     << " autopilot_airspeed=" << o.autopilot_airspeed_ftps << " tracks=" << tracks_identity(o.tracks_config);
-  if (o.goal_line_frac >= 0.0) s << " goal_line=" << o.goal_line_frac;
-  if (!std::isnan(o.goal_shift_up_frac)) s << " goal_shift_up=" << o.goal_shift_up_frac;  // absent: older markers read the same
+  if (o.goal_line_frac >= 0.0) s << " goal_line=" << o.goal_line_frac;  // absent: older markers read the same
+  if (!std::isnan(o.goal_shift_up_frac)) s << " goal_shift_up=" << o.goal_shift_up_frac;
   if (o.autopilot_on_line) s << " autopilot_on_line=yes";
   if (!std::isnan(o.autopilot_shift_up_frac)) s << " autopilot_shift_up=" << o.autopilot_shift_up_frac;
   s << " runs=";
