@@ -3,10 +3,14 @@
 
     scripts/scaling_verdict.py MULT=STUDY [MULT=STUDY ...]
     scripts/scaling_verdict.py --keep STUDY KEEP_FILE
+    scripts/scaling_verdict.py --keep-pieces STUDY KEEP_FILE
 
 --keep writes the controls of a budget's runs (each run's summary, as study_verdicts.py keeps
 them) to KEEP_FILE (xMULT.json), small enough to commit; MULT=KEEP_FILE then stands for the
-study folder. MULT=FOLDER may also be a folder of the Fig. 3 study's kept blocks (notebook 72),
+study folder. --keep-pieces adds the runs of STUDY that have their controls to KEEP_FILE (made
+if absent), each with the CPU and binary that made it: a budget too long for one machine's
+lifetime (x16) is trained a few runs at a time, each piece kept when done; the runs not yet in
+it read as missing. MULT=FOLDER may also be a folder of the Fig. 3 study's kept blocks (notebook 72),
 whose seed 1-3 runs at 8 s are the x2 budget.
 
 Each STUDY is a `study --out` folder trained on one pilot at MULT x 1.75 M HL-only env steps
@@ -62,6 +66,23 @@ def keep(study, dest):
     kept_json.write(dest, dict(runs=got, **kept_json.provenance()))
 
 
+def keep_pieces(study, dest):
+    got = {run: c for run, c in ((run, read_controls(study, 8, run)) for run in RUNS) if c is not None}
+    if not got:
+        sys.exit(f"{study}: no run with its controls raced (dt8/controls/RUN/done.txt); nothing to keep")
+    kept = json.load(open(dest)) if os.path.exists(dest) else {"runs": {}, "pieces": {}}
+    if "pieces" not in kept:
+        sys.exit(f"{dest}: a whole budget kept by --keep; give another KEEP_FILE for pieces")
+    for run, c in got.items():
+        if run in kept["runs"] and kept["runs"][run] != c:
+            sys.exit(f"{dest}: {run} is kept already with other controls; one piece per run")
+        kept["runs"][run] = c
+        kept["pieces"][run] = kept_json.provenance()
+    kept_json.write(dest, kept)
+    left = [run for run in RUNS if run not in kept["runs"]]
+    print(f"{len(kept['runs'])} of {len(RUNS)} runs kept" + (f"; left: {', '.join(left)}" if left else ""))
+
+
 def cells_of(studies):
     """{(mult, variant): [c_i]} and the runs whose controls are missing."""
     cells, missing = {}, []
@@ -89,6 +110,10 @@ def main(argv):
         if len(argv) != 3:
             sys.exit("usage: scaling_verdict.py --keep STUDY KEEP_FILE")
         return keep(argv[1], argv[2])
+    if argv[:1] == ["--keep-pieces"]:
+        if len(argv) != 3:
+            sys.exit("usage: scaling_verdict.py --keep-pieces STUDY KEEP_FILE")
+        return keep_pieces(argv[1], argv[2])
     studies = []
     for a in argv:
         mult, _, folder = a.partition("=")

@@ -9,6 +9,7 @@ budget alone: no slope. A budget without its controls is reported missing.
 import csv
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -74,4 +75,22 @@ with tempfile.TemporaryDirectory() as tmp:
                           capture_output=True, text=True)
     expect(part.returncode != 0 and "es_d2_s1: no done.txt" in part.stderr and not os.path.exists(f"{tmp}/kept/x3.json"),
            "an unfinished budget is refused", part.stderr)
-print("scaling_verdict: growing holds, flat does not, missing pieces reported")
+    # A budget kept in pieces (--keep-pieces): each piece adds its runs; the whole reads as --keep's.
+    for i, r in enumerate(RUNS):
+        piece = f"{tmp}/piece{i}/dt8/controls"
+        os.makedirs(piece)
+        shutil.copytree(f"{tmp}/grow_x16/dt8/controls/{r}", f"{piece}/{r}")
+        text = run(["--keep-pieces", f"{tmp}/piece{i}", f"{tmp}/kept/p16.json"])
+        expect(f"{i + 1} of 6 runs kept" in text, f"piece {i}", text)
+        if i == 2:
+            half = run(kept[:3] + [f"16={tmp}/kept/p16.json"])
+            expect("| x16 | 28 M | 3 |" in half and "missing (3): x16 es_d3_s1" in half, "half a budget", half)
+    expect(run(kept[:3] + [f"16={tmp}/kept/p16.json"]) == run(grow), "pieces give the folder's table", "")
+    again = subprocess.run([sys.executable, SCRIPT, "--keep-pieces", f"{tmp}/piece0", f"{tmp}/kept/x16.json"],
+                           capture_output=True, text=True)
+    expect(again.returncode != 0 and "whole budget" in again.stderr, "pieces into a whole budget's file", again.stderr)
+    none = subprocess.run([sys.executable, SCRIPT, "--keep-pieces", f"{tmp}/empty", f"{tmp}/kept/p4.json"],
+                          capture_output=True, text=True)
+    expect(none.returncode != 0 and "nothing to keep" in none.stderr and not os.path.exists(f"{tmp}/kept/p4.json"),
+           "a piece without controls", none.stderr)
+print("scaling_verdict: growing holds, flat does not, missing pieces reported, pieces kept")

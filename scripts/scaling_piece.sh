@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# One piece of notebook 68's budget MULT: es_d2 and es_d3 of seed S at 8 s on one frozen pilot,
+# trained as configs/study_scaling.yaml at MULT x 1.75 M HL-only env steps, each run against its
+# own controls, then both runs' controls added to KEEP_FILE (scaling_verdict.py --keep-pieces;
+# commit it). A budget too long for one machine (x16: ~45 min per piece on two cores) is trained
+# seed by seed, so a lost machine costs at most the piece under way.
+#
+#   scripts/scaling_piece.sh PILOT_RUN MULT SEED OUT_DIR KEEP_FILE
+#
+# OUT_DIR/xMULT_sS is the piece's study folder (resumable: rerun the same command after a stop).
+# F16RACE (default build/f16race) and F16RACE_THREADS (default 2) choose the binary and threads.
+set -euo pipefail
+[ $# -eq 5 ] && [[ "$2" =~ ^[0-9]+$ ]] && [[ "$3" =~ ^[0-9]+$ ]] ||
+  { echo "usage: scripts/scaling_piece.sh PILOT_RUN MULT SEED OUT_DIR KEEP_FILE" >&2; exit 2; }
+here="$(cd "$(dirname "$0")/.." && pwd)"
+pilot="$1" mult="$2" seed="$3"
+bin="$(realpath "${F16RACE:-$here/build/f16race}")"
+threads="${F16RACE_THREADS:-2}"
+[ -f "$pilot/checkpoint/LATEST" ] || { echo "$pilot: not a trained run (no checkpoint/LATEST)" >&2; exit 2; }
+mkdir -p "$4"
+root="$(cd "$4" && pwd)"
+out="$root/x${mult}_s$seed" config="$root/x${mult}_s$seed.yaml"
+sed "s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#^total_env_steps: .*#total_env_steps: $((1750000 * mult))#;
+     s#^seeds: .*#seeds: [$seed]#" "$here/configs/study_scaling.yaml" > "$config.new"
+if [ -f "$config" ] && ! cmp -s "$config" "$config.new"; then
+  rm "$config.new"
+  echo "$config: this piece was started with another pilot or config; give another OUT_DIR" >&2
+  exit 2
+fi
+mv "$config.new" "$config"
+cd "$here"
+"$bin" --threads "$threads" study --config "$config" --out "$out"
+for run in "$out"/dt8/es_d[23]_s"$seed"; do
+  o="$out/dt8/controls/$(basename "$run")"
+  [ -f "$o/done.txt" ] || "$bin" --threads "$threads" tournament --runs "$run" --controls --no-untrained \
+    --races 512 --seed 1 --tracks configs/long.yaml --out "$o"
+done
+F16RACE="$bin" python3 scripts/scaling_verdict.py --keep-pieces "$out" "$5"
