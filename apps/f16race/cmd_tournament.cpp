@@ -60,13 +60,14 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
   // A missing folder is made now, empty until the output is swapped in: that a tournament has
   // started shows (the group tests wait for it), and a kill leaves it empty, never partial.
   std::error_code ec;
+  const bool made_here = !std::filesystem::exists(o.out_dir, ec);
   std::filesystem::create_directories(o.out_dir, ec);
   if (ec) throw io::InputError(o.out_dir + ": cannot create the output folder (" + ec.message() + "); choose another --out");
   // The races so far go to a journal beside the folder, so a stopped tournament goes on where it
   // stopped; it is removed once the output is in place.
   eval::TournamentOptions journaled = o;
   journaled.journal_path = eval::tournament_journal_path(o.out_dir);
-  r = eval::run_tournament(journaled, [&](long done, long total) {
+  const auto progress = [&](long done, long total) {
     const double frac = total > 0 ? static_cast<double>(done) / static_cast<double>(total) : 1.0;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double left = frac > 0.0 ? elapsed * (1.0 - frac) / frac : 0.0;
@@ -81,7 +82,15 @@ void run(const eval::TournamentOptions& o, const dist::DistConfig& dc) {
     }
     last_percent = percent;
     std::fflush(stdout);
-  }, group.get(), [](const std::string& line) { std::printf("%s\n", line.c_str()); });
+  };
+  try {
+    r = eval::run_tournament(journaled, progress, group.get(), [](const std::string& line) { std::printf("%s\n", line.c_str()); });
+  } catch (...) {
+    // Refused (its runs or options) or failed: a folder made above goes again if still empty; the
+    // journal beside it stays, so the races already run are not lost.
+    if (made_here) std::filesystem::remove(o.out_dir, ec);
+    throw;
+  }
   if (tty) std::printf("\n");
   std::string md;
   std::vector<std::string> missing;

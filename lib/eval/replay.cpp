@@ -88,13 +88,11 @@ RaceReplay run_replay(const ReplayOptions& o) {
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = rc.autopilot_airspeed();
   autopilot.shift_up_frac = rc.autopilot_shift_up_frac;  // the tuned baseline (docs/notebook/96)
-  if (autopilot.shift_up_frac != 0.0) autopilot.line_max_offset_frac = 0.8;
   if (red.name == kAutopilotOnLine) {
     if (!env.racing_line(0))
       throw io::InputError(o.run + ": trained on the center-line (race.goal_line_frac 0): " + kAutopilotOnLine +
                            " flies the race's racing line, and this race has none; use --opponent autopilot");
     autopilot.lines = &env.racing_lines();
-    autopilot.line_max_offset_frac = 0.8;  // as tournament --autopilot-on-line
   }
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws

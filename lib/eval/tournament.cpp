@@ -275,11 +275,7 @@ std::vector<RaceRecord> race_games(const TournamentOptions& o, const std::vector
   race::AutopilotPilotConfig autopilot;
   autopilot.airspeed_ftps = o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : rc.autopilot_airspeed();
   autopilot.shift_up_frac = autopilot_shift_up(o, rc);
-  if (autopilot.shift_up_frac != 0.0) autopilot.line_max_offset_frac = 0.8;
-  if (o.autopilot_on_line) {  // each race's line, drawn by the env at the race's start
-    autopilot.lines = &env.racing_lines();
-    autopilot.line_max_offset_frac = 0.8;
-  }
+  if (o.autopilot_on_line) autopilot.lines = &env.racing_lines();  // each race's, drawn at its start
   // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
   // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
   // env and team order, so independent of the thread count).

@@ -49,9 +49,10 @@ struct AutopilotPilotConfig {
   // Non-null (start lanes only): each env's racing line, [n_env], its offsets added to the lane:
   // the team flies its lanes shifted onto the line (docs/notebook/83).
   const std::vector<TubeLine>* lines = nullptr;
-  // On a line, the aim point's offset from the center-line is held within this fraction of the
-  // local radius (1: not held; docs/notebook/84).
-  double line_max_offset_frac = 1.0;
+  // On a line or shifted, the aim point's offset from the center-line is held within this fraction
+  // of the local radius: a lane near the wall plus a cut or a shift would aim outside the tube
+  // (0.8, docs/notebook/84; 1: not held). Start lanes alone are never held.
+  double line_max_offset_frac = 0.8;
   // Start lanes only: the aim point moved up by this fraction of the local radius (negative: down),
   // then held within line_max_offset_frac. Under a Mach governor lower air is faster (docs/notebook/96).
   double shift_up_frac = 0.0;

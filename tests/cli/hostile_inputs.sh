@@ -34,6 +34,11 @@ case_() {  # case_ DESCRIPTION [NAMED] -- COMMAND...: the message must contain N
   if [ "$1" != "--" ]; then named=$1; shift; fi
   shift
   n=$((n + 1))
+  # A refused command leaves no output folder of its own behind (an existing one it must not touch).
+  local target="" prev="" a
+  for a in "$@"; do [ "$prev" = "--out" ] && target=$a; prev=$a; done
+  local fresh=0
+  [ -n "$target" ] && [ ! -e "$target" ] && fresh=1
   local out rc
   out=$(timeout 60 "$@" 2>&1 >/dev/null)
   rc=$?
@@ -42,6 +47,9 @@ case_() {  # case_ DESCRIPTION [NAMED] -- COMMAND...: the message must contain N
   if [ "$rc" -ne 2 ] || [ "$lines" -gt 3 ] || [[ "$out" == *"internal error"* ]] || [[ "$out" == *"Exception raised from"* ]] ||
      [[ "$out" == *"terminate called"* ]] || [[ "$out" != *"$named"* ]]; then
     echo "FAIL [$desc]: rc $rc, $lines lines${named:+, must name '$named'}: $out"
+    fails=$((fails + 1))
+  elif [ "$fresh" = 1 ] && [ -e "$target" ]; then
+    echo "FAIL [$desc]: refused, but left its --out $target behind"
     fails=$((fails + 1))
   fi
 }
@@ -157,6 +165,8 @@ case_ "tournament batch 0" -- "$bin" tournament --runs "$run" --batch 0 --out t5
 case_ "tournament epsilon 2" -- "$bin" tournament --runs "$run" --epsilon 2 --out t6
 case_ "tournament one entry" -- "$bin" tournament --runs "$run" --no-untrained --out t7
 case_ "tournament rule typo" -- "$bin" tournament --runs "$run@centre" --out t8
+case_ "tournament autopilot shift without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --autopilot-shift-up -0.3 --out t20
+case_ "tournament autopilot on line without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --autopilot-on-line --out t21
 "$bin" train --config "$smoke" --run other_ll --seed 2 --max-updates 1 --quiet >/dev/null || { echo "FAIL: setup run 2"; exit 1; }
 case_ "tournament ensemble over two low levels" -- "$bin" tournament --runs "$run+other_ll" --out t16
 case_ "tournament ensemble with a missing run" -- "$bin" tournament --runs "$run+$work/nothing" --out t17
