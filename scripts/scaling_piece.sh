@@ -20,7 +20,7 @@ threads="${F16RACE_THREADS:-2}"
 mkdir -p "$4"
 root="$(cd "$4" && pwd)"
 out="$root/x${mult}_s$seed" config="$root/x${mult}_s$seed.yaml"
-sed "s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#^total_env_steps: .*#total_env_steps: $((1750000 * mult))#;
+sed "/^set:/s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#^total_env_steps: .*#total_env_steps: $((1750000 * mult))#;
      s#^seeds: .*#seeds: [$seed]#" "$here/configs/study_scaling.yaml" > "$config.new"
 if [ -f "$config" ] && ! cmp -s "$config" "$config.new"; then
   rm "$config.new"
