@@ -20,19 +20,11 @@ threads="${F16RACE_THREADS:-2}"
 mkdir -p "$4"
 root="$(cd "$4" && pwd)"
 out="$root/x${mult}_s$seed" config="$root/x${mult}_s$seed.yaml"
-sed "/^set:/s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#^total_env_steps: .*#total_env_steps: $((1750000 * mult))#;
-     s#^seeds: .*#seeds: [$seed]#" "$here/configs/study_scaling.yaml" > "$config.new"
-if [ -f "$config" ] && ! cmp -s "$config" "$config.new"; then
-  rm "$config.new"
-  echo "$config: this piece was started with another pilot or config; give another OUT_DIR" >&2
-  exit 2
-fi
-mv "$config.new" "$config"
+source "$here/scripts/pilot_study_steps.sh"
+pilot_study_config "$here/configs/study_scaling.yaml" "$config" \
+  "/^set:/s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#^total_env_steps: .*#total_env_steps: $((1750000 * mult))#;
+   s#^seeds: .*#seeds: [$seed]#" piece
 cd "$here"
 "$bin" --threads "$threads" study --config "$config" --out "$out"
-for run in "$out"/dt8/es_d[23]_s"$seed"; do
-  o="$out/dt8/controls/$(basename "$run")"
-  [ -f "$o/done.txt" ] || "$bin" --threads "$threads" tournament --runs "$run" --controls --no-untrained \
-    --races 512 --seed 1 --tracks configs/long.yaml --out "$o"
-done
+pilot_study_controls "$bin" "$threads" "$out"/dt8/es_d{2,3}_s"$seed"
 F16RACE="$bin" python3 scripts/scaling_verdict.py --keep-pieces "$out" "$5"

@@ -21,20 +21,10 @@ threads="${F16RACE_THREADS:-2}"
 mkdir -p "$2" "$3"
 root="$(cd "$2" && pwd)" keep="$(cd "$3" && pwd)"
 out="$root/s$seed" config="$root/s$seed.yaml"  # the config beside the study folder, which `study` owns
-sed "s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#BLOCK_SEED#$seed#" "$here/configs/study_pilot.yaml" > "$config.new"
-if [ -f "$config" ] && ! cmp -s "$config" "$config.new"; then
-  rm "$config.new"
-  echo "$config: this block was started with another pilot or config; give another OUT_DIR" >&2
-  exit 2
-fi
-mv "$config.new" "$config"
+source "$here/scripts/pilot_study_steps.sh"
+pilot_study_config "$here/configs/study_pilot.yaml" "$config" \
+  "s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#BLOCK_SEED#$seed#" block
 cd "$here"
 "$bin" --threads "$threads" study --config "$config" --out "$out"
-for dt in 8 20; do
-  for run in "$out/dt$dt"/es_s"$seed" "$out/dt$dt"/es_d[123]_s"$seed"; do
-    o="$out/dt$dt/controls/$(basename "$run")"
-    [ -f "$o/done.txt" ] || "$bin" --threads "$threads" tournament --runs "$run" --controls --no-untrained \
-      --races 512 --seed 1 --tracks configs/long.yaml --out "$o"
-  done
-done
+pilot_study_controls "$bin" "$threads" "$out"/dt{8,20}/es{,_d1,_d2,_d3}_s"$seed"
 F16RACE="$bin" python3 scripts/study_verdicts.py --keep-block "$out" "$keep"

@@ -15,24 +15,19 @@
 #include <stdexcept>
 
 #include "dist/process_group.hpp"
+#include "eval/tournament_games.hpp"
 #include "eval/tournament_journal.hpp"
 #include "eval/tournament_output.hpp"
 #include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
-#include "race/block_events.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
-#include "race/scripted_pilot.hpp"
-#include "train/obs_views.hpp"
-#include "train/policy_rows.hpp"
 #include "train/run_policy.hpp"
 #include "train/train_config.hpp"
 
 namespace f16race::eval {
 
 namespace fs = std::filesystem;
-using models::HlObs;
-using models::LlObs;
 
 namespace {
 // Every HL rule in one place: its name (an entry's "@" suffix), how reports describe it, and
@@ -122,11 +117,6 @@ bool in_variant_statistics(const Entry& entry, const TournamentOptions& options)
 
 namespace {
 
-struct Game {
-  int pair, blue, red;
-  int race;  // index in its pairing: track race / 2, sides swapped on odd races
-};
-
 // Every rank's race records, on every rank: fixed-width rows of doubles (each field a small
 // integer or the duration, exact in a double), padded to the longest rank's count.
 std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceRecord>& mine, std::uint64_t track_seed) {
@@ -213,189 +203,45 @@ std::unique_ptr<TournamentJournal> open_journal(const TournamentOptions& o, cons
   return journal;
 }
 
-// Races `games` (the tournament's, less those a journal kept) and returns their records, each
-// appended to `journal` (if any) in the step it ended. `done_before` races of `total` were
-// raced before (progress counts them).
-std::vector<RaceRecord> race_games(const TournamentOptions& o, const std::vector<Entry>& entries,
-                                   std::vector<train::RunPolicy>& pol, race::RaceConfig rc,
-                                   const std::vector<Game>& games, long done_before, long total,
-                                   const std::function<void(long, long)>& progress, dist::Group* group,
-                                   const TournamentJournal* journal) {
-  const int n_entries = static_cast<int>(entries.size());
-  std::vector<RaceRecord> out;
-  c10::InferenceMode inference;  // as the trainer's rollout: no autograd bookkeeping on any tensor of a race
-  at::Generator gen = models::make_generator(o.seed * 31 + 7);
-  const int ts = rc.team_size, n_agent = rc.n_agent();
-  // One batch of envs for the whole tournament: an env whose race ends takes the next game at
-  // once, so no env idles until the slowest race of a batch is over. Each game's track and start
-  // come from its own stream, race r of every pairing on track r / 2 (both sides of each track
-  // flown, sides swapped), and its @random draws from the race's own: the same race whatever
-  // env slot it lands in, so pairings within a tournament and the same pairing in tournaments of
-  // other entries race the same tracks (common random numbers for paired comparisons).
-  const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(o.batch_envs), games.size()));
-  // Ranks: this one races envs [lo, hi) of the n; every rank makes the same assignments, so the
-  // split changes no race.
-  const int world = group ? group->size() : 1, rank = group ? group->rank() : 0;
-  if (n < world)
-    throw io::InputError("tournament: " + std::to_string(n) + " races at once cannot be split over " +
-                         std::to_string(world) + " ranks; give --batch (and races) of at least the number of ranks");
-  const int lo = static_cast<int>(static_cast<long long>(n) * rank / world);
-  const int hi = static_cast<int>(static_cast<long long>(n) * (rank + 1) / world);
-  const int nl = hi - lo;
-  rc.n_env = nl;
-  race::RaceEnv env(rc, lo);
-  race::BlockCounter blocks(env);
-  // The @random rule's draws: the stream of the env's current race, used only at its own HL
-  // decisions.
-  std::vector<RandomStream> control_rng(nl, control_stream(o.seed, 0));
-  std::vector<long> env_game(n, -1);  // game index raced in each env of the whole batch, -1 idle
-  using Lost = std::array<int, race::kNumCauses>;
-  std::vector<Lost> lost_blue(nl), lost_red(nl);  // [n_env_local][cause]
-  std::vector<int> owner(static_cast<std::size_t>(nl) * n_agent, -1);  // entry flying this rank's aircraft i
-  std::size_t next_game = 0;
-  // Every rank makes the same assignments (global env order), its own envs' owners only.
-  auto assign = [&](int eg) {
-    env_game[eg] = next_game < games.size() ? static_cast<long>(next_game++) : -1;
-    if (eg < lo || eg >= hi) return;
-    const int e = eg - lo;
-    lost_blue[e].fill(0);
-    lost_red[e].fill(0);
-    const Game* g = env_game[eg] >= 0 ? &games[env_game[eg]] : nullptr;
-    for (int a = 0; a < n_agent; ++a) owner[e * n_agent + a] = g ? (a < ts ? g->blue : g->red) : -1;
-    if (!g) return;
-    env.start_race(e, track_stream_id(g->race / 2));
-    control_rng[e] = control_stream(o.seed, g->race);
-  };
-  for (int e = 0; e < n; ++e) assign(e);
-  // Aircraft rows per entry: every network acts only on the aircraft it flies.
-  train::PolicyRows rows(n_entries, nl * n_agent), hl_rows(n_entries, nl * n_agent);
-  rows.assign(owner);
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(nl) * n_agent * 3, rc.hl_center_bin());
-  std::vector<float> actions(static_cast<std::size_t>(nl) * n_agent * 3, 0.0f);
-  race::AutopilotPilotConfig autopilot;
-  autopilot.airspeed_ftps = o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : rc.autopilot_airspeed();
-  autopilot.shift_up_frac = autopilot_shift_up(o, rc);
-  if (o.autopilot_on_line) autopilot.lines = &env.racing_lines();  // each race's, drawn at its start
-  // Every team's HL bins from its entry's rule: the run's HL policy on the rows it flies in the
-  // envs that are due, or, for a control entry, its fixed rule per team of a due env (drawn in
-  // env and team order, so independent of the thread count).
-  auto choose_hl_bins = [&]() {
-    const HlObs obs = train::hl_obs_view(env);
-    std::vector<int> hl_owner(owner);
-    for (std::size_t i = 0; i < hl_owner.size(); ++i) {
-      const int e = static_cast<int>(i) / n_agent;
-      if (hl_owner[i] >= 0 && (!env.hl_due()[e] || !hl_override_uses_policy(entries[hl_owner[i]].hl) ||
-                               is_autopilot(entries[hl_owner[i]])))
-        hl_owner[i] = -1;
-    }
-    hl_rows.assign(hl_owner);
-    for (int id = 0; id < n_entries; ++id)
-      train::policy_hl_bins(pol[entries[id].policy], obs, hl_rows.rows(id), o.epsilon, gen, bins.data());
-    for (int e = 0; e < nl; ++e) {
-      if (env_game[lo + e] < 0 || !env.hl_due()[e]) continue;
-      for (int team = 0; team < 2; ++team) {
-        const Entry& en = entries[owner[e * n_agent + team * ts]];
-        // The autopilot has no high level: its goals stay on the center-line (reward only).
-        if (is_control(en) || is_autopilot(en))
-          fixed_hl_bins(is_autopilot(en) ? HlOverride::center : en.hl, rc.hl_bins, ts, control_rng[e],
-                        bins.data() + static_cast<std::size_t>(e * n_agent + team * ts) * race::kHlDims);
-      }
-    }
-  };
-  long done_games = 0, reported = 0;
-  int active = n;
-  std::vector<std::int64_t> ended(n, 0);  // races that ended this step, over the whole batch
-  std::vector<double> t_before(nl);       // each env's race time before the step
-  std::vector<RaceRecord> now;            // this rank's races that ended this step
-  while (active > 0) {
-    bool due = false;
-    for (int e = 0; e < nl; ++e) due = due || (env.hl_due()[e] && env_game[lo + e] >= 0);
-    if (due) {
-      choose_hl_bins();
-      env.set_hl_actions(bins.data());
-    }
-    const LlObs obs = train::ll_obs_view(env);
-    for (int id = 0; id < n_entries; ++id) {
-      if (rows.rows(id).numel() == 0) continue;
-      if (is_autopilot(entries[id])) {
-        race::autopilot_actions(env, autopilot, actions.data(), rows.rows(id).data_ptr<std::int64_t>(),
-                                rows.rows(id).numel());
-        continue;
-      }
-      train::greedy_ll_actions(pol[entries[id].policy], env, obs, rows.rows(id), gen, actions.data());
-    }
-    for (int e = 0; e < nl; ++e) t_before[e] = env.race_time_s(e);
-    env.step(actions.data());
-    blocks.after_step(race::block_view(env));
-    std::fill(ended.begin(), ended.end(), 0);
-    now.clear();
-    for (int e = 0; e < nl; ++e) {
-      if (env_game[lo + e] < 0) continue;
-      for (int a = 0; a < n_agent; ++a)
-        if (const int c = env.step_cause()[e * n_agent + a]; c != race::kCauseNone) (a < ts ? lost_blue[e] : lost_red[e])[c] += 1;
-      if (!env.env_done()[e]) continue;
-      const Game& g = games[env_game[lo + e]];
-      RaceRecord r;
-      r.pair = g.pair;
-      r.blue = g.blue;
-      r.red = g.red;
-      r.track_seed = rc.seed;
-      r.env = lo + e;
-      r.race = g.race;
-      r.track = g.race / 2;
-      const int w = env.race_winner()[e];
-      r.winner = w < 0 ? -1 : (w == 0 ? g.blue : g.red);
-      r.end_reason = env.race_end()[e];
-      r.duration_s = t_before[e] + rc.dt_ll_s;
-      r.blue_lost = lost_blue[e];
-      r.red_lost = lost_red[e];
-      r.blue_blocks = blocks.race_blocks(e, 0);
-      r.red_blocks = blocks.race_blocks(e, 1);
-      out.push_back(r);
-      now.push_back(r);
-      ended[lo + e] = 1;
-    }
-    if (journal) journal->append(now);
-    if (group) group->allreduce_sum(ended);
-    bool changed = false;
-    for (int eg = 0; eg < n; ++eg) {
-      if (ended[eg] == 0) continue;
-      ++done_games;
-      assign(eg);
-      active -= env_game[eg] < 0;
-      changed = changed || (eg >= lo && eg < hi);
-    }
-    if (changed) rows.assign(owner);
-    // Progress about every 1 % of the games.
-    if (progress && (done_games - reported >= std::max<long>(1, total / 100) ||
-                     (active == 0 && done_games != reported))) {
-      reported = done_games;
-      progress(done_before + done_games, total);
-    }
-  }
-  return out;
-}
-
-}  // namespace
-
-TournamentResult run_tournament(const TournamentOptions& o, const std::function<void(long, long)>& progress,
-                                dist::Group* group, const std::function<void(const std::string&)>& say) {
-  if (o.runs.empty() && !o.include_untrained) throw io::InputError("tournament: no entries");
-  if (o.runs.empty()) throw io::InputError("tournament: give at least one run folder with --runs");
-  TournamentResult res;
-  std::vector<train::RunPolicy> pol;
+// Every entry of the tournament, in TournamentResult::entries order, with the policies they fly.
+void add_entries(const TournamentOptions& o, std::vector<train::RunPolicy>* pol, std::vector<Entry>* entries) {
   for (const std::string& r : o.runs) {
     // The same folder twice would count one run as two seeds of its variant.
     for (const std::string& q : o.runs)
       if (&q != &r && fs::weakly_canonical(q) == fs::weakly_canonical(r))
         throw io::InputError("tournament: " + r + " is given twice in --runs; list each run folder once");
-    pol.push_back(train::load_policy_spec(r));
+    pol->push_back(train::load_policy_spec(r));
     // Races use the first run's race; every entry must have been trained for the same shapes.
-    train::check_same_race_shape(pol.front(), pol.back());
-    res.entries.push_back(Entry{pol.back().name, r, agents::es_variant_name(pol.back().config.hl.variant),
-                                pol.back().config.seed, HlOverride::none, static_cast<int>(pol.size()) - 1});
+    train::check_same_race_shape(pol->front(), pol->back());
+    entries->push_back(Entry{pol->back().name, r, agents::es_variant_name(pol->back().config.hl.variant),
+                             pol->back().config.seed, HlOverride::none, static_cast<int>(pol->size()) - 1});
   }
-  race::RaceConfig rc = pol.front().config.race;
+  if (o.include_untrained) {
+    pol->push_back(train::untrained_policy(pol->front().config, o.seed));
+    entries->push_back(Entry{"untrained", "", "untrained", o.seed, HlOverride::none, static_cast<int>(pol->size()) - 1});
+  }
+  if (o.include_autopilot) entries->push_back(Entry{"autopilot", "", "autopilot", o.seed, HlOverride::none, -1});
+  // Controls: each run's own low level (same policy object) under a fixed high level.
+  std::vector<HlOverride> control_rules;
+  if (o.controls) control_rules.insert(control_rules.end(), {HlOverride::center, HlOverride::random});
+  if (o.axis_controls)
+    control_rules.insert(control_rules.end(), {HlOverride::center_x, HlOverride::center_y, HlOverride::center_z});
+  for (std::size_t k = 0; k < o.runs.size(); ++k)
+    for (HlOverride rule : control_rules) {
+      Entry c = (*entries)[k];
+      c.name += std::string("@") + hl_override_name(rule);
+      c.hl = rule;
+      entries->push_back(c);
+    }
+  if (entries->size() < 2)
+    throw io::InputError("tournament: " + entries->front().name +
+                         " is the only entry and has no opponent; give a second run, keep the untrained entry "
+                         "(drop --no-untrained) or add --controls");
+}
+
+// The first run's race with the options' tracks, time limit and goal placement.
+race::RaceConfig tournament_race(const TournamentOptions& o, const train::RunPolicy& first) {
+  race::RaceConfig rc = first.config.race;
   if (!o.tracks_config.empty()) {
     const train::TrainConfig t = train::read_train_config(io::load_yaml_file(o.tracks_config), o.tracks_config);
     rc.track = t.race.track;
@@ -408,40 +254,55 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   if (!std::isnan(o.autopilot_shift_up_frac) && !o.include_autopilot)
     throw io::InputError("tournament: --autopilot-shift-up moves the autopilot entry's lanes; add --with-autopilot");
   if (o.autopilot_on_line && rc.goal_line_frac <= 0.0)
-    throw io::InputError("tournament: --autopilot-on-line: " + pol.front().run_dir +
+    throw io::InputError("tournament: --autopilot-on-line: " + first.run_dir +
                          " races on the center-line (race.goal_line_frac 0); give --goal-line F for a line to fly");
-  res.race = rc;
-  if (o.include_untrained) {
-    pol.push_back(train::untrained_policy(pol.front().config, o.seed));
-    res.entries.push_back(
-        Entry{"untrained", "", "untrained", o.seed, HlOverride::none, static_cast<int>(pol.size()) - 1});
-  }
-  if (o.include_autopilot) res.entries.push_back(Entry{"autopilot", "", "autopilot", o.seed, HlOverride::none, -1});
-  // Controls: each run's own low level (same policy object) under a fixed high level.
-  std::vector<HlOverride> control_rules;
-  if (o.controls) control_rules.insert(control_rules.end(), {HlOverride::center, HlOverride::random});
-  if (o.axis_controls)
-    control_rules.insert(control_rules.end(), {HlOverride::center_x, HlOverride::center_y, HlOverride::center_z});
-  for (std::size_t k = 0; k < o.runs.size(); ++k)
-    for (HlOverride rule : control_rules) {
-      Entry c = res.entries[k];
-      c.name += std::string("@") + hl_override_name(rule);
-      c.hl = rule;
-      res.entries.push_back(c);
-    }
-  const int n_entries = static_cast<int>(res.entries.size());
-  if (n_entries < 2)
-    throw io::InputError("tournament: " + res.entries.front().name +
-                             " is the only entry and has no opponent; give a second run, keep the untrained entry "
-                             "(drop --no-untrained) or add --controls");
+  return rc;
+}
 
+// Every pairing i < j, races_per_pair races each, sides swapped on odd races.
+std::vector<Game> round_robin_games(int n_entries, int races_per_pair) {
   std::vector<Game> games;
   int pair = 0;
   for (int i = 0; i < n_entries; ++i)
     for (int j = i + 1; j < n_entries; ++j, ++pair)
-      for (int r = 0; r < o.races_per_pair; ++r)
+      for (int r = 0; r < races_per_pair; ++r)
         games.push_back(r % 2 == 0 ? Game{pair, i, j, r} : Game{pair, j, i, r});
+  return games;
+}
 
+// Wins and games per ordered pair of entries (draws count half), and races.csv's stable order.
+void tally(TournamentResult* res) {
+  const std::size_t n = res->entries.size();
+  res->wins.assign(n, std::vector<double>(n, 0.0));
+  res->games.assign(n, std::vector<double>(n, 0.0));
+  for (const RaceRecord& r : res->races) {
+    res->games[r.blue][r.red] += 1;
+    res->games[r.red][r.blue] += 1;
+    if (r.winner < 0) {
+      res->wins[r.blue][r.red] += 0.5;
+      res->wins[r.red][r.blue] += 0.5;
+    } else {
+      res->wins[r.winner][r.winner == r.blue ? r.red : r.blue] += 1;
+    }
+  }
+  // Races finish in env order, not game order.
+  std::sort(res->races.begin(), res->races.end(), [](const RaceRecord& x, const RaceRecord& y) {
+    return x.pair != y.pair ? x.pair < y.pair : x.race < y.race;
+  });
+}
+
+}  // namespace
+
+TournamentResult run_tournament(const TournamentOptions& o, const std::function<void(long, long)>& progress,
+                                dist::Group* group, const std::function<void(const std::string&)>& say) {
+  if (o.runs.empty() && !o.include_untrained) throw io::InputError("tournament: no entries");
+  if (o.runs.empty()) throw io::InputError("tournament: give at least one run folder with --runs");
+  TournamentResult res;
+  std::vector<train::RunPolicy> pol;
+  add_entries(o, &pol, &res.entries);
+  race::RaceConfig rc = tournament_race(o, pol.front());
+  res.race = rc;
+  const std::vector<Game> games = round_robin_games(static_cast<int>(res.entries.size()), o.races_per_pair);
   rc.seed = o.seed * 1000003ULL;
   const long total = static_cast<long>(games.size());
   std::vector<Game> todo = games;
@@ -458,27 +319,22 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   if (todo.empty()) {
     if (progress) progress(total, total);
   } else {
-    std::vector<RaceRecord> raced = race_games(o, res.entries, pol, rc, todo, total - static_cast<long>(todo.size()),
-                                               total, progress, group, journal.get());
+    RaceGamesInputs in;
+    in.options = &o;
+    in.entries = &res.entries;
+    in.policies = &pol;
+    in.race = rc;
+    in.games = &todo;  // the tournament's games less those a journal kept
+    in.done_before = total - static_cast<long>(todo.size());
+    in.total = total;
+    in.progress = progress;
+    in.group = group;
+    in.journal = journal.get();
+    const std::vector<RaceRecord> raced = race_games(in);
     res.races.insert(res.races.end(), raced.begin(), raced.end());
   }
   if (group) res.races = gather_races(*group, res.races, rc.seed);
-  res.wins.assign(n_entries, std::vector<double>(n_entries, 0.0));
-  res.games.assign(n_entries, std::vector<double>(n_entries, 0.0));
-  for (const RaceRecord& r : res.races) {
-    res.games[r.blue][r.red] += 1;
-    res.games[r.red][r.blue] += 1;
-    if (r.winner < 0) {
-      res.wins[r.blue][r.red] += 0.5;
-      res.wins[r.red][r.blue] += 0.5;
-    } else {
-      res.wins[r.winner][r.winner == r.blue ? r.red : r.blue] += 1;
-    }
-  }
-  // Races finish in env order, not game order: sort for a stable races.csv.
-  std::sort(res.races.begin(), res.races.end(), [](const RaceRecord& x, const RaceRecord& y) {
-    return x.pair != y.pair ? x.pair < y.pair : x.race < y.race;
-  });
+  tally(&res);
   return res;
 }
 

@@ -29,7 +29,7 @@ std::string cause(int err) {
   return c;
 }
 
-constexpr const char* kHeader = "f16race tournament journal 1: the races raced so far, one per line";
+constexpr const char* kJournalHeader = "f16race tournament journal 1: the races raced so far, one per line";
 
 // The identity on one line whatever it holds.
 std::string one_line(std::string s) {
@@ -106,7 +106,7 @@ TournamentJournal::TournamentJournal(std::string path, const std::string& identi
                            "end or choose another --out");
     throw io::FileWriteError(path_ + ": " + cause(err) + " while locking the tournament's journal");
   }
-  const std::string head = std::string(kHeader) + "\nidentity: " + one_line(identity) + "\n";
+  const std::string head = std::string(kJournalHeader) + "\nidentity: " + one_line(identity) + "\n";
   const std::string text = io::read_file(path_);
   std::size_t whole = 0;
   const std::string why = text.empty() ? "" : read_races(text, head, accept, &kept_, &whole);

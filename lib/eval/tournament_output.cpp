@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kHeader = "f16race tournament output, written last: the folder is whole";
+constexpr const char* kMarkerHeader = "f16race tournament output, written last: the folder is whole";
 constexpr const char* kDrawn = "figures: drawn";
 
 // "runs/a/es_s1+runs/b/es_s1@center" -> "es_s1+es_s1@center".
@@ -71,7 +71,7 @@ std::string tournament_marker_options(const TournamentOptions& o) {
 
 void write_tournament_marker(const TournamentOptions& o, const std::vector<std::string>& missing,
                              const std::string& dir) {
-  std::string text = std::string(kHeader) + "\noptions: " + tournament_marker_options(o) + "\n";
+  std::string text = std::string(kMarkerHeader) + "\noptions: " + tournament_marker_options(o) + "\n";
   if (missing.empty()) {
     text += std::string(kDrawn) + "\n";
   } else {
@@ -91,7 +91,7 @@ bool tournament_complete(const TournamentOptions& o, std::string* why) {
   std::getline(in, figures);
   std::string reason;
   if (!in && header.empty()) reason = path.string() + " is missing: the tournament was not finished";
-  else if (header != kHeader) reason = path.string() + " is not a tournament's marker";
+  else if (header != kMarkerHeader) reason = path.string() + " is not a tournament's marker";
   else if (options != "options: " + tournament_marker_options(o)) reason = "it was raced with other options";
   else if (figures != kDrawn) reason = figures;
   if (why) *why = reason;
