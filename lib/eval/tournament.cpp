@@ -120,7 +120,7 @@ namespace {
 // Every rank's race records, on every rank: fixed-width rows of doubles (each field a small
 // integer or the duration, exact in a double), padded to the longest rank's count.
 std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceRecord>& mine, std::uint64_t track_seed) {
-  constexpr std::size_t kBase = 11, kFields = kBase + 2 * race::kNumCauses;
+  constexpr std::size_t kBase = 11, kLost = kBase + 2 * race::kNumCauses, kFields = kLost + 2 * kChoiceFields;
   std::vector<std::int64_t> counts(group.size(), 0);
   counts[group.rank()] = static_cast<std::int64_t>(mine.size());
   group.allreduce_sum(counts);
@@ -136,6 +136,10 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
     for (int c = 0; c < race::kNumCauses; ++c) {
       row[kBase + c] = r.blue_lost[c];
       row[kBase + race::kNumCauses + c] = r.red_lost[c];
+    }
+    for (int c = 0; c < kChoiceFields; ++c) {
+      row[kLost + c] = r.blue_choices[c];
+      row[kLost + kChoiceFields + c] = r.red_choices[c];
     }
   }
   const std::vector<double> all = group.allgather(packed);
@@ -158,6 +162,10 @@ std::vector<RaceRecord> gather_races(dist::Group& group, const std::vector<RaceR
       for (int c = 0; c < race::kNumCauses; ++c) {
         r.blue_lost[c] = static_cast<int>(f[kBase + c]);
         r.red_lost[c] = static_cast<int>(f[kBase + race::kNumCauses + c]);
+      }
+      for (int c = 0; c < kChoiceFields; ++c) {
+        r.blue_choices[c] = static_cast<int>(f[kLost + c]);
+        r.red_choices[c] = static_cast<int>(f[kLost + kChoiceFields + c]);
       }
       r.track_seed = track_seed;
       out.push_back(r);

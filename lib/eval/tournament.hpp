@@ -123,6 +123,9 @@ inline bool is_autopilot(const Entry& e) { return e.policy < 0; }
 // entries and the autopilot never.
 bool in_variant_statistics(const Entry& entry, const TournamentOptions& options);
 
+// RaceRecord's goal choices: below, on and above the middle bin on each of the HL's axes.
+inline constexpr int kChoiceFields = 3 * race::kHlDims;
+
 struct RaceRecord {
   int pair = 0, blue = 0, red = 0;  // entry indices
   int race = 0;                     // index in its pairing: even races blue = the lower entry
@@ -139,6 +142,10 @@ struct RaceRecord {
   int blue_out() const { return std::accumulate(blue_lost.begin(), blue_lost.end(), 0); }
   int red_out() const { return std::accumulate(red_lost.begin(), red_lost.end(), 0); }
   int blue_blocks = 0, red_blocks = 0;  // blocks by each team (race/block_events.hpp)
+  // Each team's high-level goal choices over the race: per goal axis (x, y, z of race.goal_frame;
+  // track: along, right, up), how many decisions of its living aircraft took a bin below, on or
+  // above the middle bin, at [axis * 3 + {0, 1, 2}]. Does a high level win by height, or width?
+  std::array<int, kChoiceFields> blue_choices{}, red_choices{};
 };
 
 struct TournamentResult {

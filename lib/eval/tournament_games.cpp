@@ -23,6 +23,7 @@ namespace {
 using models::HlObs;
 using models::LlObs;
 using Lost = std::array<int, race::kNumCauses>;
+using Choices = std::array<int, kChoiceFields>;
 
 // This rank's envs [lo, hi) of the whole batch of n: every rank makes the same assignments in
 // global env order, so the split changes no race.
@@ -60,6 +61,7 @@ class GameBatch {
  private:
   void assign(int eg);
   void choose_hl_bins();
+  void count_choices();
   void act();
   void collect_ended(std::vector<RaceRecord>* out);
   void advance();
@@ -79,6 +81,7 @@ class GameBatch {
   std::vector<RandomStream> control_rng_;  // [nl]
   std::vector<long> env_game_;             // [n] game raced in each env of the whole batch, -1 idle
   std::vector<Lost> lost_blue_, lost_red_;  // [nl][cause]
+  std::vector<Choices> choices_blue_, choices_red_;  // [nl][axis * 3 + below / middle / above]
   std::vector<int> owner_;                  // [nl * n_agent] entry flying this rank's aircraft i, -1 none
   std::size_t next_game_ = 0;
   // Aircraft rows per entry: every network acts only on the aircraft it flies.
@@ -109,6 +112,8 @@ GameBatch::GameBatch(const RaceGamesInputs& in)
       env_game_(split_.n, -1),
       lost_blue_(nl_),
       lost_red_(nl_),
+      choices_blue_(nl_),
+      choices_red_(nl_),
       owner_(static_cast<std::size_t>(nl_) * n_agent_, -1),
       rows_(n_entries_, nl_ * n_agent_),
       hl_rows_(n_entries_, nl_ * n_agent_),
@@ -132,6 +137,8 @@ void GameBatch::assign(int eg) {
   const int e = eg - split_.lo;
   lost_blue_[e].fill(0);
   lost_red_[e].fill(0);
+  choices_blue_[e].fill(0);
+  choices_red_[e].fill(0);
   const Game* g = env_game_[eg] >= 0 ? &games_[env_game_[eg]] : nullptr;
   for (int a = 0; a < n_agent_; ++a) owner_[e * n_agent_ + a] = g ? (a < ts_ ? g->blue : g->red) : -1;
   if (!g) return;
@@ -167,6 +174,23 @@ void GameBatch::choose_hl_bins() {
   }
 }
 
+// The bins just chosen in the due envs, per team, living aircraft only.
+void GameBatch::count_choices() {
+  const int mid = rc_.hl_center_bin();
+  for (int e = 0; e < nl_; ++e) {
+    if (env_game_[split_.lo + e] < 0 || !env_.hl_due()[e]) continue;
+    for (int a = 0; a < n_agent_; ++a) {
+      const int i = e * n_agent_ + a;
+      if (!env_.alive(i)) continue;
+      Choices& c = a < ts_ ? choices_blue_[e] : choices_red_[e];
+      for (int d = 0; d < race::kHlDims; ++d) {
+        const std::int64_t b = bins_[static_cast<std::size_t>(i) * race::kHlDims + d];
+        c[d * 3 + (b < mid ? 0 : b == mid ? 1 : 2)] += 1;
+      }
+    }
+  }
+}
+
 // Every entry's low-level actions on the aircraft it flies.
 void GameBatch::act() {
   const LlObs obs = train::ll_obs_view(env_);
@@ -198,6 +222,8 @@ RaceRecord GameBatch::record(int e) const {
   r.red_lost = lost_red_[e];
   r.blue_blocks = blocks_.race_blocks(e, 0);
   r.red_blocks = blocks_.race_blocks(e, 1);
+  r.blue_choices = choices_blue_[e];
+  r.red_choices = choices_red_[e];
   return r;
 }
 
@@ -242,6 +268,7 @@ std::vector<RaceRecord> GameBatch::run() {
     for (int e = 0; e < nl_; ++e) due = due || (env_.hl_due()[e] && env_game_[split_.lo + e] >= 0);
     if (due) {
       choose_hl_bins();
+      count_choices();
       env_.set_hl_actions(bins_.data());
     }
     act();

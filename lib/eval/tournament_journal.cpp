@@ -29,7 +29,7 @@ std::string cause(int err) {
   return c;
 }
 
-constexpr const char* kJournalHeader = "f16race tournament journal 1: the races raced so far, one per line";
+constexpr const char* kJournalHeader = "f16race tournament journal 2: the races raced so far, one per line";
 
 // The identity on one line whatever it holds.
 std::string one_line(std::string s) {
@@ -76,6 +76,8 @@ std::string journal_line(const RaceRecord& r) {
     << ' ' << r.end_reason << ' ' << duration << ' ' << r.blue_blocks << ' ' << r.red_blocks;
   for (int c : r.blue_lost) s << ' ' << c;
   for (int c : r.red_lost) s << ' ' << c;
+  for (int c : r.blue_choices) s << ' ' << c;
+  for (int c : r.red_choices) s << ' ' << c;
   return s.str();
 }
 
@@ -86,6 +88,8 @@ bool parse_journal_line(const std::string& line, RaceRecord* r) {
       r->blue_blocks >> r->red_blocks;
   for (int& c : r->blue_lost) s >> c;
   for (int& c : r->red_lost) s >> c;
+  for (int& c : r->blue_choices) s >> c;
+  for (int& c : r->red_choices) s >> c;
   if (!s || !(s >> std::ws).eof()) return false;
   char* end = nullptr;
   r->duration_s = std::strtod(duration.c_str(), &end);

@@ -137,9 +137,14 @@ TournamentStatistics tournament_statistics(const TournamentResult& r, const Tour
   s.entry_races.assign(n, 0.0);
   s.entry_blocks.assign(n, 0.0);
   s.entry_rate.assign(n, Interval{});
+  s.entry_choices.assign(n, {});
   for (const RaceRecord& x : r.races) {
     s.entry_blocks[x.blue] += x.blue_blocks;
     s.entry_blocks[x.red] += x.red_blocks;
+    for (int c = 0; c < kChoiceFields; ++c) {
+      s.entry_choices[x.blue][c] += x.blue_choices[c];
+      s.entry_choices[x.red][c] += x.red_choices[c];
+    }
   }
   s.counted.assign(n, false);
   for (int i = 0; i < n; ++i) {
@@ -218,6 +223,33 @@ void write_pairings_csv(const TournamentResult& r, const TournamentStatistics& s
                 {"row_entry", "column_entry"}, names);
 }
 
+namespace {
+
+// The names of the HL's goal axes in the race's goal frame.
+std::array<const char*, race::kHlDims> goal_axis_names(const race::RaceConfig& rc) {
+  if (rc.goal_frame == race::GoalFrame::kTrack) return {"along", "right", "up"};
+  return {"north", "east", "up"};
+}
+
+// {"decisions": N, "along": [below, middle, above], ...}: shares of the entry's decisions per axis.
+std::string goal_choices_json(const race::RaceConfig& rc, const std::array<double, kChoiceFields>& c) {
+  const double decisions = c[0] + c[1] + c[2];
+  std::ostringstream js;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.0f", decisions);
+  js << "{\"decisions\": " << buf;
+  const auto names = goal_axis_names(rc);
+  for (int d = 0; d < race::kHlDims; ++d) {
+    js << ", " << json_string(names[d]) << ": [";
+    for (int k = 0; k < 3; ++k) js << (k ? ", " : "") << json_number(decisions > 0 ? c[d * 3 + k] / decisions : std::nan(""));
+    js << "]";
+  }
+  js << "}";
+  return js.str();
+}
+
+}  // namespace
+
 void write_summary_json(const TournamentResult& r, const TournamentStatistics& s, const TournamentOptions& o,
                         const std::string& path) {
   const int n = static_cast<int>(r.entries.size());
@@ -245,8 +277,8 @@ void write_summary_json(const TournamentResult& r, const TournamentStatistics& s
        << ", \"in_variant_statistics\": " << (s.counted[i] ? "true" : "false") << ", \"races\": " << s.entry_races[i]
        << ", \"winrate\": " << json_number(s.entry_rate[i].point) << ", \"wilson95\": ["
        << json_number(s.entry_rate[i].lo) << ", " << json_number(s.entry_rate[i].hi)
-       << "], \"blocks_per_race\": " << json_number(per_race(s.entry_blocks[i], s.entry_races[i])) << "}"
-       << (i + 1 < n ? "," : "")
+       << "], \"blocks_per_race\": " << json_number(per_race(s.entry_blocks[i], s.entry_races[i]))
+       << ", \"goal_choices\": " << goal_choices_json(r.race, s.entry_choices[i]) << "}" << (i + 1 < n ? "," : "")
        << "\n";
   }
   js << "  ],\n  \"pairings\": [";
@@ -389,6 +421,33 @@ void control_row_md(const TournamentResult& r, int i, const std::vector<HlOverri
   md << "\n";
 }
 
+// What each entry's high level chose: below, on or above the middle bin, per goal axis. The
+// autopilot has no high level (its goals stay on the middle bin, for the reward alone).
+void goal_choices_md(const TournamentResult& r, const TournamentStatistics& s, std::ostringstream& md) {
+  const auto names = goal_axis_names(r.race);
+  md << "\nHigh-level goal choices: share of each entry's decisions (living aircraft) below / on / above the middle "
+        "bin, per goal axis:\n\n| entry | decisions |";
+  for (const char* a : names) md << " " << a << " |";
+  md << "\n|---|---|---|---|---|\n";
+  char buf[64];
+  for (std::size_t i = 0; i < r.entries.size(); ++i) {
+    if (is_autopilot(r.entries[i])) continue;
+    const std::array<double, kChoiceFields>& c = s.entry_choices[i];
+    const double decisions = c[0] + c[1] + c[2];
+    std::snprintf(buf, sizeof buf, "%.0f", decisions);
+    md << "| " << r.entries[i].name << " | " << buf << " |";
+    for (int d = 0; d < race::kHlDims; ++d) {
+      if (decisions > 0)
+        std::snprintf(buf, sizeof buf, " %.3f / %.3f / %.3f |", c[d * 3] / decisions, c[d * 3 + 1] / decisions,
+                      c[d * 3 + 2] / decisions);
+      else
+        std::snprintf(buf, sizeof buf, " - |");
+      md << buf;
+    }
+    md << "\n";
+  }
+}
+
 // What the trained high level adds: each run against its own controls, head to head.
 void controls_md(const TournamentResult& r, std::ostringstream& md) {
   const int n = static_cast<int>(r.entries.size());
@@ -422,6 +481,7 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   excluded_md(r, s, o, md);
   matrix_and_entries_md(r, s, md);
   controls_md(r, md);
+  goal_choices_md(r, s, md);
   return md.str();
 }
 

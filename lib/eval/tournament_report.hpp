@@ -2,6 +2,7 @@
 // A tournament's outputs: what they say, computed once (tournament_statistics: winrates, Wilson
 // intervals, per-variant mean, std and IQM with its bootstrap CI, variant vs variant), and one
 // writer per output file. Torch-free: it reads a TournamentResult, however it was raced.
+#include <array>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,8 @@ struct VariantRow {
 struct TournamentStatistics {
   std::vector<std::vector<double>> rate;          // [entry][entry] row's winrate vs column, NaN: not raced
   std::vector<double> entry_races, entry_blocks;  // [entry] over all its races
+  // [entry] its teams' HL goal choices summed over its races (RaceRecord::blue_choices' layout)
+  std::vector<std::array<double, kChoiceFields>> entry_choices;
   std::vector<Interval> entry_rate;               // [entry] vs all other entries, Wilson 95 %
   std::vector<bool> counted;                      // [entry] in the variant statistics
   std::vector<std::string> excluded;              // the entries not counted, by name

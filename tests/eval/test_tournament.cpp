@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -284,6 +285,64 @@ TEST(TournamentControls, RandomRuleIsUniformAndDeterministic) {
     fixed_hl_bins(HlOverride::random, hl_bins, n_aircraft, other, x.data());
     EXPECT_NE(x, bins);
   }
+}
+
+// Every race counts each team's goal choices: the same decisions on every axis, at least one per
+// aircraft (the first decision, all alive) and at most one per aircraft and HL interval; @center
+// on the middle bin alone, @random near 3/7, 1/7, 3/7 of 7 bins; summary.json's shares add to 1.
+TEST(TournamentControls, GoalChoicesCountEveryDecisionOfTheLivingAircraft) {
+  TournamentOptions o;
+  o.runs = {trained_run("choices", 1, 2, "es_d2")};
+  o.controls = true;
+  o.include_untrained = false;
+  o.races_per_pair = 24;
+  o.batch_envs = 16;
+  o.bootstrap_replicates = 200;
+  o.out_dir = (fs::temp_directory_path() / "f16race_tour_choices_out").string();
+  fs::remove_all(o.out_dir);
+  const TournamentResult r = run_tournament(o);
+  ASSERT_EQ(r.entries.size(), 3u);  // the run, @center, @random
+  const int ts = r.race.team_size, mid = r.race.hl_center_bin();
+  ASSERT_EQ(mid, 3);
+  std::array<double, kChoiceFields> random_sum{};
+  for (const RaceRecord& x : r.races) {
+    const int max_decisions = ts * (static_cast<int>(std::ceil(x.duration_s / r.race.dt_hl_s)) + 1);
+    for (const auto& [entry, c] : {std::make_pair(x.blue, x.blue_choices), std::make_pair(x.red, x.red_choices)}) {
+      const int decisions = c[0] + c[1] + c[2];
+      EXPECT_GE(decisions, ts);
+      EXPECT_LE(decisions, max_decisions) << x.duration_s;
+      for (int d = 1; d < race::kHlDims; ++d) EXPECT_EQ(c[d * 3] + c[d * 3 + 1] + c[d * 3 + 2], decisions);
+      if (r.entries[entry].hl == HlOverride::center)
+        for (int d = 0; d < race::kHlDims; ++d) EXPECT_EQ(c[d * 3 + 1], decisions);
+      // Against the run only: race r of every pairing draws @random's bins from one stream (common
+      // random numbers), so its pairing with @center repeats the same draws.
+      if (r.entries[entry].hl == HlOverride::random && (x.blue == 0 || x.red == 0))
+        for (int k = 0; k < kChoiceFields; ++k) random_sum[k] += c[k];
+    }
+  }
+  const double n = random_sum[0] + random_sum[1] + random_sum[2];
+  ASSERT_GT(n, 100.0);
+  for (int d = 0; d < race::kHlDims; ++d) {
+    // Binomial sd of a share p over n draws: within 4 of them.
+    for (const auto& [k, p] : {std::make_pair(0, 3.0 / 7), std::make_pair(1, 1.0 / 7), std::make_pair(2, 3.0 / 7)})
+      EXPECT_NEAR(random_sum[d * 3 + k] / n, p, 4.0 * std::sqrt(p * (1 - p) / n)) << "axis " << d << " share " << k;
+  }
+  write_tournament_report(r, o);
+  const YAML::Node js = YAML::LoadFile(o.out_dir + "/summary.json");
+  for (std::size_t i = 0; i < 3; ++i) {
+    const YAML::Node g = js["entries"][i]["goal_choices"];
+    EXPECT_GT(g["decisions"].as<double>(), 0.0);
+    for (const char* axis : {"along", "right", "up"}) {
+      ASSERT_EQ(g[axis].size(), 3u) << axis;
+      EXPECT_NEAR(g[axis][0].as<double>() + g[axis][1].as<double>() + g[axis][2].as<double>(), 1.0, 1e-12);
+    }
+  }
+  EXPECT_EQ(js["entries"][1]["goal_choices"]["up"][1].as<double>(), 1.0);  // @center
+  std::ifstream md(o.out_dir + "/summary.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), {});
+  EXPECT_NE(text.find("| f16race_tour_choices@center | "), std::string::npos);
+  EXPECT_NE(text.find("| 0.000 / 1.000 / 0.000 | 0.000 / 1.000 / 0.000 | 0.000 / 1.000 / 0.000 |"), std::string::npos)
+      << text;
 }
 
 TEST(TournamentControls, EntrySpecs) {

@@ -66,6 +66,8 @@ TEST(TournamentJournal, LinesComeBackExactly) {
   r.red_blocks = 0;
   r.blue_lost[1] = 2;
   r.red_lost[race::kNumCauses - 1] = 1;
+  r.blue_choices[0] = 5;
+  r.red_choices[kChoiceFields - 1] = 9;
   RaceRecord back;
   ASSERT_TRUE(parse_journal_line(journal_line(r), &back));
   EXPECT_EQ(back.pair, 7);
@@ -81,6 +83,8 @@ TEST(TournamentJournal, LinesComeBackExactly) {
   EXPECT_EQ(back.blue_blocks, 4);
   EXPECT_EQ(back.blue_lost, r.blue_lost);
   EXPECT_EQ(back.red_lost, r.red_lost);
+  EXPECT_EQ(back.blue_choices, r.blue_choices);
+  EXPECT_EQ(back.red_choices, r.red_choices);
   const std::string line = journal_line(r);
   EXPECT_FALSE(parse_journal_line(line.substr(0, line.size() - 2), &back)) << "a line cut short";
   EXPECT_FALSE(parse_journal_line(line + " 5", &back)) << "a field too many";
