@@ -7,10 +7,20 @@ import subprocess
 
 
 def cpu_model():
+    """The model name with its family and model numbers: trained weights depend on the CPU's
+    kernels, and one name ("AMD EPYC") covers several generations."""
+    fields = {}
     for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown"
+        key, _, value = line.partition(":")
+        key = key.strip()
+        if key in ("model name", "cpu family", "model") and key not in fields:
+            fields[key] = value.strip()
+        if not line.strip() and fields:
+            break
+    name = fields.get("model name", "unknown")
+    if "cpu family" in fields and "model" in fields:
+        name += f" (family {fields['cpu family']} model {fields['model']})"
+    return name
 
 
 def provenance():
