@@ -34,7 +34,8 @@ std::string fingerprint(const eval::TournamentOptions& o) {
   f << "\n--races " << o.races_per_pair << "\n--seed " << o.seed << "\n--epsilon " << o.epsilon << "\n--batch "
     << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
-    << "\n--axis-controls " << o.axis_controls << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
+    << "\n--axis-controls " << o.axis_controls << "\n--controls-own-run " << o.controls_own_run
+    << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
     << "\n--tracks " << o.tracks_config << "\n--goal-line " << o.goal_line_frac << "\n--goal-shift-up " << o.goal_shift_up_frac
     << "\n--autopilot-on-line " << o.autopilot_on_line << "\n--autopilot-shift-up " << o.autopilot_shift_up_frac
     << "\n--out " << o.out_dir;
@@ -141,6 +142,9 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--axis-controls", o->axis_controls,
                 "Add RUN@center_x, RUN@center_y and RUN@center_z for every run: its trained high level with one goal "
                 "axis (track frame: along, right, up) held on the middle bin; listed, never in the variant statistics");
+  cmd->add_flag("--controls-own-run", o->controls_own_run,
+                "Each control entry races its own run alone, not the other entries and controls: what the high "
+                "level adds, in a fraction of the races");
   cmd->add_option("--autopilot-airspeed", o->autopilot_airspeed_ftps,
                   "The autopilot entry's airspeed set point [ft/s] (default: the first run's race.autopilot_airspeed_ftps)")
       ->check(CLI::Range(300.0, 3000.0));

@@ -267,14 +267,30 @@ race::RaceConfig tournament_race(const TournamentOptions& o, const train::RunPol
   return rc;
 }
 
-// Every pairing i < j, races_per_pair races each, sides swapped on odd races.
-std::vector<Game> round_robin_games(int n_entries, int races_per_pair) {
+// Whether entries i and j race each other: always, but with controls_own_run a control only its own run.
+bool pairing_raced(const std::vector<Entry>& entries, int i, int j, bool controls_own_run) {
+  if (!controls_own_run) return true;
+  const Entry &a = entries[i], &b = entries[j];
+  auto own_run = [](const Entry& control, const Entry& other) {
+    return !is_control(other) && other.policy == control.policy && !is_untrained(other);
+  };
+  if (is_control(a) && !own_run(a, b)) return false;
+  if (is_control(b) && !own_run(b, a)) return false;
+  return true;
+}
+
+// Every pairing i < j that races, races_per_pair races each, sides swapped on odd races.
+std::vector<Game> round_robin_games(const std::vector<Entry>& entries, int races_per_pair, bool controls_own_run) {
   std::vector<Game> games;
+  const int n = static_cast<int>(entries.size());
   int pair = 0;
-  for (int i = 0; i < n_entries; ++i)
-    for (int j = i + 1; j < n_entries; ++j, ++pair)
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      if (!pairing_raced(entries, i, j, controls_own_run)) continue;
       for (int r = 0; r < races_per_pair; ++r)
         games.push_back(r % 2 == 0 ? Game{pair, i, j, r} : Game{pair, j, i, r});
+      ++pair;
+    }
   return games;
 }
 
@@ -310,7 +326,9 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   add_entries(o, &pol, &res.entries);
   race::RaceConfig rc = tournament_race(o, pol.front());
   res.race = rc;
-  const std::vector<Game> games = round_robin_games(static_cast<int>(res.entries.size()), o.races_per_pair);
+  if (o.controls_own_run && !o.controls && !o.axis_controls)
+    throw io::InputError("tournament: --controls-own-run pairs each control with its run; add --controls or --axis-controls");
+  const std::vector<Game> games = round_robin_games(res.entries, o.races_per_pair, o.controls_own_run);
   rc.seed = o.seed * 1000003ULL;
   const long total = static_cast<long>(games.size());
   std::vector<Game> todo = games;

@@ -69,6 +69,9 @@ struct TournamentOptions {
   bool untrained_in_statistics = false;  // counts "untrained" in the per-variant statistics
   bool controls = false;          // adds RUN@center and RUN@random for every run
   bool axis_controls = false;     // adds RUN@center_x, @center_y, @center_z for every run
+  // Each control entry races its own run alone (not the other entries, nor the other controls):
+  // the head-to-heads that ask what a high level adds, at a fraction of the races.
+  bool controls_own_run = false;
   bool include_autopilot = false;  // adds "autopilot": AeroBench's waypoint autopilot, no learning
   double autopilot_airspeed_ftps = 0.0;  // its set point; 0: the first run's race.autopilot_airspeed_ftps
   // The autopilot's start lanes shifted onto each race's racing line (the race's goal_line_frac,

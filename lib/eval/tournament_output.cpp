@@ -64,6 +64,7 @@ std::string tournament_marker_options(const TournamentOptions& o) {
   if (!std::isnan(o.goal_shift_up_frac)) s << " goal_shift_up=" << o.goal_shift_up_frac;
   if (o.autopilot_on_line) s << " autopilot_on_line=yes";
   if (!std::isnan(o.autopilot_shift_up_frac)) s << " autopilot_shift_up=" << o.autopilot_shift_up_frac;
+  if (o.controls_own_run) s << " controls_own_run=yes";
   s << " runs=";
   for (std::size_t k = 0; k < o.runs.size(); ++k) s << (k ? "," : "") << run_names(o.runs[k]);
   return s.str();

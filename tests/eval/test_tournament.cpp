@@ -12,6 +12,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "eval/tournament.hpp"
 #include "eval/tournament_report.hpp"
@@ -480,6 +481,40 @@ TEST(TournamentControls, ListedButKeptOutOfVariantStatistics) {
     EXPECT_EQ(again.races[k].winner, r.races[k].winner) << k;
     EXPECT_EQ(again.races[k].duration_s, r.races[k].duration_s) << k;
   }
+}
+
+// --controls-own-run: a control races its own run alone; the runs, the untrained entry and the
+// autopilot still race each other, and every race kept is the full tournament's race (same track,
+// start and @random streams: the same winner and duration).
+TEST(TournamentControls, ControlsOwnRunRaceTheirRunAlone) {
+  TournamentOptions o;
+  o.runs = {trained_run("own_a", 1, 2, "es_d2"), trained_run("own_b", 2, 2, "es_d3")};
+  o.controls = true;
+  o.include_autopilot = true;
+  o.races_per_pair = 4;
+  o.batch_envs = 16;
+  const TournamentResult full = run_tournament(o);
+  o.controls_own_run = true;
+  const TournamentResult own = run_tournament(o);
+  // Entries: a, b, untrained, autopilot, a@center, a@random, b@center, b@random.
+  ASSERT_EQ(own.entries.size(), 8u);
+  std::set<std::pair<int, int>> pairs;
+  for (const RaceRecord& x : own.races) pairs.insert({std::min(x.blue, x.red), std::max(x.blue, x.red)});
+  const std::set<std::pair<int, int>> expected = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3},
+                                                  {0, 4}, {0, 5}, {1, 6}, {1, 7}};
+  EXPECT_EQ(pairs, expected);
+  EXPECT_EQ(own.races.size(), expected.size() * 4u);
+  std::map<std::tuple<int, int, int>, const RaceRecord*> by_game;  // (blue, red, race)
+  for (const RaceRecord& x : full.races) by_game[{x.blue, x.red, x.race}] = &x;
+  for (const RaceRecord& x : own.races) {
+    const RaceRecord& f = *by_game.at({x.blue, x.red, x.race});
+    EXPECT_EQ(x.track, f.track);
+    EXPECT_EQ(x.winner, f.winner);
+    EXPECT_EQ(x.duration_s, f.duration_s);
+    EXPECT_EQ(x.blue_choices, f.blue_choices);
+  }
+  o.controls = false;
+  EXPECT_THROW(run_tournament(o), io::InputError);  // nothing for the option to pair
 }
 
 // --axis-controls: each run's own high level with one goal axis on the middle bin, listed after
