@@ -1,0 +1,109 @@
+#!/usr/bin/env python3
+"""Which goal axis carries a high level's edge over its center line (notebook 100's rule).
+
+    scripts/axis_edge.py edge TOURNAMENT_DIR ...      # each raced with --controls --axis-controls
+    scripts/axis_edge.py same-races NEW_DIR OLD_DIR   # the races both tournaments raced: same winners?
+
+`edge` reads each tournament's summary.json: per run, its head-to-head winrate against RUN@center
+and RUN@center_x / _y / _z (the run's own high level with that axis held on the middle bin) with
+a Wilson 95 % interval, and the share of its decisions below / on / above the middle bin per axis;
+then the head-to-heads pooled over the runs (their races taken as exchangeable) and the verdict
+on height (the `up` axis):
+  - "height carries most of the edge": pooled vs @center_z has its lower bound above 0.5 and its
+    point above 0.5 + (vs @center - 0.5) / 2;
+  - "height carries part of the edge": the lower bound above 0.5, the point not above that half;
+  - "no height effect resolved": the lower bound at or below 0.5.
+The along and right axes get the same words. `same-races` compares races.csv rows by (blue, red,
+race): how many of the races both hold had the same winner and duration. Standard library only.
+"""
+import csv
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from controls_table import wilson  # noqa: E402
+
+AXES = {"x": "along", "y": "right", "z": "up"}
+
+
+def head_to_heads(summary):
+    """{run: {rule: (wins, races)}} for every run entry against its own controls."""
+    entries = {e["name"]: e for e in summary["entries"]}
+    out = {}
+    for p in summary["pairings"]:
+        row, col = p["row"], p["col"]
+        if entries[row]["hl"] != "policy" or not col.startswith(row + "@"):
+            continue
+        out.setdefault(row, {})[col[len(row) + 1:]] = (p["winrate"] * p["races"], p["races"])
+    return out, entries
+
+
+def fmt(wins, n):
+    lo, hi = wilson(wins, n)
+    return f"{wins / n:.3f} [{lo:.3f}, {hi:.3f}]"
+
+
+def verdict(pooled, rule):
+    wins, n = pooled[rule]
+    lo, _ = wilson(wins, n)
+    w = wins / n
+    half = 0.5 + (pooled["center"][0] / pooled["center"][1] - 0.5) / 2
+    if lo <= 0.5:
+        return "no effect resolved"
+    return "carries most of the edge" if w > half else "carries part of the edge"
+
+
+def edge(dirs):
+    rules = ["center", "center_x", "center_y", "center_z"]
+    pooled = {r: [0.0, 0] for r in rules}
+    print("| run | vs @center | vs @center_x (along) | vs @center_y (right) | vs @center_z (up) "
+          "| along below/on/above | right | up |")
+    print("|---|---|---|---|---|---|---|---|")
+    for d in dirs:
+        summary = json.load(open(os.path.join(d, "summary.json")))
+        h2h, entries = head_to_heads(summary)
+        for run, by_rule in sorted(h2h.items()):
+            missing = [r for r in rules if r not in by_rule]
+            if missing:
+                sys.exit(f"{d}: {run} has no pairing with @{', @'.join(missing)}; race it with --controls --axis-controls")
+            for r in rules:
+                pooled[r][0] += by_rule[r][0]
+                pooled[r][1] += by_rule[r][1]
+            g = entries[run]["goal_choices"]
+            shares = [" / ".join(f"{v:.2f}" for v in g[AXES[a]]) for a in "xyz"]
+            print(f"| {run} ({os.path.basename(os.path.normpath(d))}) | "
+                  + " | ".join(fmt(*by_rule[r]) for r in rules) + " | " + " | ".join(shares) + " |")
+    if pooled["center"][1] == 0:
+        sys.exit("no run with controls in " + " ".join(dirs))
+    print("| pooled | " + " | ".join(fmt(*pooled[r]) for r in rules) + " | | | |")
+    print()
+    for a in "xyz":
+        print(f"{AXES[a]}: {verdict(pooled, 'center_' + a)}")
+
+
+def rows(path):
+    with open(os.path.join(path, "races.csv")) as f:
+        return {(r["blue"], r["red"], int(r["race"])): r for r in csv.DictReader(f)}
+
+
+def same_races(new, old):
+    a, b = rows(new), rows(old)
+    common = sorted(set(a) & set(b))
+    same = sum(a[k]["winner"] == b[k]["winner"] and a[k]["duration_s"] == b[k]["duration_s"] for k in common)
+    print(f"{same} of {len(common)} common races have the same winner and duration")
+    return same == len(common) and common
+
+
+def main(argv):
+    if len(argv) >= 3 and argv[1] == "edge":
+        edge(argv[2:])
+        return 0
+    if len(argv) == 4 and argv[1] == "same-races":
+        return 0 if same_races(argv[2], argv[3]) else 1
+    print(__doc__, file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

@@ -1,0 +1,76 @@
+#!/usr/bin/env python3
+"""scripts/axis_edge.py (notebook 100's rule) on stand-in tournaments whose answers are known: the
+pooled head-to-heads of two runs against their axis controls, the three verdicts, a tournament
+without axis controls refused in one line, and same-races on races.csv files that agree in part."""
+import csv
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+script = sys.argv[1]
+failures = []
+
+
+def check(ok, what):
+    print(("ok    " if ok else "FAIL  ") + what)
+    if not ok:
+        failures.append(what)
+
+
+def fake_summary(folder, run, rates, races=400, axes=("center_x", "center_y", "center_z")):
+    """`run` against @center and the axis controls at the given winrates, `races` each."""
+    os.makedirs(folder)
+    choices = {"decisions": 100, "along": [0.5, 0.2, 0.3], "right": [0.1, 0.8, 0.1], "up": [0.7, 0.1, 0.2]}
+    entries = [{"name": run, "hl": "policy", "goal_choices": choices}]
+    pairings = []
+    for rule in ("center",) + axes:
+        entries.append({"name": f"{run}@{rule}", "hl": rule, "goal_choices": choices})
+        pairings.append({"row": run, "col": f"{run}@{rule}", "races": races, "winrate": rates[rule]})
+        pairings.append({"row": f"{run}@{rule}", "col": run, "races": races, "winrate": 1 - rates[rule]})
+    with open(os.path.join(folder, "summary.json"), "w") as f:
+        json.dump({"entries": entries, "pairings": pairings}, f)
+
+
+def run(*args):
+    return subprocess.run([sys.executable, script, *args], capture_output=True, text=True)
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    a, b = os.path.join(tmp, "a"), os.path.join(tmp, "b")
+    # Pooled over 800 races: center 0.70; along 0.50 (none), right 0.56 (part: 0.56 < 0.60),
+    # up 0.66 (most: above 0.5 + 0.2 / 2 with its lower bound above 0.5).
+    fake_summary(a, "es_d2_s1", {"center": 0.72, "center_x": 0.48, "center_y": 0.57, "center_z": 0.64})
+    fake_summary(b, "es_d3_s1", {"center": 0.68, "center_x": 0.52, "center_y": 0.55, "center_z": 0.68})
+    r = run("edge", a, b)
+    check(r.returncode == 0, f"edge runs: {r.stderr}")
+    check("| pooled | 0.700 [" in r.stdout, "pooled vs @center 0.700")
+    check("0.660 [" in r.stdout and "0.560 [" in r.stdout, "pooled axis winrates 0.660 (up), 0.560 (right)")
+    check("up: carries most of the edge" in r.stdout, "up: most")
+    check("right: carries part of the edge" in r.stdout, "right: part")
+    check("along: no effect resolved" in r.stdout, "along: none")
+    check("0.70 / 0.10 / 0.20" in r.stdout, "up choice shares printed")
+    c = os.path.join(tmp, "c")
+    fake_summary(c, "es_s1", {"center": 0.7}, axes=())
+    r = run("edge", c)
+    check(r.returncode != 0 and "has no pairing with @center_x" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
+          f"no axis controls refused in one line: {r.stderr!r}")
+
+    def races_csv(folder, winners):
+        os.makedirs(folder, exist_ok=True)
+        with open(os.path.join(folder, "races.csv"), "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["pair", "race", "duration_s", "blue", "red", "winner"])
+            for k, win in enumerate(winners):
+                w.writerow([0, k, "100.5", "r", "r@center", win])
+    races_csv(os.path.join(tmp, "new"), ["r", "r", "r@center"])
+    races_csv(os.path.join(tmp, "old"), ["r", "r", "r", "r"])
+    r = run("same-races", os.path.join(tmp, "new"), os.path.join(tmp, "old"))
+    check(r.returncode == 1 and "2 of 3 common races" in r.stdout, f"same-races counts: {r.stdout}")
+    r = run("same-races", os.path.join(tmp, "old"), os.path.join(tmp, "old"))
+    check(r.returncode == 0 and "4 of 4" in r.stdout, "same-races: identical")
+
+if failures:
+    sys.exit(f"{len(failures)} check(s) failed")
+print("axis_edge: pooled head-to-heads, verdicts, refusals and same-races as expected")
