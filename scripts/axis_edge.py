@@ -2,6 +2,7 @@
 """Which goal axis carries a high level's edge over its center line (notebook 100's rule).
 
     scripts/axis_edge.py edge TOURNAMENT_DIR ...      # each raced with --controls --axis-controls
+    scripts/axis_edge.py losses TOURNAMENT_DIR ...    # what each team lost per race, by cause
     scripts/axis_edge.py same-races NEW_DIR OLD_DIR   # the races both tournaments raced: same winners?
 
 `edge` reads each tournament's summary.json: per run, its head-to-head winrate against RUN@center
@@ -13,7 +14,9 @@ on height (the `up` axis):
     point above 0.5 + (vs @center - 0.5) / 2;
   - "height carries part of the edge": the lower bound above 0.5, the point not above that half;
   - "no height effect resolved": the lower bound at or below 0.5.
-The along and right axes get the same words. `same-races` compares races.csv rows by (blue, red,
+The along and right axes get the same words. `losses` reads races.csv: in each head-to-head of a
+run with a control, each team's aircraft lost per race by cause, and the control's score in the
+races where no aircraft was lost (a control that loses by pace, not by losses). `same-races` compares races.csv rows by (blue, red,
 race): how many of the races both hold had the same winner and duration. Standard library only.
 """
 import csv
@@ -82,6 +85,41 @@ def edge(dirs):
         print(f"{AXES[a]}: {verdict(pooled, 'center_' + a)}")
 
 
+CAUSES = ["collision", "team_collision", "tube", "envelope"]
+
+
+def losses(dirs):
+    """Aircraft lost per race by cause in each head-to-head of a run with its controls, for the
+    run's team and the control's: does a control lose by its losses, or by its pace?"""
+    print("| run | control | races | run lost: " + ", ".join(CAUSES) + " | control lost: same | control's clean races won |")
+    print("|---|---|---|---|---|---|")
+    for d in dirs:
+        with open(os.path.join(d, "races.csv")) as f:
+            races = list(csv.DictReader(f))
+        pairs = {}
+        for r in races:
+            a, b = r["blue"], r["red"]
+            run, ctl = (a, b) if b.startswith(a + "@") else (b, a) if a.startswith(b + "@") else (None, None)
+            if run is None:
+                continue
+            side = {"blue": a, "red": b}
+            p = pairs.setdefault((run, ctl), {"n": 0, run: [0] * len(CAUSES), ctl: [0] * len(CAUSES), "clean": 0, "clean_won": 0.0})
+            p["n"] += 1
+            out = 0
+            for team, who in side.items():
+                for k, c in enumerate(CAUSES):
+                    p[who][k] += int(r[f"{team}_out_{c}"])
+                out += int(r[f"{team}_terminated"])
+            if out == 0:
+                p["clean"] += 1
+                p["clean_won"] += 1.0 if r["winner"] == ctl else 0.5 if r["winner"] == "draw" else 0.0
+        for (run, ctl), p in sorted(pairs.items()):
+            n = p["n"]
+            cells = [", ".join(f"{x / n:.3f}" for x in p[who]) for who in (run, ctl)]
+            clean = f"{p['clean_won'] / p['clean']:.3f} ({p['clean']})" if p["clean"] else "-"
+            print(f"| {run} | {ctl[len(run) + 1:]} | {n} | {cells[0]} | {cells[1]} | {clean} |")
+
+
 def rows(path):
     with open(os.path.join(path, "races.csv")) as f:
         return {(r["blue"], r["red"], int(r["race"])): r for r in csv.DictReader(f)}
@@ -98,6 +136,9 @@ def same_races(new, old):
 def main(argv):
     if len(argv) >= 3 and argv[1] == "edge":
         edge(argv[2:])
+        return 0
+    if len(argv) >= 3 and argv[1] == "losses":
+        losses(argv[2:])
         return 0
     if len(argv) == 4 and argv[1] == "same-races":
         return 0 if same_races(argv[2], argv[3]) else 1

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """scripts/axis_edge.py (notebook 100's rule) on stand-in tournaments whose answers are known: the
 pooled head-to-heads of two runs against their axis controls, the three verdicts, a tournament
-without axis controls refused in one line, and same-races on races.csv files that agree in part."""
+without axis controls refused in one line, losses by cause and clean races, and same-races on
+races.csv files that agree in part."""
 import csv
 import json
 import os
@@ -70,6 +71,23 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode == 1 and "2 of 3 common races" in r.stdout, f"same-races counts: {r.stdout}")
     r = run("same-races", os.path.join(tmp, "old"), os.path.join(tmp, "old"))
     check(r.returncode == 0 and "4 of 4" in r.stdout, "same-races: identical")
+
+    # losses: four races of r against r@center; the run loses one aircraft to the tube in race 0,
+    # the control one to a collision in race 1; of the two clean races the control wins one.
+    lf = os.path.join(tmp, "losses")
+    os.makedirs(lf)
+    causes = ["collision", "team_collision", "tube", "envelope"]
+    with open(os.path.join(lf, "races.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["blue", "red", "winner", "blue_terminated", "red_terminated"] +
+                   [f"{t}_out_{c}" for t in ("blue", "red") for c in causes])
+        w.writerow(["r", "r@center", "r@center", 1, 0, 0, 0, 1, 0, 0, 0, 0, 0])
+        w.writerow(["r@center", "r", "r", 1, 0, 1, 0, 0, 0, 0, 0, 0, 0])
+        w.writerow(["r", "r@center", "r@center", 0, 0, 0, 0, 0, 0, 0, 0, 0, 0])
+        w.writerow(["r@center", "r", "r", 0, 0, 0, 0, 0, 0, 0, 0, 0, 0])
+    r = run("losses", lf)
+    check(r.returncode == 0 and "| r | center | 4 | 0.000, 0.000, 0.250, 0.000 | 0.250, 0.000, 0.000, 0.000 | 0.500 (2) |"
+          in r.stdout, f"losses row: {r.stdout}")
 
 if failures:
     sys.exit(f"{len(failures)} check(s) failed")
