@@ -3,6 +3,7 @@
 
     scripts/axis_edge.py edge TOURNAMENT_DIR ...      # each raced with --controls --axis-controls
     scripts/axis_edge.py losses TOURNAMENT_DIR ...    # what each team lost per race, by cause
+    scripts/axis_edge.py inside REPLAY_DIR ...        # lateral bins on the inside of the turns ahead?
     scripts/axis_edge.py same-races NEW_DIR OLD_DIR   # the races both tournaments raced: same winners?
 
 `edge` reads each tournament's summary.json: per run, its head-to-head winrate against RUN@center
@@ -16,11 +17,15 @@ on height (the `up` axis):
   - "no height effect resolved": the lower bound at or below 0.5.
 The along and right axes get the same words. `losses` reads races.csv: in each head-to-head of a
 run with a control, each team's aircraft lost per race by cause, and the control's score in the
-races where no aircraft was lost (a control that loses by pace, not by losses). `same-races` compares races.csv rows by (blue, red,
+races where no aircraft was lost (a control that loses by pace, not by losses). `inside` reads
+`replay` folders: per team, how often a decision's lateral bin points to the inside of the net
+turn between the aircraft and its goal (the racing line; random bins: half). `same-races` compares races.csv rows by (blue, red,
 race): how many of the races both hold had the same winner and duration. Standard library only.
 """
 import csv
+import itertools
 import json
+import math
 import os
 import sys
 
@@ -28,6 +33,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from controls_table import wilson  # noqa: E402
 
 AXES = {"x": "along", "y": "right", "z": "up"}
+MIDDLE_BIN = 3  # of race.hl_bins 7 (the paper's), which every run here has
 
 
 def head_to_heads(summary):
@@ -120,6 +126,56 @@ def losses(dirs):
             print(f"| {run} | {ctl[len(run) + 1:]} | {n} | {cells[0]} | {cells[1]} | {clean} |")
 
 
+def turns(folder):
+    """Arc length (chords between waypoints) and the signed sine of the horizontal turn at each
+    waypoint of a replay's track (+: to the right)."""
+    with open(os.path.join(folder, "replay_track.csv")) as f:
+        wps = [(float(r["pn_ft"]), float(r["pe_ft"]), float(r["alt_ft"])) for r in csv.DictReader(f)]
+    s = [0.0]
+    for a, b in zip(wps, wps[1:]):
+        s.append(s[-1] + math.dist(a, b))
+    turn = [0.0] * len(wps)
+    for k in range(1, len(wps) - 1):
+        d1 = (wps[k][0] - wps[k - 1][0], wps[k][1] - wps[k - 1][1])
+        d2 = (wps[k + 1][0] - wps[k][0], wps[k + 1][1] - wps[k][1])
+        turn[k] = (d1[0] * d2[1] - d1[1] * d2[0]) / (math.hypot(*d1) * math.hypot(*d2))
+    return s, turn
+
+
+def inside(folders, min_turn=0.05):
+    """Per team of `replay` folders: how often a decision's lateral bin (off the middle) points
+    to the inside of the net turn between the aircraft and its goal (net sine above min_turn).
+    A high level that takes the racing line picks the inside; random bins do half the time."""
+    got = {}
+    for d in folders:
+        s, turn = turns(d)
+        at = {}
+        for a in itertools.count():
+            path = os.path.join(d, f"replay_agent{a}.csv")
+            if not os.path.exists(path):
+                break
+            with open(path) as f:
+                for r in csv.DictReader(f):
+                    at[(a, round(float(r["t_s"]), 2))] = float(r["s_ft"])
+        with open(os.path.join(d, "replay_goals.csv")) as f:
+            goals = list(csv.DictReader(f))
+        for g in goals:
+            s_a = at.get((int(g["agent"]), round(float(g["t_s"]), 2)))
+            if s_a is None:
+                continue
+            net = sum(turn[k] for k in range(1, len(s) - 1) if s_a < s[k] <= float(g["s_ft"]))
+            b = int(g["bin_y"])
+            c = got.setdefault(int(g["team"]), [0, 0])
+            if abs(net) < min_turn or b == MIDDLE_BIN:
+                continue
+            c[0] += (b > MIDDLE_BIN) == (net > 0)
+            c[1] += 1
+    for team, (n_in, n) in sorted(got.items()):
+        print(f"team {team}: lateral bin on the inside of the turns ahead in {n_in} of {n} decisions"
+              + (f" ({n_in / n:.3f})" if n else ""))
+    return got
+
+
 def rows(path):
     with open(os.path.join(path, "races.csv")) as f:
         return {(r["blue"], r["red"], int(r["race"])): r for r in csv.DictReader(f)}
@@ -136,6 +192,9 @@ def same_races(new, old):
 def main(argv):
     if len(argv) >= 3 and argv[1] == "edge":
         edge(argv[2:])
+        return 0
+    if len(argv) >= 3 and argv[1] == "inside":
+        inside(argv[2:])
         return 0
     if len(argv) >= 3 and argv[1] == "losses":
         losses(argv[2:])

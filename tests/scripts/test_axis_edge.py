@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """scripts/axis_edge.py (notebook 100's rule) on stand-in tournaments whose answers are known: the
 pooled head-to-heads of two runs against their axis controls, the three verdicts, a tournament
-without axis controls refused in one line, losses by cause and clean races, and same-races on
+without axis controls refused in one line, losses by cause and clean races, lateral bins on the inside of a turn, and same-races on
 races.csv files that agree in part."""
 import csv
 import json
@@ -88,6 +88,24 @@ with tempfile.TemporaryDirectory() as tmp:
     r = run("losses", lf)
     check(r.returncode == 0 and "| r | center | 4 | 0.000, 0.000, 0.250, 0.000 | 0.250, 0.000, 0.000, 0.000 | 0.500 (2) |"
           in r.stdout, f"losses row: {r.stdout}")
+
+    # inside: a track north then a right turn east at s = 10 000; team 0 picks right bins (inside),
+    # team 1 left bins (outside) before the turn, and team 0 a right bin after it (no turn ahead:
+    # not counted); the middle bin is never counted.
+    rf = os.path.join(tmp, "replay")
+    os.makedirs(rf)
+    with open(os.path.join(rf, "replay_track.csv"), "w") as f:
+        f.write("pn_ft,pe_ft,alt_ft,radius_ft\n0,0,10000,1000\n10000,0,10000,1000\n10000,10000,10000,1000\n")
+    for a in range(2):
+        with open(os.path.join(rf, f"replay_agent{a}.csv"), "w") as f:
+            f.write("t_s,s_ft\n0,1000\n8,12000\n")
+    with open(os.path.join(rf, "replay_goals.csv"), "w") as f:
+        f.write("agent,team,t_s,s_ft,lateral_ft,bin_y\n0,0,0,13000,500,5\n1,1,0,13000,-500,1\n"
+                "0,0,8,19000,500,6\n1,1,8,19000,0,3\n")
+    r = run("inside", rf)
+    check(r.returncode == 0 and "team 0: lateral bin on the inside of the turns ahead in 1 of 1 decisions (1.000)" in r.stdout
+          and "team 1: lateral bin on the inside of the turns ahead in 0 of 1 decisions (0.000)" in r.stdout,
+          f"inside: {r.stdout}{r.stderr}")
 
 if failures:
     sys.exit(f"{len(failures)} check(s) failed")
