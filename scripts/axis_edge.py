@@ -19,8 +19,9 @@ The along and right axes get the same words. `losses` reads races.csv: in each h
 run with a control, each team's aircraft lost per race by cause, and the control's score in the
 races where no aircraft was lost (a control that loses by pace, not by losses). `inside` reads
 `replay` folders: per team, how often a decision's lateral bin points to the inside of the net
-turn between the aircraft and its goal (the racing line; random bins: half). `same-races` compares races.csv rows by (blue, red,
-race): how many of the races both hold had the same winner and duration. Standard library only.
+turn between the aircraft and its goal (the racing line; random bins: half). `same-races`
+compares races.csv rows by (blue, red, race): how many of the races both hold had the same winner
+and duration. Standard library only.
 """
 import csv
 import itertools
@@ -186,7 +187,7 @@ def same_races(new, old):
     common = sorted(set(a) & set(b))
     same = sum(a[k]["winner"] == b[k]["winner"] and a[k]["duration_s"] == b[k]["duration_s"] for k in common)
     print(f"{same} of {len(common)} common races have the same winner and duration")
-    return same == len(common) and common
+    return bool(common) and same == len(common)  # True: every common race the same (and some in common)
 
 
 def main(argv):
