@@ -34,7 +34,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from controls_table import wilson  # noqa: E402
 
 AXES = {"x": "along", "y": "right", "z": "up"}
-MIDDLE_BIN = 3  # of race.hl_bins 7 (the paper's), which every run here has
+MIDDLE_BIN = 3  # of race.hl_bins 7 (the paper's): for replay_goals.csv written before it had middle_bin
 
 
 def head_to_heads(summary):
@@ -165,11 +165,11 @@ def inside(folders, min_turn=0.05):
             if s_a is None:
                 continue
             net = sum(turn[k] for k in range(1, len(s) - 1) if s_a < s[k] <= float(g["s_ft"]))
-            b = int(g["bin_y"])
+            b, mid = int(g["bin_y"]), int(float(g.get("middle_bin") or MIDDLE_BIN))
             c = got.setdefault(int(g["team"]), [0, 0])
-            if abs(net) < min_turn or b == MIDDLE_BIN:
+            if abs(net) < min_turn or b == mid:
                 continue
-            c[0] += (b > MIDDLE_BIN) == (net > 0)
+            c[0] += (b > mid) == (net > 0)
             c[1] += 1
     for team, (n_in, n) in sorted(got.items()):
         print(f"team {team}: lateral bin on the inside of the turns ahead in {n_in} of {n} decisions"

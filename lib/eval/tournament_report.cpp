@@ -231,17 +231,31 @@ std::array<const char*, race::kHlDims> goal_axis_names(const race::RaceConfig& r
   return {"north", "east", "up"};
 }
 
+// An entry's decisions, and per axis the share of them below / on / above the middle bin
+// ([axis * 3 + k]; NaN without decisions): what summary.json and summary.md both report.
+struct GoalChoiceShares {
+  double decisions = 0.0;
+  std::array<double, kChoiceFields> share{};
+};
+
+GoalChoiceShares goal_choice_shares(const std::array<double, kChoiceFields>& counts) {
+  GoalChoiceShares g;
+  g.decisions = counts[0] + counts[1] + counts[2];  // every decision has one of three on axis 0
+  for (int k = 0; k < kChoiceFields; ++k) g.share[k] = g.decisions > 0 ? counts[k] / g.decisions : std::nan("");
+  return g;
+}
+
 // {"decisions": N, "along": [below, middle, above], ...}: shares of the entry's decisions per axis.
 std::string goal_choices_json(const race::RaceConfig& rc, const std::array<double, kChoiceFields>& c) {
-  const double decisions = c[0] + c[1] + c[2];
+  const GoalChoiceShares g = goal_choice_shares(c);
   std::ostringstream js;
   char buf[32];
-  std::snprintf(buf, sizeof buf, "%.0f", decisions);
+  std::snprintf(buf, sizeof buf, "%.0f", g.decisions);
   js << "{\"decisions\": " << buf;
   const auto names = goal_axis_names(rc);
   for (int d = 0; d < race::kHlDims; ++d) {
     js << ", " << json_string(names[d]) << ": [";
-    for (int k = 0; k < 3; ++k) js << (k ? ", " : "") << json_number(decisions > 0 ? c[d * 3 + k] / decisions : std::nan(""));
+    for (int k = 0; k < 3; ++k) js << (k ? ", " : "") << json_number(g.share[d * 3 + k]);
     js << "]";
   }
   js << "}";
@@ -432,14 +446,12 @@ void goal_choices_md(const TournamentResult& r, const TournamentStatistics& s, s
   char buf[64];
   for (std::size_t i = 0; i < r.entries.size(); ++i) {
     if (is_autopilot(r.entries[i])) continue;
-    const std::array<double, kChoiceFields>& c = s.entry_choices[i];
-    const double decisions = c[0] + c[1] + c[2];
-    std::snprintf(buf, sizeof buf, "%.0f", decisions);
+    const GoalChoiceShares g = goal_choice_shares(s.entry_choices[i]);
+    std::snprintf(buf, sizeof buf, "%.0f", g.decisions);
     md << "| " << r.entries[i].name << " | " << buf << " |";
     for (int d = 0; d < race::kHlDims; ++d) {
-      if (decisions > 0)
-        std::snprintf(buf, sizeof buf, " %.3f / %.3f / %.3f |", c[d * 3] / decisions, c[d * 3 + 1] / decisions,
-                      c[d * 3 + 2] / decisions);
+      if (g.decisions > 0)
+        std::snprintf(buf, sizeof buf, " %.3f / %.3f / %.3f |", g.share[d * 3], g.share[d * 3 + 1], g.share[d * 3 + 2]);
       else
         std::snprintf(buf, sizeof buf, " - |");
       md << buf;

@@ -17,6 +17,7 @@ RaceRecorder::RaceRecorder(const RaceEnv& env) : traces_(env.n_env()), t_before_
     RaceTrace& t = traces_[e];
     t.track = env.track(e);
     t.team_size = env.config().team_size;
+    t.middle_bin = env.config().hl_center_bin();
     t.rows.resize(n_agent);
     t.goals.resize(n_agent);
     t.cause.assign(n_agent, kCauseNone);
@@ -119,17 +120,19 @@ void write_trace_csv(const RaceTrace& t, const std::string& dir, const std::stri
     }
     io::write_csv(dir + "/" + agent_file(prefix, static_cast<int>(a)), header, cols);
   }
-  std::vector<std::vector<double>> g(12);
+  // middle_bin on every row: readers of the bins need not know the run's race.hl_bins.
+  std::vector<std::vector<double>> g(13);
   for (std::size_t a = 0; a < t.goals.size(); ++a)
     for (const GoalMark& m : t.goals[a]) {
       const double v[] = {static_cast<double>(a), static_cast<double>(RaceEnv::team_of(static_cast<int>(a), t.team_size)),
                           m.t_s, m.s_ft, m.lateral_ft, m.vertical_ft, m.point.n, m.point.e, m.point.u,
-                          static_cast<double>(m.bins[0]), static_cast<double>(m.bins[1]), static_cast<double>(m.bins[2])};
-      for (int c = 0; c < 12; ++c) g[c].push_back(v[c]);
+                          static_cast<double>(m.bins[0]), static_cast<double>(m.bins[1]), static_cast<double>(m.bins[2]),
+                          static_cast<double>(t.middle_bin)};
+      for (int c = 0; c < 13; ++c) g[c].push_back(v[c]);
     }
   io::write_csv(dir + "/" + prefix + "_goals.csv",
                 {"agent", "team", "t_s", "s_ft", "lateral_ft", "vertical_ft", "pn_ft", "pe_ft", "alt_ft", "bin_x", "bin_y",
-                 "bin_z"},
+                 "bin_z", "middle_bin"},
                 g);
   t.track.save_csv(dir + "/" + prefix + "_track.csv");
   // Tube boundary: +-radius every 200 ft along the part of the track the race covered.

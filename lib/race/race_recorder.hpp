@@ -37,6 +37,7 @@ struct GoalMark {
 struct RaceTrace {
   Track track;  // the course raced
   int team_size = 0;
+  int middle_bin = 0;                         // the HL's middle bin per axis (RaceConfig::hl_center_bin)
   std::vector<std::vector<TraceRow>> rows;    // [agent][step]
   std::vector<std::vector<GoalMark>> goals;   // [agent][decision]
   std::vector<int> cause;                     // [agent] termination cause (kCauseNone: finished alive)

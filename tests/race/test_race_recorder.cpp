@@ -94,6 +94,14 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
   std::string header;
   std::getline(csv, header);
   EXPECT_NE(header.find(",radius_ft,throttle_cmd,throttle,power_pct,alpha_rad"), std::string::npos) << header;
+  // The goals carry the middle bin, so their readers need not know the run's race.hl_bins.
+  std::ifstream goals(dir + "/r_goals.csv");
+  std::string goal_header, goal_row;
+  std::getline(goals, goal_header);
+  std::getline(goals, goal_row);
+  EXPECT_NE(goal_header.find(",bin_x,bin_y,bin_z,middle_bin"), std::string::npos) << goal_header;
+  EXPECT_EQ(goal_row.substr(goal_row.rfind(',') + 1), std::to_string(rec.trace(0).middle_bin)) << goal_row;
+  EXPECT_EQ(rec.trace(0).middle_bin, c.hl_center_bin());
   std::ifstream acmi(dir + "/r.acmi");
   const std::string text((std::istreambuf_iterator<char>(acmi)), {});
   int aircraft = 0;

@@ -107,6 +107,15 @@ with tempfile.TemporaryDirectory() as tmp:
           and "team 1: lateral bin on the inside of the turns ahead in 0 of 1 decisions (0.000)" in r.stdout,
           f"inside: {r.stdout}{r.stderr}")
 
+    # The middle bin comes from the file when it says (race.hl_bins 5: middle 2): bin 3 is then right
+    # of the middle (inside), and bin 2 is not counted.
+    with open(os.path.join(rf, "replay_goals.csv"), "w") as f:
+        f.write("agent,team,t_s,s_ft,lateral_ft,bin_y,middle_bin\n0,0,0,13000,500,3,2\n1,1,0,13000,0,2,2\n")
+    r = run("inside", rf)
+    check(r.returncode == 0 and "team 0: lateral bin on the inside of the turns ahead in 1 of 1 decisions (1.000)" in r.stdout
+          and "team 1: lateral bin on the inside of the turns ahead in 0 of 0 decisions\n" in r.stdout,
+          f"inside with middle_bin: {r.stdout}{r.stderr}")
+
 if failures:
     sys.exit(f"{len(failures)} check(s) failed")
 print("axis_edge: pooled head-to-heads, verdicts, refusals and same-races as expected")
