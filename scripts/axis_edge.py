@@ -190,15 +190,23 @@ def same_races(new, old):
     return bool(common) and same == len(common)  # True: every common race the same (and some in common)
 
 
+def checked(dirs, needed):
+    """The folders, each holding `needed`; else one line naming the first that does not."""
+    for d in dirs:
+        if not os.path.isfile(os.path.join(d, needed)):
+            sys.exit(f"{d}: no {needed} in it; pass the folders a tournament wrote (--out)")
+    return dirs
+
+
 def main(argv):
     if len(argv) >= 3 and argv[1] == "edge":
-        edge(argv[2:])
+        edge(checked(argv[2:], "summary.json"))
         return 0
     if len(argv) >= 3 and argv[1] == "inside":
         inside(argv[2:])
         return 0
     if len(argv) >= 3 and argv[1] == "losses":
-        losses(argv[2:])
+        losses(checked(argv[2:], "races.csv"))
         return 0
     if len(argv) == 4 and argv[1] == "same-races":
         return 0 if same_races(argv[2], argv[3]) else 1

@@ -57,6 +57,11 @@ with tempfile.TemporaryDirectory() as tmp:
     r = run("edge", c)
     check(r.returncode != 0 and "has no pairing with @center_x" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
           f"no axis controls refused in one line: {r.stderr!r}")
+    log = os.path.join(tmp, "a.log")
+    open(log, "w").close()
+    r = run("edge", a, log)
+    check(r.returncode != 0 and "a.log: no summary.json" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
+          f"a file among the folders refused in one line: {r.stderr!r}")
 
     def races_csv(folder, winners):
         os.makedirs(folder, exist_ok=True)
