@@ -28,7 +28,9 @@
 # adopted: configs/default.yaml sets it since cd866df, so 98's arm is the control of later A/Bs);
 # 99: the default config with no override (98's arm) on a third CPU (AMD EPYC family 23 model 1);
 # 101: the same on an Intel Xeon family 6 model 167; 102 race.goal_line_frac 0.5 (the racing line
-# within half the radius), against 101 on that CPU.
+# within half the radius), against 101 on that CPU (read: not adopted); 103
+# race.goal_shift_up_frac -0.5 (goals half the radius lower), against 98 on its CPU, after a check
+# that this build trains 98's seed 1 to the same bytes.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -74,7 +76,10 @@ main() {
         99) jobs+=("99 on $s") ;;  # the default config as it is (98's arm) on a third CPU
         101) jobs+=("101 on $s") ;;  # the same on a fourth CPU
         102) jobs+=("102 on $s --set race.goal_line_frac=0.5") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91, 92, 94, 95, 96, 98, 99, 101 or 102)" >&2; exit 2 ;;
+        103)  # 98's seed 1 again with this build first: the same bytes make 98's arm the control
+          [ "$s" -eq 1 ] && jobs+=("103 check 1")
+          jobs+=("103 on $s --set race.goal_shift_up_frac=-0.5") ;;
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91, 92, 94, 95, 96, 98, 99, 101, 102 or 103)" >&2; exit 2 ;;
       esac
     done
   done
