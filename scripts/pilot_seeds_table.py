@@ -254,30 +254,28 @@ def main():
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
-        # The low level under the middle bin (notebook 86's mechanism) and the tube losses, of the
-        # run and (where kept: notebook 89) of its middle bin.
-        for name, get in (("its low level under the middle bin (@center) vs the autopilot", lambda p: p.get("ll_center_vs_ap")),
-                          ("run's team lost to the tube per race vs the autopilot", lambda p: p["lost"]["tube"]),
-                          ("@center's team lost to the tube per race vs the autopilot",
-                           lambda p: p["center_lost"]["tube"] if "center_lost" in p else None)):
+        # Mechanism measures, each where both arms keep it: the low level under the middle bin
+        # (notebook 86), the tube losses of the run and of its middle bin (89), the middle bin's
+        # steady offset from the lane and its vertical part (74, 103), the winrate in races without
+        # losses (pace: 101), the tube exits early in training.
+        measures = (
+            ("its low level under the middle bin (@center) vs the autopilot", lambda p: p.get("ll_center_vs_ap")),
+            ("run's team lost to the tube per race vs the autopilot", lambda p: p["lost"]["tube"]),
+            ("@center's team lost to the tube per race vs the autopilot",
+             lambda p: p["center_lost"]["tube"] if "center_lost" in p else None),
+            ("steady offset from the lane (@center, / R)",
+             lambda p: p["center_offset"]["size"] if "center_offset" in p else None),
+            ("steady vertical offset from the center-line (@center, up / R)",
+             lambda p: p["center_offset"]["up"] if "center_offset" in p else None),
+            ("winrate vs the autopilot in races without losses", lambda p: p.get("clean")),
+            ("tube exits per race in training's first tenth",
+             lambda p: None if math.isnan(p["early_tube"]) else p["early_tube"]))
+        for name, get in measures:
             t, c = [get(p) for p in per if get(p) is not None], [get(p) for p in base if get(p) is not None]
             if t and c:
                 d, lo, hi = difference_ci(t, c)
                 print(f"{name[0].upper() + name[1:]}: treatment {sum(t) / len(t):.3f}, control {sum(c) / len(c):.3f}, "
                       f"difference {d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
-        t_off = [p["center_offset"]["size"] for p in per if "center_offset" in p]
-        c_off = [p["center_offset"]["size"] for p in base if "center_offset" in p]
-        if t_off and c_off:
-            d, lo, hi = difference_ci(t_off, c_off)
-            print(f"Steady offset from the lane (@center, / R): treatment {sum(t_off) / len(t_off):.3f}, control "
-                  f"{sum(c_off) / len(c_off):.3f}, difference {d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
-        t_early = [p["early_tube"] for p in per if not math.isnan(p["early_tube"])]
-        c_early = [p["early_tube"] for p in base if not math.isnan(p["early_tube"])]
-        if t_early and c_early:
-            d, lo, hi = difference_ci(t_early, c_early)
-            print(f"Tube exits per race in training's first tenth: treatment {sum(t_early) / len(t_early):.3f}, "
-                  f"control {sum(c_early) / len(c_early):.3f}, difference {d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]")
-
 
 if __name__ == "__main__":
     main()
