@@ -56,6 +56,37 @@ Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint6
   return Side{name, std::move(p), rule};
 }
 
+// The built-in autopilot as the tournament races it: the tuned baseline (docs/notebook/96), or
+// on the race's racing line for `autopilot@line`, which a center-line run's race does not have.
+race::AutopilotPilotConfig replay_autopilot(const race::RaceConfig& rc, const race::RaceEnv& env,
+                                            const std::string& red_name, const std::string& run) {
+  race::AutopilotPilotConfig autopilot;
+  autopilot.airspeed_ftps = rc.autopilot_airspeed();
+  autopilot.shift_up_frac = rc.autopilot_shift_up_frac;
+  if (red_name == kAutopilotOnLine) {
+    if (!env.racing_line(0))
+      throw io::InputError(run + ": trained on the center-line (race.goal_line_frac 0): " + kAutopilotOnLine +
+                           " flies the race's racing line, and this race has none; use --opponent autopilot");
+    autopilot.lines = &env.racing_lines();
+  }
+  return autopilot;
+}
+
+// Each side's networks act on its own team's rows only: policy 0 is blue's, 1 red's; the
+// scripted pilot flies no network, a fixed-HL control none at the high level.
+void assign_side_rows(const Side& blue, const Side& red, int n_agent, int team_size,
+                      train::PolicyRows* ll_rows, train::PolicyRows* hl_rows) {
+  std::vector<int> ll_owner(n_agent, -1), hl_owner(n_agent, -1);
+  for (int a = 0; a < n_agent; ++a) {
+    const int team = a < team_size ? 0 : 1;
+    const Side& s = team == 0 ? blue : red;
+    ll_owner[a] = s.policy ? team : -1;
+    hl_owner[a] = s.policy && hl_override_uses_policy(s.hl) ? team : -1;
+  }
+  ll_rows->assign(ll_owner);
+  hl_rows->assign(hl_owner);
+}
+
 std::string seconds(double t) {
   char b[32];
   std::snprintf(b, sizeof b, "%.2f", t);
@@ -85,31 +116,13 @@ RaceReplay run_replay(const ReplayOptions& o) {
   std::vector<float> actions(static_cast<std::size_t>(n_agent) * race::kActionDim, 0.0f);
   race::ScriptedPilotConfig pilot;
   pilot.speed_ftps = rc.start_speed_ftps;
-  race::AutopilotPilotConfig autopilot;
-  autopilot.airspeed_ftps = rc.autopilot_airspeed();
-  autopilot.shift_up_frac = rc.autopilot_shift_up_frac;  // the tuned baseline (docs/notebook/96)
-  if (red.name == kAutopilotOnLine) {
-    if (!env.racing_line(0))
-      throw io::InputError(o.run + ": trained on the center-line (race.goal_line_frac 0): " + kAutopilotOnLine +
-                           " flies the race's racing line, and this race has none; use --opponent autopilot");
-    autopilot.lines = &env.racing_lines();
-  }
+  const race::AutopilotPilotConfig autopilot = replay_autopilot(rc, env, red.name, o.run);
   at::Generator gen = models::make_generator(o.seed * 31 + 7);
   RandomStream control_rng = control_stream(o.seed, 0);  // the @random rule's draws
   std::vector<std::uint8_t> learned(n_agent);  // agents whose HL goals mean something
   for (int a = 0; a < n_agent; ++a) learned[a] = (a < ts ? blue : red).policy.has_value();
-  // Each side's networks act on its own team's rows only: policy 0 is blue's, 1 red's; the
-  // scripted pilot flies no network, a fixed-HL control none at the high level.
   train::PolicyRows ll_rows(2, n_agent), hl_rows(2, n_agent);
-  std::vector<int> ll_owner(n_agent, -1), hl_owner(n_agent, -1);
-  for (int a = 0; a < n_agent; ++a) {
-    const int team = a < ts ? 0 : 1;
-    const Side& s = team == 0 ? blue : red;
-    ll_owner[a] = s.policy ? team : -1;
-    hl_owner[a] = s.policy && hl_override_uses_policy(s.hl) ? team : -1;
-  }
-  ll_rows.assign(ll_owner);
-  hl_rows.assign(hl_owner);
+  assign_side_rows(blue, red, n_agent, ts, &ll_rows, &hl_rows);
   std::vector<std::int64_t> red_rows(static_cast<std::size_t>(ts));
   for (int k = 0; k < ts; ++k) red_rows[static_cast<std::size_t>(k)] = ts + k;
   race::BlockCounter block_counter(env);

@@ -19,21 +19,9 @@ std::string short_count(double x) {
   return buf;
 }
 
-// One list of keys for reading and writing: R is io::ConfigReader or io::ConfigWriter.
+// race.track: the random tube tracks.
 template <class R>
-void bind_race_config(R& r, RaceConfig* c) {
-  r.read("n_env", &c->n_env, 1, 1 << 20);
-  r.read("team_size", &c->team_size, 1, 8);
-  std::string model = dynamics::aero_model_name(c->model);
-  r.read("model", &model, {"morelli", "stevens"});
-  dynamics::parse_aero_model(model.c_str(), &c->model);
-  r.read("seed", &c->seed);
-  r.read("dt_ll_s", &c->dt_ll_s, 0.001, 1.0);
-  r.read("substeps", &c->substeps, 1, 1000);
-  r.read("dt_hl_s", &c->dt_hl_s, 0.08, 600.0);
-  r.read("time_limit_s", &c->time_limit_s, 1.0, 3600.0);
-  r.read("time_limit_terminal", &c->time_limit_terminal);
-
+void bind_track_keys(R& r, RaceConfig* c) {
   auto t = r.child("track");
   t.read("n_waypoints", &c->track.n_waypoints, 4, 1000);
   t.read("leg_min_ft", &c->track.leg_min_ft, 500.0, 1e6);
@@ -48,7 +36,11 @@ void bind_race_config(R& r, RaceConfig* c) {
   t.read("radius_max_ft", &c->track.radius_max_ft, 50.0, 1e5);
   t.read("spacing_ft", &c->track.spacing_ft, 1.0, 1000.0);
   t.finish();
+}
 
+// The start, the terminations and the envelope, the built-in pilots' settings, the LL commands.
+template <class R>
+void bind_start_and_limit_keys(R& r, RaceConfig* c) {
   r.read("start_s_ft", &c->start_s_ft, 0.0, 1e6);
   r.read("start_speed_ftps", &c->start_speed_ftps, 300.0, 1200.0);
   r.read("start_offset_frac", &c->start_offset_frac, 0.0, 0.95);
@@ -74,6 +66,11 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("nz_ref_min_g", &c->nz_ref_min_g, -1.0, 6.0);
   r.read("nz_ref_max_g", &c->nz_ref_max_g, -1.0, 6.0);
   r.read("ps_ref_max_radps", &c->ps_ref_max_radps, 0.0, 10.0);
+}
+
+// The high level's goals and the low level's preview of the track.
+template <class R>
+void bind_goal_keys(R& r, RaceConfig* c) {
   r.read("hl_bins", &c->hl_bins, 1, 63);
   r.read("goal_ahead_ft", &c->goal_ahead_ft, 0.0, 1e6);
   r.read("goal_bin_scale", &c->goal_bin_scale, 0.0, 5.0);
@@ -90,6 +87,11 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.retired("preview_on_line", "false", io::kNotebook88Keys);
   r.retired("observe_team_lanes", "false");  // docs/notebook/08, 09
   r.retired("lane_error_average_s", "0", io::kNotebook74Keys);
+}
+
+// The low level's reward weights.
+template <class R>
+void bind_reward_keys(R& r, RaceConfig* c) {
   r.read("w_goal_progress", &c->w_goal_progress, -1e6, 1e6);
   r.read("w_goal_proximity", &c->w_goal_proximity, -1e6, 1e6);
   r.read("goal_scale_ft", &c->goal_scale_ft, 1.0, 1e6);
@@ -105,6 +107,27 @@ void bind_race_config(R& r, RaceConfig* c) {
   r.read("w_termination", &c->w_termination, -1e6, 1e6);
   r.read("w_action_change", &c->w_action_change, -1e6, 1e6);
   r.read("w_rates", &c->w_rates, -1e6, 1e6);
+}
+
+// One list of keys for reading and writing: R is io::ConfigReader or io::ConfigWriter. The
+// keys come in four groups; write_race_config writes them in this order.
+template <class R>
+void bind_race_config(R& r, RaceConfig* c) {
+  r.read("n_env", &c->n_env, 1, 1 << 20);
+  r.read("team_size", &c->team_size, 1, 8);
+  std::string model = dynamics::aero_model_name(c->model);
+  r.read("model", &model, {"morelli", "stevens"});
+  dynamics::parse_aero_model(model.c_str(), &c->model);
+  r.read("seed", &c->seed);
+  r.read("dt_ll_s", &c->dt_ll_s, 0.001, 1.0);
+  r.read("substeps", &c->substeps, 1, 1000);
+  r.read("dt_hl_s", &c->dt_hl_s, 0.08, 600.0);
+  r.read("time_limit_s", &c->time_limit_s, 1.0, 3600.0);
+  r.read("time_limit_terminal", &c->time_limit_terminal);
+  bind_track_keys(r, c);
+  bind_start_and_limit_keys(r, c);
+  bind_goal_keys(r, c);
+  bind_reward_keys(r, c);
   r.finish();
 }
 }  // namespace
