@@ -140,7 +140,7 @@ def report(path, choose_seed, judge_seed):
         m, lo, hi = bootstrap_mean(gains)
         verdict = "pays" if lo > 0 else ("costs" if hi < 0 else "does not pay")
         print(f"\ngain of the chosen low level over the final one, {len(gains)} runs: mean {m:+.3f} "
-              f"bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: selection {verdict}")
+              f"bootstrap 95% [{lo:+.4f}, {hi:+.4f}]: selection {verdict}")
         m, lo, hi = bootstrap_mean(spreads)
         print(f"spread of the snapshots on the judged tracks (max - min): mean {m:.3f} [{lo:.3f}, {hi:.3f}]")
 
