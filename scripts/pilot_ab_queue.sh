@@ -30,7 +30,8 @@
 # 101: the same on an Intel Xeon family 6 model 167; 102 race.goal_line_frac 0.5 (the racing line
 # within half the radius), against 101 on that CPU (read: not adopted); 103
 # race.goal_shift_up_frac -0.5 (goals half the radius lower), against 98 on its CPU, after a check
-# that this build trains 98's seed 1 to the same bytes.
+# that this build trains 98's seed 1 to the same bytes; 105 train.ll_choice_snapshots 4 (the tail
+# flown by the best of the last four low levels against the autopilot), paired with 98's seeds.
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 
@@ -79,7 +80,8 @@ main() {
         103)  # 98's seed 1 again with this build first: the same bytes make 98's arm the control
           [ "$s" -eq 1 ] && jobs+=("103 check 1")
           jobs+=("103 on $s --set race.goal_shift_up_frac=-0.5") ;;
-        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91, 92, 94, 95, 96, 98, 99, 101, 102 or 103)" >&2; exit 2 ;;
+        105) jobs+=("105 on $s --set train.ll_choice_snapshots=4") ;;  # paired with 98's seeds
+        *) echo "pilot_ab_queue: no pre-registered A/B $e (69's control, 70, 71, 67, 74, 77, 78, 79, 80, 86, 87, 88, 89, 91, 92, 94, 95, 96, 98, 99, 101, 102, 103 or 105)" >&2; exit 2 ;;
       esac
     done
   done

@@ -187,6 +187,16 @@ def ab_difference(treatment, control, reps=10000, seed=67):
     return d, lo, hi, verdict
 
 
+def paired_difference_ci(treatment, control, reps=10000, seed=67):
+    """Mean of the per-seed differences (treatment - control, the same seeds in order) and its
+    percentile bootstrap 95 % CI over seeds: for arms that are one run until a switch acts
+    (notebook 105), where the seed's own draw cancels."""
+    rng = random.Random(seed)
+    d = [a - b for a, b in zip(treatment, control)]
+    means = sorted(sum(rng.choice(d) for _ in d) / len(d) for _ in range(reps))
+    return sum(d) / len(d), means[int(0.025 * reps)], means[int(0.975 * reps) - 1]
+
+
 def finished_seeds(folder):
     return [s for s in range(1, 100) if os.path.exists(os.path.join(folder, f"t_s{s}", "done.txt"))
             or os.path.exists(os.path.join(folder, f"s{s}.json"))]
@@ -204,6 +214,9 @@ def keep(folder, s, dest):
     m["meta"] = open(os.path.join(latest, "meta.yaml")).read()
     m["train_wall_s"] = float(open(os.path.join(latest, "wall_s.txt")).read())
     m["tournament"] = open(os.path.join(folder, f"t_s{s}", "done.txt")).read()
+    choice = os.path.join(folder, f"s{s}", "ll_choice", "choice.csv")  # train.ll_choice_snapshots (notebook 105)
+    if os.path.exists(choice):
+        m["ll_choice"] = open(choice).read()
     kept_json.write(os.path.join(dest, f"s{s}.json"), m)
 
 
@@ -254,6 +267,16 @@ def main():
         d, lo, hi, verdict = ab_difference([p["ap"] for p in per], [p["ap"] for p in base])
         print(f"\nA/B vs autopilot, {len(per)} seeds against {len(base)} of {control}: difference of means "
               f"{d:+.3f} bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}")
+        base_seeds = finished_seeds(control)
+        common = [s for s in seeds if s in base_seeds]
+        if common:
+            t_ap = [per[seeds.index(s)]["ap"] for s in common]
+            c_ap = [base[base_seeds.index(s)]["ap"] for s in common]
+            d, lo, hi = paired_difference_ci(t_ap, c_ap)
+            verdict = "adopt (CI above 0)" if lo > 0 else ("worse (CI below 0)" if hi < 0 else "not resolved (CI contains 0)")
+            same = sum(a == b for a, b in zip(t_ap, c_ap))
+            print(f"Paired over the {len(common)} seeds of both arms (per seed, treatment - control): mean {d:+.3f} "
+                  f"bootstrap 95% [{lo:+.3f}, {hi:+.3f}]: {verdict}; {same} seeds with the same winrate")
         # Mechanism measures, each where both arms keep it: the low level under the middle bin
         # (notebook 86), the tube losses of the run and of its middle bin (89), the middle bin's
         # steady offset from the lane and its vertical part (74, 103), the winrate in races without
