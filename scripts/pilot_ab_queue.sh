@@ -31,7 +31,8 @@
 # within half the radius), against 101 on that CPU (read: not adopted); 103
 # race.goal_shift_up_frac -0.5 (goals half the radius lower), against 98 on its CPU, after a check
 # that this build trains 98's seed 1 to the same bytes; 105 train.ll_choice_snapshots 4 (the tail
-# flown by the best of the last four low levels against the autopilot), paired with 98's seeds.
+# flown by the best of the last four low levels against the autopilot), paired with 98's seeds
+# (read and removed: a build of f91e291).
 # Runs go to runs/nbN/ARM/sS (not kept).
 set -uo pipefail
 

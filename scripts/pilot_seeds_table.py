@@ -214,9 +214,6 @@ def keep(folder, s, dest):
     m["meta"] = open(os.path.join(latest, "meta.yaml")).read()
     m["train_wall_s"] = float(open(os.path.join(latest, "wall_s.txt")).read())
     m["tournament"] = open(os.path.join(folder, f"t_s{s}", "done.txt")).read()
-    choice = os.path.join(folder, f"s{s}", "ll_choice", "choice.csv")  # train.ll_choice_snapshots (notebook 105)
-    if os.path.exists(choice):
-        m["ll_choice"] = open(choice).read()
     kept_json.write(os.path.join(dest, f"s{s}.json"), m)
 
 

@@ -16,7 +16,6 @@
 #include "commands.hpp"
 #include "dist/process_group.hpp"
 #include "dist_options.hpp"
-#include "eval/low_level_choice.hpp"
 #include "progress_bar.hpp"
 #include "io/run_folder.hpp"
 #include "io/yaml_config.hpp"
@@ -117,21 +116,6 @@ void run_train(const TrainOptions& o, const dist::DistConfig& dc) {
   const train::TrainConfig cfg = trainer->config();  // a copy: the trainer goes before its tail members train
   const bool quiet = o.quiet || !lead;
   const bool tty = isatty(STDOUT_FILENO) != 0 && !quiet;
-  trainer->set_low_level_rater([cfg, quiet, tty](const std::vector<std::string>& files) {
-    eval::LowLevelChoiceInputs in;
-    in.config = &cfg;
-    in.ll_files = files;
-    in.races = cfg.loop.ll_choice_races;
-    in.tracks_seed = eval::low_level_choice_tracks_seed(cfg.seed);
-    const std::vector<double> rates = eval::center_vs_autopilot_winrates(in);
-    if (!quiet) {
-      std::string line;
-      for (double r : rates) line += " " + std::to_string(r).substr(0, 5);
-      std::printf("%slow level's winrates against the autopilot, last %zu, oldest first:%s\n", tty ? "\n" : "",
-                  rates.size(), line.c_str());
-    }
-    return rates;
-  });
   std::string member_tag;  // "member m: " while train.hl_tail_members trains the run's other tails
   auto on_row = [&](const train::MetricsRow& r) {
     if (quiet) return;

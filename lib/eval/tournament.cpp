@@ -321,17 +321,9 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
                                 dist::Group* group, const std::function<void(const std::string&)>& say) {
   if (o.runs.empty() && !o.include_untrained) throw io::InputError("tournament: no entries");
   if (o.runs.empty()) throw io::InputError("tournament: give at least one run folder with --runs");
-  std::vector<train::RunPolicy> pol;
-  std::vector<Entry> entries;
-  add_entries(o, &pol, &entries);
-  return race_entries(o, std::move(entries), pol, progress, group, say);
-}
-
-TournamentResult race_entries(const TournamentOptions& o, std::vector<Entry> entries,
-                              std::vector<train::RunPolicy>& pol, const std::function<void(long, long)>& progress,
-                              dist::Group* group, const std::function<void(const std::string&)>& say) {
   TournamentResult res;
-  res.entries = std::move(entries);
+  std::vector<train::RunPolicy> pol;
+  add_entries(o, &pol, &res.entries);
   race::RaceConfig rc = tournament_race(o, pol.front());
   res.race = rc;
   if (o.controls_own_run && !o.controls && !o.axis_controls)

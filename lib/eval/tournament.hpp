@@ -18,9 +18,6 @@
 namespace f16race::dist {
 class Group;
 }
-namespace f16race::train {
-struct RunPolicy;
-}
 
 namespace f16race::eval {
 
@@ -174,14 +171,6 @@ TournamentResult run_tournament(const TournamentOptions& options,
                                 const std::function<void(long, long)>& progress = {},
                                 dist::Group* group = nullptr,
                                 const std::function<void(const std::string&)>& say = {});
-
-// run_tournament's races for entries the caller made, flying `policies` (Entry::policy indexes
-// it; the first's race is raced): e.g. a low level that is not yet a run's (train.ll_choice_snapshots).
-// options.runs is not read.
-TournamentResult race_entries(const TournamentOptions& options, std::vector<Entry> entries,
-                              std::vector<train::RunPolicy>& policies,
-                              const std::function<void(long, long)>& progress = {}, dist::Group* group = nullptr,
-                              const std::function<void(const std::string&)>& say = {});
 
 // Its outputs (summary tables, CSVs, figures): eval/tournament_report.hpp.
 

@@ -63,6 +63,9 @@ inline constexpr Retirement kNotebook92Keys{"after docs/notebook/92's verdict", 
 inline constexpr Retirement kNotebook95Keys{"after docs/notebook/94's and 95's verdicts", "833c6d1"};
 // race.governor_holds (airspeed): measured not to help (docs/notebook/96-height-is-pace-under-a-mach-governor.md).
 inline constexpr Retirement kNotebook96Keys{"after docs/notebook/96's verdict", "d48ab5e"};
+// train.ll_choice_snapshots, train.ll_choice_races: the low level chosen at the freeze, measured
+// not to help the team (docs/notebook/105-the-low-level-chosen-in-training.md).
+inline constexpr Retirement kNotebook105Keys{"after docs/notebook/105's verdict", "f91e291"};
 
 // Reads one mapping. Keys are consumed by the read_* calls; finish() rejects leftovers.
 class ConfigReader {

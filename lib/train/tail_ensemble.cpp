@@ -19,10 +19,6 @@ void check_tail_members_in_one_process(const TrainConfig& cfg, int world, const 
     throw io::InputError(source + ": train.hl_tail_members = " + std::to_string(cfg.loop.hl_tail_members) +
                          " trains its tail members in one process, not over a group of ranks; train without "
                          "launch, or with train.hl_tail_members 1");
-  if (cfg.loop.ll_choice_snapshots > 0 && world > 1)
-    throw io::InputError(source + ": train.ll_choice_snapshots = " + std::to_string(cfg.loop.ll_choice_snapshots) +
-                         " chooses the low level in one process, not over a group of ranks; train without "
-                         "launch, or with train.ll_choice_snapshots 0");
 }
 
 void Trainer::State::start_tail() {

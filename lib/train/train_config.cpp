@@ -113,8 +113,8 @@ void bind_loop(R& r, LoopConfig* c) {
   r.skip("tail_member");  // read_tail_member's, from run folders only
   r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
   r.read("ll_from", &c->ll_from, {});
-  r.read("ll_choice_snapshots", &c->ll_choice_snapshots, 0, 64);
-  r.read("ll_choice_races", &c->ll_choice_races, 2, 100000);
+  r.retired("ll_choice_snapshots", "0", io::kNotebook105Keys);
+  r.retired("ll_choice_races", "384", io::kNotebook105Keys);
   r.retired("ll_both_teams", "false", io::kNotebook69Keys);
   r.finish();
 }
@@ -208,15 +208,6 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
     throw io::ConfigError(source + ": train.hl_tail_members = " + std::to_string(c.loop.hl_tail_members) +
                           " is an ensemble of HL-only tails, and train.hl_tail_share is 0 (no tail): set "
                           "train.hl_tail_share > 0, or train.hl_tail_members to 1");
-  if (c.loop.ll_choice_snapshots > 0 &&
-      (c.loop.hl_tail_share == 0.0 || !c.loop.ll_from.empty() || c.loop.ll_pilot == LowLevelPilot::kAutopilot))
-    throw io::ConfigError(source + ": train.ll_choice_snapshots = " + std::to_string(c.loop.ll_choice_snapshots) +
-                          " chooses the low level that flies the HL-only tail, so the run must learn its own "
-                          "(train.ll_pilot ppo, no train.ll_from) and have a tail (train.hl_tail_share > 0); or set it to 0");
-  if (c.loop.ll_choice_snapshots > c.pool.max_snapshots + 1)
-    throw io::ConfigError(source + ": train.ll_choice_snapshots = " + std::to_string(c.loop.ll_choice_snapshots) +
-                          " needs that many low levels, and the pool keeps pool.max_snapshots = " +
-                          std::to_string(c.pool.max_snapshots) + " snapshots besides the current one: lower it");
   if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");

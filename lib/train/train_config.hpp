@@ -54,12 +54,6 @@ struct LoopConfig {
   // that races (the Fig. 3 study); the run copies the weights into its own checkpoints, so it
   // never reads the folder again after it started. Empty: the run learns its own low level.
   std::string ll_from;
-  // K > 0: at the low level's freeze (the HL-only tail's first update) the current low level and
-  // the last K - 1 pool snapshots' low levels each race ll_choice_races races under a center-line
-  // high level against AeroBench's autopilot, on tracks of their own, and the best flies the tail
-  // (docs/notebook/104, 105). 0: the final low level flies it.
-  int ll_choice_snapshots = 0;
-  int ll_choice_races = 384;
 };
 
 struct PoolConfig {

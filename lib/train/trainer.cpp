@@ -250,8 +250,6 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   const std::int64_t rank_steps_at_start = s.rank_env_steps;
   while (s.env_steps < s.cfg.loop.total_env_steps) {
     if (max_updates >= 0 && done_here >= max_updates) break;
-    // The choice first: the tail's members fork from the low level that flies it.
-    if (s.cfg.loop.ll_choice_snapshots > 0 && !s.ll_chosen && s.in_frozen_tail()) s.choose_low_level();
     if (s.has_tail_members() && !s.tail_started && s.in_frozen_tail()) s.start_tail();
     const bool ll_phase = s.phase == 0 || s.cfg.loop.hl_phase_updates == 0;
     s.train_one_update(ll_phase);
@@ -294,7 +292,7 @@ TrainSummary Trainer::run(const std::atomic<bool>* stop, std::int64_t max_update
   summary.communication_s = s.group != nullptr ? s.group->collective_seconds() - comm_at_start : 0.0;
   s.timing.total = State::since(t_run);
   s.timing.other = s.timing.total - s.timing.env - s.timing.inference - s.timing.ppo - s.timing.es - s.timing.io -
-                   s.timing.run_end - s.timing.ll_choice;
+                   s.timing.run_end;
   summary.time = s.timing;
   summary.work = s.work;
   return summary;

@@ -81,11 +81,9 @@ struct TimeBreakdown {
   // The wait for the run's last learning-curves figure at its final checkpoint (gnuplot, ~0.1 s):
   // once per run whatever its length, so not part of the per-update rate `bench train` reports.
   double run_end = 0.0;
-  // Racing the candidate low levels at the freeze (train.ll_choice_snapshots): once per run too.
-  double ll_choice = 0.0;
   double other = 0.0;      // bookkeeping between the above
   double total = 0.0;
-  double per_update_loop() const { return total - run_end - ll_choice; }  // every update's share of the wall time
+  double per_update_loop() const { return total - run_end; }  // every update's share of the wall time
 };
 
 // Aircraft rows through each network and the calls they came in (rows / calls = the mean batch),
@@ -115,11 +113,6 @@ struct TrainSummary {
   std::vector<MetricsRow> rows;  // every row written by this process (rank 0: the group's)
 };
 
-// train.ll_choice_snapshots: the winrate of each low level in `ll_files` (ll.pt files of this run's
-// networks) under a center-line high level against AeroBench's autopilot. Supplied by the caller
-// (eval races it), so that train does not depend on the tournament.
-using LowLevelRater = std::function<std::vector<double>(const std::vector<std::string>& ll_files)>;
-
 class Trainer {
  public:
   // Fresh run: creates `run_dir` and locks it for this object's lifetime; refused if the folder
@@ -140,11 +133,6 @@ class Trainer {
 
   const TrainConfig& config() const;
   std::int64_t updates() const;
-  // Required before run() reaches the freeze of a run with train.ll_choice_snapshots > 0. At the
-  // freeze the candidates are the last K - 1 pool snapshots' low levels (oldest first) and the
-  // current one, saved as RUN/ll_choice/final_ll.pt; the highest winrate flies the tail (a tie:
-  // the later), and RUN/ll_choice/choice.csv lists them.
-  void set_low_level_rater(LowLevelRater rate);
   // Learner weights, for tests that compare runs.
   std::vector<float> ll_parameters() const;
   std::vector<float> hl_parameters() const;

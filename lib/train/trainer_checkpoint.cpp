@@ -53,11 +53,6 @@ void Trainer::State::visit_checkpoint(V& v, std::uint64_t& stream_state) {
     v.optional_reals("tail_started", started);
     tail_started = started != 0.0;
   }
-  if (cfg.loop.ll_choice_snapshots > 0) {
-    double chosen = ll_chosen ? 1.0 : 0.0;
-    v.optional_reals("ll_chosen", chosen);
-    ll_chosen = chosen == 1.0;  // a missing key reads nan: not chosen
-  }
 }
 
 namespace {

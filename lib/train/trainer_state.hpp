@@ -68,10 +68,6 @@ struct Trainer::State {
   // The HL-only tail's first update has begun (start_tail): a tail member's streams are switched,
   // an ensemble's members forked. Kept in trainer.pt only by runs with either.
   bool tail_started = false;
-  // train.ll_choice_snapshots: the low level that flies the tail has been chosen (choose_low_level);
-  // kept in trainer.pt only by runs with the key.
-  bool ll_chosen = false;
-  LowLevelRater rate_low_levels;
   int n_env = 0, n_agent = 0, ts = 0;  // n_env: this rank's envs
   int n_env_global = 0;                // race.n_env: the group's
   models::ObsDims dims;
@@ -202,8 +198,6 @@ struct Trainer::State {
   // (config.yaml, the checkpoint under its hash, the pool, metrics.csv), each made in a temporary
   // folder and renamed; a member folder that exists is kept (a resumed run forks once).
   void fork_tail_members();
-  // --- low_level_choice.cpp: train.ll_choice_snapshots at the freeze (Trainer::set_low_level_rater).
-  void choose_low_level();
 
   // --- trainer_checkpoint.cpp
   // The ranks' networks are the same bits (they take the same steps): checked at every

@@ -121,7 +121,7 @@ race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0, 
        tube_wall_frac: 0.80000000000000004, governor_holds: mach}
 ll: {inference: eigen, normalize_returns: false, init_at_trim: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
-train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false}
+train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false, ll_choice_snapshots: 0, ll_choice_races: 384}
 pool: {p_center: 0.0, p_autopilot: 0}
 )";
   const std::string plain = train_config_yaml(read_train_config(YAML::Load("{}"), "cfg.yaml"));
@@ -130,7 +130,7 @@ pool: {p_center: 0.0, p_autopilot: 0}
                           "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
                           "p_autopilot", "normalize_returns", "init_at_trim", "lane_error_average_s",
                           "governor_sets_throttle_at_cap", "governor_band_mach", "preview_on_line",
-                          "lane_scales_with_radius", "tube_wall", "governor_holds"})
+                          "lane_scales_with_radius", "tube_wall", "governor_holds", "ll_choice"})
     EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
   const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
   for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
@@ -153,6 +153,9 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(error_of("train: {ll_both_teams: true}"),
             "cfg.yaml: train.ll_both_teams: true was removed after docs/notebook/69's verdict; build commit c8c67be "
             "to use it");
+  EXPECT_EQ(error_of("train: {ll_choice_snapshots: 4}"),
+            "cfg.yaml: train.ll_choice_snapshots: 4 was removed after docs/notebook/105's verdict; build commit "
+            "f91e291 to use it");
   EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"),
             "cfg.yaml: pool.p_autopilot: 0.25 was removed after docs/notebook/73's verdict; build commit e9c8edf "
             "to use it");
@@ -361,74 +364,6 @@ TEST(Trainer, HlTailFreezesTheLowLevelForTheLastShareOfTheSteps) {
   EXPECT_NE(error_of("train: {hl_tail_share: 1.0}").find("train.hl_tail_share: value 1 is out of range"),
             std::string::npos);
   EXPECT_NE(error_of("train: {hl_tail_share: 0.2, hl_phase_updates: 0}").find("train.hl_phase_updates must be > 0"),
-            std::string::npos);
-}
-
-// train.ll_choice_snapshots: at the freeze the rater sees the last K - 1 pool snapshots' low
-// levels and the current one, the best flies the tail (a tie: the later, so a run whose choice is
-// its final low level is the run without the key, bit for bit), the choice survives a resume, and
-// a caller without a rater is refused at the freeze.
-TEST(Trainer, LowLevelChoiceFliesTheBestCandidateAndKeepsItOnResume) {
-  const std::string tail = "train.hl_tail_share=0.5";
-  TrainConfig cfg = smoke({tail, "train.ll_choice_snapshots=3", "pool.max_snapshots=4"});
-  int calls = 0;
-  std::vector<std::string> seen;
-  auto rater = [&](const std::vector<double>& rates) {
-    return [&, rates](const std::vector<std::string>& files) {
-      ++calls;
-      seen = files;
-      return rates;
-    };
-  };
-  Trainer plain(smoke({tail, "pool.max_snapshots=4"}), fresh_dir("choice_plain"));
-  const TrainSummary plain_run = plain.run();
-  const std::string tie_dir = fresh_dir("choice_tie");
-  Trainer tie(cfg, tie_dir);
-  tie.set_low_level_rater(rater({0.5, 0.5, 0.5}));
-  tie.run();
-  EXPECT_EQ(calls, 1);
-  ASSERT_EQ(seen.size(), 3u);
-  EXPECT_EQ(seen[2], tie_dir + "/ll_choice/final_ll.pt");
-  EXPECT_NE(seen[0].find("/pool/step_"), std::string::npos);
-  EXPECT_LT(seen[0], seen[1]);  // oldest first
-  EXPECT_EQ(tie.ll_parameters(), plain.ll_parameters());
-  EXPECT_EQ(tie.hl_parameters(), plain.hl_parameters());
-
-  // The middle candidate is best: the tail flies its low level, an older one than the final.
-  const std::string dir = fresh_dir("choice_best");
-  {
-    Trainer best(cfg, dir);
-    best.set_low_level_rater(rater({0.2, 0.9, 0.1}));
-    best.run(nullptr, static_cast<std::int64_t>(first_tail_update(plain_run)) + 5);
-  }
-  EXPECT_EQ(calls, 2);
-  RunPolicy chosen = untrained_policy(read_run_config(dir).config, 0);
-  chosen.ll->load(seen[1]);
-  std::ifstream csv(dir + "/ll_choice/choice.csv");
-  const std::string text((std::istreambuf_iterator<char>(csv)), {});
-  EXPECT_NE(text.find(",0.900000,1\n"), std::string::npos) << text;
-  EXPECT_NE(text.find("final,ll_choice/final_ll.pt,0.100000,0\n"), std::string::npos) << text;
-  auto resumed = Trainer::resume(dir);  // past the choice and a checkpoint: no rater is needed
-  resumed->run();
-  EXPECT_EQ(calls, 2);
-  std::vector<float> want;
-  for (const auto& p : chosen.ll->net()->parameters()) {
-    const auto c = p.detach().contiguous().view(-1);
-    want.insert(want.end(), c.data_ptr<float>(), c.data_ptr<float>() + c.numel());
-  }
-  EXPECT_EQ(resumed->ll_parameters(), want);
-  EXPECT_NE(resumed->ll_parameters(), plain.ll_parameters());
-
-  Trainer none(cfg, fresh_dir("choice_no_rater"));
-  try {
-    none.run();
-    ADD_FAILURE() << "a run that chooses its low level without a rater was not refused";
-  } catch (const io::InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("train.ll_choice_snapshots = 3"), std::string::npos) << e.what();
-  }
-  EXPECT_NE(error_of("train: {ll_choice_snapshots: 2}").find("train.hl_tail_share > 0"), std::string::npos);
-  EXPECT_NE(error_of("train: {hl_tail_share: 0.5, ll_choice_snapshots: 5}\npool: {max_snapshots: 2}")
-                .find("pool.max_snapshots = 2"),
             std::string::npos);
 }
 
