@@ -18,12 +18,14 @@ import concurrent.futures
 import csv
 import filecmp
 import os
-import random
 import re
 import shutil
 import subprocess
 import sys
 import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pilot_seeds_table import boot  # noqa: E402
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FIELDS = ["run", "step", "final", "tracks_seed", "wins", "races"]
@@ -73,7 +75,8 @@ def race(run, step, seed, races, work):
         for row in csv.DictReader(f):
             if row["row_entry"] == name + "@center" and row["column_entry"] == "autopilot":
                 wins = round(float(row["winrate"]) * int(row["races"]) * 2) / 2
-                shutil.rmtree(snap), shutil.rmtree(out)
+                shutil.rmtree(snap)
+                shutil.rmtree(out)
                 return wins, int(row["races"])
     sys.exit(f"{out}/pairings.csv: no {name}@center against autopilot")
 
@@ -107,10 +110,9 @@ def measure(args):
     shutil.rmtree(work, ignore_errors=True)
 
 
-def bootstrap_mean(xs, n=10000, seed=1):
-    rng = random.Random(seed)
-    means = sorted(sum(rng.choice(xs) for _ in xs) / len(xs) for _ in range(n))
-    return sum(xs) / len(xs), means[int(0.025 * n)], means[int(0.975 * n) - 1]
+def bootstrap_mean(xs):
+    """The mean and pilot_seeds_table.boot's 95 % CI of it (10 000 resamples, seed 1)."""
+    return (sum(xs) / len(xs),) + boot(xs)
 
 
 def report(path, choose_seed, judge_seed):
