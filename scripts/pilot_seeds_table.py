@@ -191,10 +191,8 @@ def paired_difference_ci(treatment, control, reps=10000, seed=67):
     """Mean of the per-seed differences (treatment - control, the same seeds in order) and its
     percentile bootstrap 95 % CI over seeds: for arms that are one run until a switch acts
     (notebook 105), where the seed's own draw cancels."""
-    rng = random.Random(seed)
     d = [a - b for a, b in zip(treatment, control)]
-    means = sorted(sum(rng.choice(d) for _ in d) / len(d) for _ in range(reps))
-    return sum(d) / len(d), means[int(0.025 * reps)], means[int(0.975 * reps) - 1]
+    return (sum(d) / len(d), *boot(d, reps, seed))
 
 
 def finished_seeds(folder):

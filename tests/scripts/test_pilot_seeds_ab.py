@@ -29,6 +29,15 @@ check(lo < 0.05 < hi and verdict.startswith("not resolved"), f"+0.05: {d:+.3f} [
 # The power stated in notebook 67: a 0.22 gain at this spread is resolved.
 d, lo, hi, verdict = table.ab_difference([x + 0.22 for x in control], control)
 check(verdict.startswith("adopt"), f"+0.22: {d:+.3f} [{lo:+.3f}, {hi:+.3f}] {verdict}")
+# Notebook 105's paired line: a per-seed gain of 0.03 (+-0.01) is resolved when the seeds are
+# paired, though the arms' spread hides it unpaired; a constant shift has a CI of zero width.
+noise = [0.01, -0.01, 0.005, -0.005, 0.0, 0.01, -0.01, 0.0]
+treated = [x + 0.03 + e for x, e in zip(control, noise)]
+d, lo, hi = table.paired_difference_ci(treated, control)
+_, ulo, _, _ = table.ab_difference(treated, control)
+check(abs(d - 0.03) < 1e-12 and 0 < lo < 0.03 < hi and ulo < 0, f"paired +0.03: {d:+.3f} [{lo:+.3f}, {hi:+.3f}], unpaired lower {ulo:+.3f}")
+d, lo, hi = table.paired_difference_ci([x + 0.02 for x in control], control)
+check(abs(lo - 0.02) < 1e-12 and abs(hi - 0.02) < 1e-12, f"paired constant +0.02: [{lo:+.3f}, {hi:+.3f}]")
 # Notebook 71's secondary measure: a per-race rate over the first tenth of updates, each row
 # weighted by its races (rows without races, or past the first tenth, do not count).
 import os
