@@ -78,6 +78,24 @@ std::size_t first_tail_update(const TrainSummary& run) {
 
 bool same_or_both_nan(double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); }
 
+// Copies the live run folder `from` to `to` as a kill would leave it. The learning-curve draw runs
+// beside training (io::BackgroundCurves) and renames its temporary image while the copy walks the
+// folder, so a file that is gone by the time it is copied is skipped, as `cp -r` would report it
+// and go on; resume needs none of the draw's files.
+void copy_live_run_folder(const fs::path& from, const fs::path& to) {
+  fs::create_directories(to);
+  for (const auto& e : fs::recursive_directory_iterator(from, fs::directory_options::skip_permission_denied)) {
+    const fs::path target = to / fs::relative(e.path(), from);
+    std::error_code ec;
+    if (e.is_directory(ec)) {
+      fs::create_directories(target);
+    } else if (!fs::copy_file(e.path(), target, fs::copy_options::overwrite_existing, ec) &&
+               ec != std::errc::no_such_file_or_directory) {
+      throw fs::filesystem_error("copy_live_run_folder", e.path(), target, ec);
+    }
+  }
+}
+
 // Rows [0, n) of two runs' metrics agree: the same steps, LL and HL returns.
 void expect_same_rows(const TrainSummary& a, const TrainSummary& b, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
@@ -1003,7 +1021,7 @@ TEST(Trainer, ACopyOfTheRunFolderAtAnyUpdateResumesToTheSameEnd) {
     t.run(nullptr, -1, [&](const MetricsRow& r) {
       const std::string copy = dir + "_at" + std::to_string(r.update);
       fs::remove_all(copy);
-      fs::copy(dir, copy, fs::copy_options::recursive);
+      copy_live_run_folder(dir, copy);
       fs::remove(fs::path(copy) / ".lock");
       copies.push_back(copy);
     });
