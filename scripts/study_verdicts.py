@@ -266,15 +266,14 @@ def trim_mean(xs):
     return sum(x) / len(x)
 
 
-def paper_panels(w, runs, label):
-    """Fig. 3's panels from same-seed pairings (they decide nothing): per variant the mean ± std
-    over its runs of a run's total winrate (mean over the other variants of its seed), the IQM of
-    its pairing winrates with a stratified bootstrap CI (runs resampled within each opposing
-    variant), and the variant-vs-variant matrix."""
+def panel_values(w, runs, label):
+    """Fig. 3's panels from same-seed pairings, as numbers: {"variants": {u: {runs, total_mean,
+    total_std, iqm, iqm_lo, iqm_hi}}, "matrix": {(u, v): mean winrate of u_sS against v_sS}}. A
+    run's total winrate is its mean over the other variants of its seed; the IQM is over its
+    pairing winrates, with a stratified bootstrap CI (runs resampled within each opposing variant)."""
     seed = lambda run: run.rsplit("_s", 1)[1]
     by_seed = {v: {seed(r): r for r in runs[v]} for v in VARIANTS}
-    lines = ["| variant | runs | total winrate, mean ± std | IQM of pairing winrates [95 % CI] |",
-             "|---|---|---|---|"]
+    variants, matrix = {}, {}
     for u in VARIANTS:
         others = [v for v in VARIANTS if v != u]
         seeds = sorted(sd for sd in by_seed[u] if all(sd in by_seed[v] for v in others))
@@ -288,13 +287,26 @@ def paper_panels(w, runs, label):
         r = rng(f"{label}:iqm:{u}")
         reps = [trim_mean([scores[v][r.randrange(len(seeds))] for v in others for _ in seeds]) for _ in range(REPS)]
         lo, hi = percentiles(reps)
-        lines.append(f"| {u} | {len(seeds)} | {m:.3f} ± {sd_:.3f} | {point:.3f} [{lo:.3f}, {hi:.3f}] |")
-    lines += ["", "| row beats column | " + " | ".join(VARIANTS) + " |", "|---|" + "---|" * len(VARIANTS)]
+        variants[u] = dict(runs=len(seeds), total_mean=m, total_std=sd_, iqm=point, iqm_lo=lo, iqm_hi=hi)
     for u in VARIANTS:
-        cells = []
         for v in VARIANTS:
             pairs = [w[(by_seed[u][sd], by_seed[v][sd])] for sd in by_seed[u] if sd in by_seed[v]] if u != v else []
-            cells.append(f"{sum(pairs) / len(pairs):.3f}" if pairs else "")
+            if pairs:
+                matrix[(u, v)] = sum(pairs) / len(pairs)
+    return dict(variants=variants, matrix=matrix)
+
+
+def paper_panels(w, runs, label):
+    """panel_values as Markdown (they decide nothing)."""
+    p = panel_values(w, runs, label)
+    lines = ["| variant | runs | total winrate, mean ± std | IQM of pairing winrates [95 % CI] |",
+             "|---|---|---|---|"]
+    for u, x in p["variants"].items():
+        lines.append(f"| {u} | {x['runs']} | {x['total_mean']:.3f} ± {x['total_std']:.3f} | "
+                     f"{x['iqm']:.3f} [{x['iqm_lo']:.3f}, {x['iqm_hi']:.3f}] |")
+    lines += ["", "| row beats column | " + " | ".join(VARIANTS) + " |", "|---|" + "---|" * len(VARIANTS)]
+    for u in VARIANTS:
+        cells = [f"{p['matrix'][(u, v)]:.3f}" if (u, v) in p["matrix"] else "" for v in VARIANTS]
         lines.append(f"| {u} | " + " | ".join(cells) + " |")
     return lines
 
