@@ -62,7 +62,7 @@ def boot(xs, reps=10000, seed=1):
 def head_to_head(rows, me, opp):
     """Score of `me` against `opp` (a draw is half a win), each team's losses per race by cause,
     the median race, and the score over the races in which neither team lost an aircraft."""
-    h = dict(w=0.0, n=0, clean_w=0.0, clean_n=0, durations=[],
+    h = dict(w=0.0, n=0, clean_w=0.0, clean_n=0, durations=[], block_diff=0,
              lost={c: 0 for c in CAUSES}, opp_lost={c: 0 for c in CAUSES})
     for r in rows:
         if {r["blue"], r["red"]} != {me, opp}:
@@ -78,7 +78,10 @@ def head_to_head(rows, me, opp):
             h["clean_n"] += 1
             h["clean_w"] += score
         h["durations"].append(float(r["duration_s"]))
+        if "blue_blocks" in r:
+            h["block_diff"] += int(float(r[f"{side}_blocks"])) - int(float(r[f"{other}_blocks"]))
     n = max(h["n"], 1)
+    h["block_diff"] /= n
     for key in ("lost", "opp_lost"):
         h[key] = {c: v / n for c, v in h[key].items()}
     d = sorted(h["durations"])
@@ -138,7 +141,10 @@ def measure_seed(folder, s):
           f"| {fmt_ci(ap['clean_w'], ap['clean_n'])} ({ap['clean_n']}) |")
     others = [k for k in CAUSES if k not in ("team_collision", "collision", "tube", "envelope")]
     early_tube = first_tenth_per_race(os.path.join(folder, me, "metrics.csv"), "term_tube")
-    return dict(row=row, ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
+    # Notebook 106: the share of the tournament's races that end at the finish line (end_reason 1),
+    # the race's length against the own center line and the blocks made there more than it.
+    finish = (sum(int(float(x["end_reason"])) == 1 for x in rows) / len(rows)) if rows and "end_reason" in rows[0] else None
+    return dict(finish=finish, center_median_s=c["median_s"], blocks_vs_center=c["block_diff"] if c["n"] else None,row=row, ap=ap["w"] / ap["n"], ap_lo=wilson(ap["w"], ap["n"])[0], c=c["w"] / c["n"], r=r["w"] / r["n"], v=v,
                 early_tube=early_tube, ll_center_vs_ap=lc["w"] / lc["n"] if lc["n"] else None,
                 clean=ap["clean_w"] / max(ap["clean_n"], 1), lost=ap["lost"], center_lost=lc["lost"],
                 other_lost=sum(ap["lost"][k] + ap["opp_lost"][k] for k in others))

@@ -68,16 +68,20 @@ def fake_seed(folder, s, wins):
         "update,races,term_tube,airspeed_ftps\n" + "".join(f"{k},4,0.5,{600 + k}\n" for k in range(1, 21)))
     os.makedirs(os.path.join(folder, f"t_{me}"))
     open(os.path.join(folder, f"t_{me}", "done.txt"), "w").write("whole\n")
-    cols = ["blue", "red", "winner", "duration_s", "blue_terminated", "red_terminated"] + \
-        [f"{t}_out_{c}" for t in ("blue", "red") for c in table.CAUSES]
+    # end_reason 1 (the finish line) in all races but the first of each pairing; against @center
+    # the run blocks 2 per race and its center line 1.
+    cols = ["blue", "red", "winner", "end_reason", "duration_s", "blue_terminated", "red_terminated", "blue_blocks",
+            "red_blocks"] + [f"{t}_out_{c}" for t in ("blue", "red") for c in table.CAUSES]
     lines = [",".join(cols)]
     for opp in ("autopilot", me + "@center", me + "@random"):
         for k in range(10):
             out = ["1" if (k == 0 and c == "tube") else "0" for t in ("blue", "red") for c in table.CAUSES]
-            lines.append(",".join([me, opp, me if k < wins else opp, str(40 + k), "1" if k == 0 else "0", "0"] + out))
+            lines.append(",".join([me, opp, me if k < wins else opp, "2" if k == 0 else "1", str(40 + k),
+                                   "1" if k == 0 else "0", "0", "2", "1"] + out))
     for k in range(10):  # the middle bin alone against the autopilot: a tube loss in 2 of 10 races
         out = ["1" if (k < 2 and t == "blue" and c == "tube") else "0" for t in ("blue", "red") for c in table.CAUSES]
-        lines.append(",".join([me + "@center", "autopilot", "autopilot", "40", "1" if k < 2 else "0", "0"] + out))
+        lines.append(",".join([me + "@center", "autopilot", "autopilot", "2" if k == 0 else "1", "40",
+                               "1" if k < 2 else "0", "0", "0", "0"] + out))
     open(os.path.join(folder, f"t_{me}", "races.csv"), "w").write("\n".join(lines) + "\n")
 
 
@@ -97,6 +101,9 @@ with tempfile.TemporaryDirectory() as tmp:
     check(m["train_wall_s"] == 12.5 and abs(m["lost"]["tube"] - 0.1) < 1e-12 and m["cpu"],
           f"kept provenance and measures: wall {m['train_wall_s']}, tube {m['lost']['tube']}")
     check(abs(m["center_lost"]["tube"] - 0.2) < 1e-12, f"kept middle bin's tube losses: {m['center_lost']['tube']}")
+    check(m["finish"] == 0.9 and m["blocks_vs_center"] == 1.0 and m["center_median_s"] == 45.0,
+          f"kept finish share, blocks against @center, its median race: {m['finish']}, {m['blocks_vs_center']}, "
+          f"{m['center_median_s']}")
     # --add-center-lost restores the measure in a file kept without it, from the seed's tournament.
     old = os.path.join(tmp, "old_s2.json")
     k = subprocess.run([sys.executable, script, "--keep", exp, "2", tmp], capture_output=True, text=True)
