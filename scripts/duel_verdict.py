@@ -25,10 +25,9 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import kept_json  # noqa: E402
-from study_verdicts import HOLDS, NOT, CANNOT, percentiles, read_controls  # noqa: E402
+from study_verdicts import all_of, beats, read_controls  # noqa: E402
 
 PLANNED = 8  # seeds in notebook 107's rule
-DELTA = 0.05
 REPS = 10000
 
 
@@ -79,16 +78,12 @@ def load(keep_dir):
 
 
 def verdict(pieces):
+    """M, its interval and the rule's word, read as study_verdicts reads "u beats v"."""
     w = [p["d3_vs_d2"] for p in pieces]
     r = random.Random("107:es_d3:es_d2")
     reps = [sum(w[r.randrange(len(w))] for _ in w) / len(w) for _ in range(REPS)]
-    lo, hi = percentiles(reps)
-    if lo > 0.5:
-        word = HOLDS
-    elif hi < 0.5 + DELTA:
-        word = NOT + (" (reversed)" if hi < 0.5 else "")
-    else:
-        word = CANNOT
+    reading, lo, hi = beats(None, reps)
+    word = all_of([reading]) + (" (reversed)" if reading == "no, reversed" else "")
     return sum(w) / len(w), lo, hi, word
 
 
