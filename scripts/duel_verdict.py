@@ -68,8 +68,11 @@ def load(keep_dir):
     pieces = []
     for name in sorted(os.listdir(keep_dir)):
         if re.fullmatch(r"s\d+\.json", name):
-            p = json.load(open(os.path.join(keep_dir, name)))
-            if not {"seed", "d3_vs_d2", "controls"} <= set(p):
+            try:
+                p = json.load(open(os.path.join(keep_dir, name)))
+            except (ValueError, OSError) as e:
+                sys.exit(f"{keep_dir}/{name}: unreadable ({e}); keep the piece again with --keep-piece")
+            if not isinstance(p, dict) or not {"seed", "d3_vs_d2", "controls"} <= set(p):
                 sys.exit(f"{keep_dir}/{name}: not a kept piece (keys seed, d3_vs_d2, controls); keep it again")
             pieces.append(p)
     if not pieces:

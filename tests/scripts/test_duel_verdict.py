@@ -93,4 +93,10 @@ with tempfile.TemporaryDirectory() as tmp:
     assert out.returncode != 0 and "s1.json: not a kept piece" in out.stderr, out
     assert len(out.stderr.strip().splitlines()) == 1, out.stderr
 
+    os.makedirs(f"{tmp}/torn")
+    open(f"{tmp}/torn/s1.json", "w").write('{"seed": 1, "d3_vs')
+    out = run(f"{tmp}/torn")
+    assert out.returncode != 0 and "s1.json: unreadable" in out.stderr, out
+    assert len(out.stderr.strip().splitlines()) == 1, out.stderr
+
 print("duel_verdict: kept pieces, holds, reversed, cannot tell, provisional and bad input as expected")
