@@ -69,7 +69,8 @@ def load(keep_dir):
     for name in sorted(os.listdir(keep_dir)):
         if re.fullmatch(r"s\d+\.json", name):
             try:
-                p = json.load(open(os.path.join(keep_dir, name)))
+                with open(os.path.join(keep_dir, name)) as f:
+                    p = json.load(f)
             except (ValueError, OSError) as e:
                 sys.exit(f"{keep_dir}/{name}: unreadable ({e}); keep the piece again with --keep-piece")
             if not isinstance(p, dict) or not {"seed", "d3_vs_d2", "controls"} <= set(p):
@@ -85,7 +86,7 @@ def verdict(pieces):
     w = [p["d3_vs_d2"] for p in pieces]
     r = random.Random("107:es_d3:es_d2")
     reps = [sum(w[r.randrange(len(w))] for _ in w) / len(w) for _ in range(REPS)]
-    reading, lo, hi = beats(None, reps)
+    reading, lo, hi = beats(reps)
     word = all_of([reading]) + (" (reversed)" if reading == "no, reversed" else "")
     return sum(w) / len(w), lo, hi, word
 

@@ -179,7 +179,8 @@ def keep_block(study, dest):
     kept_json.write(os.path.join(dest, f"s{seed}.json"), block)
 
 
-def beats(point, reps):
+def beats(reps):
+    """The reading of "u beats v" from the bootstrap replicates of M(u, v), by the rule's δ."""
     lo, hi = percentiles(reps)
     if lo > 0.5:
         word = "yes" if hi >= 0.5 + DELTA else "yes, by less than δ"
@@ -332,7 +333,7 @@ def pilot_verdicts(source, tag):
                     word[(u, v)] = "?"
                     continue
                 point, reps = source.match(w, runs[u], runs[v], tag, dt, u, v)
-                word[(u, v)], lo, hi = beats(point, reps)
+                word[(u, v)], lo, hi = beats(reps)
                 if (u, v) == ("es_d3", "es_d2"):
                     m_d3d2[dt] = reps
                 lines.append(f"| {u} > {v} | {point:.3f} | [{lo:.3f}, {hi:.3f}] | {word[(u, v)]} |")
