@@ -13,13 +13,11 @@ set -euo pipefail
   { echo "usage: scripts/duel_piece.sh PILOT_RUN MULT SEED OUT_DIR KEEP_DIR" >&2; exit 2; }
 here="$(cd "$(dirname "$0")/.." && pwd)"
 pilot="$1" mult="$2" seed="$3"
-bin="$(realpath "${F16RACE:-$here/build/f16race}")"
-threads="${F16RACE_THREADS:-2}"
-[ -f "$pilot/checkpoint/LATEST" ] || { echo "$pilot: not a trained run (no checkpoint/LATEST)" >&2; exit 2; }
+source "$here/scripts/pilot_study_steps.sh"
+pilot_study_binary "$pilot"
 mkdir -p "$4" "$5"
 root="$(cd "$4" && pwd)" keep="$(cd "$5" && pwd)"
 out="$root/x${mult}_s$seed" config="$root/x${mult}_s$seed.yaml"
-source "$here/scripts/pilot_study_steps.sh"
 pilot_study_config "$here/configs/study_scaling.yaml" "$config" \
   "/^set:/s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#^total_env_steps: .*#total_env_steps: $((1750000 * mult))#;
    s#^seeds: .*#seeds: [$seed]#; s#^races_per_pair: .*#races_per_pair: 512#" duel

@@ -1,6 +1,14 @@
-# The steps that scripts/study_block.sh and scripts/scaling_piece.sh share: a study on one frozen
-# pilot, configured from a template, trained, and each run raced against its own controls.
-# Sourced, not run.
+# The steps that scripts/study_block.sh, scaling_piece.sh and duel_piece.sh share: a study on one
+# frozen pilot, configured from a template, trained, and each run raced against its own controls.
+# Sourced, not run; the caller sets `here` (the repository's root).
+
+# pilot_study_binary PILOT: sets bin (F16RACE, default build/f16race) and threads
+# (F16RACE_THREADS, default 2); refuses a PILOT that is not a trained run (exit 2).
+pilot_study_binary() {
+  bin="$(realpath "${F16RACE:-$here/build/f16race}")"
+  threads="${F16RACE_THREADS:-2}"
+  [ -f "$1/checkpoint/LATEST" ] || { echo "$1: not a trained run (no checkpoint/LATEST)" >&2; exit 2; }
+}
 
 # pilot_study_config TEMPLATE CONFIG SED_SCRIPT DESCRIPTION: writes CONFIG as TEMPLATE edited by
 # SED_SCRIPT, unless CONFIG holds other bytes already (a piece started with another pilot or

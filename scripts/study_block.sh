@@ -15,13 +15,11 @@ set -euo pipefail
   { echo "usage: scripts/study_block.sh PILOT_RUN OUT_DIR KEEP_DIR SEED" >&2; exit 2; }
 here="$(cd "$(dirname "$0")/.." && pwd)"
 pilot="$1" seed="$4"
-bin="$(realpath "${F16RACE:-$here/build/f16race}")"
-threads="${F16RACE_THREADS:-2}"
-[ -f "$pilot/checkpoint/LATEST" ] || { echo "$pilot: not a trained run (no checkpoint/LATEST)" >&2; exit 2; }
+source "$here/scripts/pilot_study_steps.sh"
+pilot_study_binary "$pilot"
 mkdir -p "$2" "$3"
 root="$(cd "$2" && pwd)" keep="$(cd "$3" && pwd)"
 out="$root/s$seed" config="$root/s$seed.yaml"  # the config beside the study folder, which `study` owns
-source "$here/scripts/pilot_study_steps.sh"
 pilot_study_config "$here/configs/study_pilot.yaml" "$config" \
   "s#PILOT_RUN#$(realpath --relative-to="$here" "$pilot")#; s#BLOCK_SEED#$seed#" block
 cd "$here"
