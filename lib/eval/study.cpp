@@ -1,5 +1,7 @@
 #include "eval/study.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -86,36 +88,109 @@ std::vector<StudyCell> plan_study(const StudyConfig& config, const std::string& 
   return cells;
 }
 
-double last_metrics_value(const std::string& run_dir, int column) {
-  std::ifstream in(run_dir + "/metrics.csv");
-  std::string line, last;
-  bool header = true;
-  while (std::getline(in, line)) {
-    if (header) {
-      header = false;
-      continue;
-    }
-    if (!line.empty() && !in.eof()) last = line;  // a line cut by a running writer has no newline
-  }
-  std::stringstream ss(last);
+namespace {
+// Column `column` of a metrics.csv line, or NaN when the line has no such number.
+double metrics_field(const std::string& line, int column) {
+  std::stringstream ss(line);
   std::string field;
   for (int k = 0; k <= column && std::getline(ss, field, ','); ++k) {
   }
   try {
-    return field.empty() ? 0.0 : std::stod(field);
+    return field.empty() ? NAN : std::stod(field);
   } catch (const std::exception&) {
-    return 0.0;
+    return NAN;
   }
+}
+
+// Calls `row` with each complete data row of RUN/metrics.csv (a line cut by a running writer
+// has no newline yet and is skipped).
+template <class Row>
+void for_each_metrics_row(const std::string& run_dir, Row row) {
+  std::ifstream in(run_dir + "/metrics.csv");
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (!header && !line.empty() && !in.eof()) row(line);
+    header = false;
+  }
+}
+}  // namespace
+
+double last_metrics_value(const std::string& run_dir, int column) {
+  std::string last;
+  for_each_metrics_row(run_dir, [&](const std::string& line) { last = line; });
+  const double v = metrics_field(last, column);
+  return std::isfinite(v) ? v : 0.0;
+}
+
+double metrics_value_at(const std::string& run_dir, int column, std::int64_t env_steps) {
+  double v = 0.0;
+  for_each_metrics_row(run_dir, [&](const std::string& line) {
+    const double steps = metrics_field(line, kMetricsEnvStepsColumn), x = metrics_field(line, column);
+    if (steps <= static_cast<double>(env_steps) && std::isfinite(x)) v = x;
+  });
+  return v;
+}
+
+namespace {
+// The tail starts with the first update that begins in the run's last train.hl_tail_share:
+// nominally at tail_start_env_steps, in fact where the update before it ended.
+void set_cell_work(const train::TrainConfig& cfg, CellStatus* st) {
+  const std::int64_t total = st->total_env_steps;
+  st->tail_members = std::max(1, cfg.loop.hl_tail_members);
+  st->tail_start_env_steps =
+      st->tail_members > 1 ? static_cast<std::int64_t>((1.0 - cfg.loop.hl_tail_share) * static_cast<double>(total)) : total;
+}
+
+// Env steps of the run at its members' fork: its first metrics row at or past the tail's nominal
+// start (the nominal start while the run has not reached it).
+std::int64_t fork_env_steps(const CellStatus& st, const std::string& run_dir) {
+  std::int64_t fork = -1;
+  for_each_metrics_row(run_dir, [&](const std::string& line) {
+    const double steps = metrics_field(line, kMetricsEnvStepsColumn);
+    if (fork < 0 && steps >= static_cast<double>(st.tail_start_env_steps)) fork = static_cast<std::int64_t>(steps);
+  });
+  return fork < 0 ? st.tail_start_env_steps : std::min(fork, st.total_env_steps);
+}
+
+// The training time of a cell: its run's, plus each tail member's own (a member's metrics.csv
+// starts with the run's rows up to the fork, whose wall time is the run's).
+double cell_wall_s(const CellStatus& st, const std::string& run_dir) {
+  double wall = last_metrics_value(run_dir, kMetricsWallColumn);
+  const std::int64_t fork = st.tail_members > 1 ? fork_env_steps(st, run_dir) : 0;
+  for (int m = 1; m < st.tail_members; ++m) {
+    const std::string dir = train::member_dir(run_dir, m);
+    const double own = last_metrics_value(dir, kMetricsWallColumn) - metrics_value_at(dir, kMetricsWallColumn, fork);
+    wall += std::max(0.0, own);
+  }
+  return wall;
+}
+}  // namespace
+
+CellWork cell_work(const CellStatus& st, const std::string& run_dir) {
+  const auto steps = [](const std::string& dir) {
+    return static_cast<std::int64_t>(last_metrics_value(dir, kMetricsEnvStepsColumn));
+  };
+  CellWork w;
+  w.done = std::min(steps(run_dir), st.total_env_steps);
+  w.total = st.total_env_steps;
+  if (st.tail_members < 2) return w;
+  const std::int64_t fork = fork_env_steps(st, run_dir), tail = st.total_env_steps - fork;
+  w.total += (st.tail_members - 1) * tail;
+  for (int m = 1; m < st.tail_members; ++m)
+    w.done += std::clamp<std::int64_t>(steps(train::member_dir(run_dir, m)) - fork, 0, tail);
+  return w;
 }
 
 CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
   CellStatus st;
   st.total_env_steps = static_cast<std::int64_t>(config.total_env_steps);
+  const train::TrainConfig want =
+      train::read_train_config(io::load_yaml_with_overrides(config.base_config, cell.overrides), config.base_config);
+  set_cell_work(want, &st);
   // A folder without a checkpoint holds nothing to keep: the cell starts afresh (train
   // --overwrite moves what is there aside).
   if (!fs::is_directory(cell.run_dir) || train::latest_checkpoint_name(cell.run_dir).empty()) return st;
-  const train::TrainConfig want =
-      train::read_train_config(io::load_yaml_with_overrides(config.base_config, cell.overrides), config.base_config);
   const train::RunConfig have = train::read_run_config(cell.run_dir);
   // Compared as this build reads both (defaults filled in), so a key added since the run was
   // trained, at its default, does not orphan the run; its checkpoint is still checked against
@@ -137,7 +212,7 @@ CellStatus cell_status(const StudyConfig& config, const StudyCell& cell) {
   st.state = st.env_steps >= st.total_env_steps && train::unfinished_tail_member(cell.run_dir, have.config).empty()
                  ? CellState::finished
                  : CellState::partial;
-  st.wall_s = last_metrics_value(cell.run_dir, kMetricsWallColumn);
+  st.wall_s = cell_wall_s(st, cell.run_dir);
   return st;
 }
 

@@ -50,18 +50,30 @@ struct CellStatus {
   CellState state = CellState::fresh;
   std::int64_t env_steps = 0;   // at the latest checkpoint
   std::int64_t total_env_steps = 0;
-  double wall_s = 0.0;          // training time so far (the run's last metrics row)
+  double wall_s = 0.0;          // training time so far, its tail members' included
+  // With train.hl_tail_members K > 1 the cell also trains K - 1 tails after its run, from a fork
+  // where its HL-only tail starts (nominally tail_start_env_steps).
+  int tail_members = 1;
+  std::int64_t tail_start_env_steps = 0;
 };
 
 // The state of a cell's run folder. Throws io::InputError when the folder holds a run of another
 // configuration (the study config or the base config changed since it was trained) or a run
 // whose checkpoint cannot be read, naming the folder and the fix.
 CellStatus cell_status(const StudyConfig& config, const StudyCell& cell);
+// A cell's whole training in env steps, read from its metrics.csv files: its run's budget plus
+// each tail member's tail (`total`), and how much of it is done.
+struct CellWork {
+  std::int64_t done = 0, total = 0;
+};
+CellWork cell_work(const CellStatus& status, const std::string& run_dir);
 
 // A column of RUN/metrics.csv's last complete row (0 without one, or when a running writer has
 // not finished the line): the study's progress and compute time.
 inline constexpr int kMetricsEnvStepsColumn = 2, kMetricsWallColumn = 3;
 double last_metrics_value(const std::string& run_dir, int column);
+// The same column of the last complete row with at most `env_steps` env steps (0 without one).
+double metrics_value_at(const std::string& run_dir, int column, std::int64_t env_steps);
 
 // The `train` arguments that start (fresh) or continue (partial) a cell, after the executable.
 std::vector<std::string> cell_train_args(const StudyConfig& config, const StudyCell& cell, CellState state);

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdarg>
@@ -41,10 +42,6 @@ std::string format(const char* fmt, ...) {
   va_end(again);
   s.pop_back();
   return s;
-}
-
-std::int64_t last_env_steps(const std::string& run_dir) {
-  return static_cast<std::int64_t>(last_metrics_value(run_dir, kMetricsEnvStepsColumn));
 }
 
 pid_t spawn_f16race(const StudyRun& run, const std::vector<std::string>& args, const std::string& log_path) {
@@ -111,7 +108,7 @@ class CellTrainer {
     std::size_t cell = 0;
     pid_t pid = 0;
     Clock::time_point start;
-    std::int64_t steps_at_start = 0;
+    std::int64_t work_at_start = 0;
   };
 
   bool may_start() const { return !*run_.stop && failure_.empty(); }
@@ -124,7 +121,7 @@ class CellTrainer {
       const std::string log = (fs::path(run_.out) / "logs" / (interval_name(c.dt_hl_s) + "_" + c.variant + "_s" +
                                                               std::to_string(c.seed) + ".log")).string();
       running_.push_back({i, spawn_f16race(run_, cell_train_args(cfg_, c, status_[i].state), log), Clock::now(),
-                          status_[i].env_steps});
+                          cell_work(status_[i], c.run_dir).done});
       run_.say(format("study: %s %s (%s)\n", status_[i].state == CellState::partial ? "resuming" : "training",
                       cell_label(c).c_str(), log.c_str()));
     }
@@ -155,13 +152,17 @@ class CellTrainer {
     std::vector<CellProgress> progress;
     for (const auto& r : running_) {
       const auto& c = cells_[r.cell];
-      progress.push_back({cell_label(c), last_env_steps(c.run_dir), r.steps_at_start,
+      const CellWork w = cell_work(status_[r.cell], c.run_dir);
+      progress.push_back({cell_label(c), w.done, r.work_at_start, w.total,
                           std::chrono::duration<double>(now - r.start).count()});
     }
     double queued_left = 0.0;
-    for (std::size_t q = next_; q < todo_.size(); ++q)
-      queued_left += static_cast<double>(cfg_.total_env_steps - status_[todo_[q]].env_steps);
-    run_.say(study_progress_line(finished_, cells_.size(), progress, queued_left, cfg_.total_env_steps));
+    for (std::size_t q = next_; q < todo_.size(); ++q) {
+      const std::size_t i = todo_[q];
+      const CellWork w = cell_work(status_[i], cells_[i].run_dir);
+      queued_left += static_cast<double>(w.total - w.done);
+    }
+    run_.say(study_progress_line(finished_, cells_.size(), progress, queued_left));
   }
 
   const StudyRun& run_;
@@ -277,19 +278,18 @@ std::string hms(double s) {
 }
 
 std::string study_progress_line(std::size_t finished, std::size_t n_cells, const std::vector<CellProgress>& running,
-                                double queued_steps_left, std::uint64_t total_env_steps) {
+                                double queued_steps_left) {
   double rate_sum = 0.0, left = queued_steps_left;
   std::string line;
   for (const CellProgress& r : running) {
-    const std::int64_t steps = r.env_steps;
-    const double el = r.elapsed_s;
-    const double rate = el > 0 && steps > r.env_steps_at_start ? (steps - r.env_steps_at_start) / el : 0.0;
+    const double el = r.elapsed_s, to_go = static_cast<double>(std::max<std::int64_t>(0, r.work_total - r.work_done));
+    const double rate = el > 0 && r.work_done > r.work_at_start ? (r.work_done - r.work_at_start) / el : 0.0;
     rate_sum += rate;
-    const double frac = static_cast<double>(steps) / static_cast<double>(total_env_steps);
+    left += to_go;
+    const double frac = r.work_total > 0 ? static_cast<double>(r.work_done) / static_cast<double>(r.work_total) : 0.0;
     line += " | " + r.label + " " + std::to_string(static_cast<int>(100 * frac)) + "% ETA " +
-            (rate > 0 ? hms((total_env_steps - steps) / rate) : std::string("?"));
+            (rate > 0 ? hms(to_go / rate) : std::string("?"));
   }
-  for (const CellProgress& r : running) left += static_cast<double>(total_env_steps) - static_cast<double>(r.env_steps);
   return format("study: %zu/%zu cells done%s | study ETA %s (trainings)\n", finished, n_cells, line.c_str(),
                 rate_sum > 0 ? hms(left / rate_sum).c_str() : "?");
 }

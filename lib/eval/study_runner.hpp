@@ -23,19 +23,21 @@ const char* cell_state_name(CellState state);
 // A duration as "1h05m" (from an hour) or "3m07s"; "?" when negative, NaN or beyond 1e7 s.
 std::string hms(double s);
 
-// A running training as the progress line sees it.
+// A running training as the progress line sees it, in env steps of the cell's whole training
+// (its run and its tail members, CellStatus::work_total).
 struct CellProgress {
   std::string label;
-  std::int64_t env_steps = 0;           // at its latest metrics row
-  std::int64_t env_steps_at_start = 0;  // when this study started it
-  double elapsed_s = 0.0;               // since this study started it
+  std::int64_t work_done = 0;      // at the latest metrics rows
+  std::int64_t work_at_start = 0;  // when this study started it
+  std::int64_t work_total = 0;
+  double elapsed_s = 0.0;          // since this study started it
 };
 // "study: 3/12 cells done | dt8/es_s1 40% ETA 1h02m | ... | study ETA 5h10m (trainings)\n": per
 // cell its progress and ETA from its own rate since it started here; the study's ETA: the env
 // steps left over every unfinished cell (`queued_steps_left` for those not started) at the
 // running cells' summed rate.
 std::string study_progress_line(std::size_t finished, std::size_t n_cells, const std::vector<CellProgress>& running,
-                                double queued_steps_left, std::uint64_t total_env_steps);
+                                double queued_steps_left);
 
 struct StudyRun {
   StudyConfig config;

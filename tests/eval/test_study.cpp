@@ -166,13 +166,41 @@ TEST(Study, CellWithAnUnfinishedTailMemberIsPartial) {
   const CellStatus forked = cell_status(c, cell);
   EXPECT_EQ(forked.state, CellState::partial);
   EXPECT_GE(forked.env_steps, 600);
+  // The cell's work: the run's 600 env steps and two tails from the fork, at the first update
+  // that began at or past the nominal start (300).
+  EXPECT_EQ(forked.tail_start_env_steps, 300);
+  const CellWork at_fork = cell_work(forked, cell.run_dir);
+  const std::int64_t tail = (at_fork.total - 600) / 2;
+  EXPECT_EQ(at_fork.total, 600 + 2 * tail);
+  EXPECT_GT(tail, 200);
+  EXPECT_LE(tail, 300);
+  EXPECT_EQ(at_fork.done, 600);
+  const double run_wall = forked.wall_s;
+  EXPECT_GT(run_wall, 0.0);
   train::Trainer::resume((fs::path(cell.run_dir) / "members" / "1").string())->run();
+  EXPECT_EQ(cell_work(forked, cell.run_dir).done, 600 + tail);
   train::Trainer::resume((fs::path(cell.run_dir) / "members" / "2").string())->run(nullptr, 1);
-  EXPECT_EQ(cell_status(c, cell).state, CellState::partial);  // member 2 stopped part way
+  const CellStatus part = cell_status(c, cell);
+  EXPECT_EQ(part.state, CellState::partial);  // member 2 stopped part way
+  EXPECT_GT(cell_work(part, cell.run_dir).done, 600 + tail);
+  EXPECT_LT(cell_work(part, cell.run_dir).done, at_fork.total);
   train::train_tail_members(cell.run_dir);
-  EXPECT_EQ(cell_status(c, cell).state, CellState::finished);
+  const CellStatus done = cell_status(c, cell);
+  EXPECT_EQ(done.state, CellState::finished);
+  EXPECT_EQ(cell_work(done, cell.run_dir).done, at_fork.total);
+  // Its compute time counts the members' training, not their copy of the run's rows.
+  EXPECT_GT(done.wall_s, run_wall);
+  EXPECT_LT(done.wall_s, 3.0 * run_wall + 60.0);
   fs::remove_all(fs::path(cell.run_dir) / "members" / "2");
   EXPECT_EQ(cell_status(c, cell).state, CellState::partial);
+}
+
+TEST(Study, MetricsValueAtAnEnvStepCount) {
+  const fs::path d = fresh_dir("at");
+  write(d / "metrics.csv", "update,phase_hl,env_steps,wall_s\n1,0,100,2.5\n2,0,200,5.0\n3,0,300,7.5\n");
+  EXPECT_EQ(metrics_value_at(d.string(), kMetricsWallColumn, 299), 5.0);
+  EXPECT_EQ(metrics_value_at(d.string(), kMetricsWallColumn, 300), 7.5);
+  EXPECT_EQ(metrics_value_at(d.string(), kMetricsWallColumn, 99), 0.0);  // no row so early
 }
 
 TEST(Study, CellStateFollowsTheRunAndRefusesAnotherConfig) {

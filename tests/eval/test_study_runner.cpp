@@ -31,15 +31,23 @@ TEST(StudyRunner, DurationsInHoursOrMinutes) {
 }
 
 TEST(StudyRunner, ProgressLineWithoutRunningCells) {
-  EXPECT_EQ(study_progress_line(2, 12, {}, 1000.0, 500), "study: 2/12 cells done | study ETA ? (trainings)\n");
+  EXPECT_EQ(study_progress_line(2, 12, {}, 1000.0), "study: 2/12 cells done | study ETA ? (trainings)\n");
 }
 
 TEST(StudyRunner, ProgressLineEtasFromEachCellsRate) {
   // 400 of 1000 steps, 100 of them in 10 s here: 10 steps/s, 600 left -> 1m00s. The other has
   // made no progress here: no rate, no ETA. The study: 600 + 1000 + 500 queued at 10 steps/s.
-  const std::vector<CellProgress> running{{"dt8/es_s1", 400, 300, 10.0}, {"dt8/es_d1_s1", 0, 0, 10.0}};
-  EXPECT_EQ(study_progress_line(1, 4, running, 500.0, 1000),
+  const std::vector<CellProgress> running{{"dt8/es_s1", 400, 300, 1000, 10.0}, {"dt8/es_d1_s1", 0, 0, 1000, 10.0}};
+  EXPECT_EQ(study_progress_line(1, 4, running, 500.0),
             "study: 1/4 cells done | dt8/es_s1 40% ETA 1m00s | dt8/es_d1_s1 0% ETA ? | study ETA 3m30s (trainings)\n");
+}
+
+// A cell whose run has reached its budget while its tail members still train is not done: with
+// two members of a 1000-step run's last 500, 1000 of its 2000 steps, at 10 steps/s 1m40s to go.
+TEST(StudyRunner, ProgressLineCountsTheTailMembers) {
+  const std::vector<CellProgress> running{{"dt8/es_d2_s1", 1000, 0, 2000, 100.0}};
+  EXPECT_EQ(study_progress_line(0, 1, running, 0.0),
+            "study: 0/1 cells done | dt8/es_d2_s1 50% ETA 1m40s | study ETA 1m40s (trainings)\n");
 }
 
 }  // namespace

@@ -313,8 +313,9 @@ TEST(TournamentControls, GoalChoicesCountEveryDecisionOfTheLivingAircraft) {
       EXPECT_GE(decisions, ts);
       EXPECT_LE(decisions, max_decisions) << x.duration_s;
       for (int d = 1; d < race::kHlDims; ++d) EXPECT_EQ(c[d * 3] + c[d * 3 + 1] + c[d * 3 + 2], decisions);
-      if (r.entries[entry].hl == HlOverride::center)
+      if (r.entries[entry].hl == HlOverride::center) {
         for (int d = 0; d < race::kHlDims; ++d) EXPECT_EQ(c[d * 3 + 1], decisions);
+      }
       // Against the run only: race r of every pairing draws @random's bins from one stream (common
       // random numbers), so its pairing with @center repeats the same draws.
       if (r.entries[entry].hl == HlOverride::random && (x.blue == 0 || x.red == 0))
