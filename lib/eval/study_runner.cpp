@@ -113,6 +113,14 @@ class CellTrainer {
 
   bool may_start() const { return !*run_.stop && failure_.empty(); }
 
+  // A cell not started yet; a fresh one's folder may hold a leftover that `train --overwrite`
+  // moves aside, so none of it counts.
+  CellWork queued_work(std::size_t i) const {
+    CellWork w = cell_work(status_[i], cells_[i].run_dir);
+    if (status_[i].state == CellState::fresh) w.done = 0;
+    return w;
+  }
+
   void start_cells() {
     while (may_start() && next_ < todo_.size() && static_cast<int>(running_.size()) < cfg_.jobs) {
       const std::size_t i = todo_[next_++];
@@ -121,7 +129,7 @@ class CellTrainer {
       const std::string log = (fs::path(run_.out) / "logs" / (interval_name(c.dt_hl_s) + "_" + c.variant + "_s" +
                                                               std::to_string(c.seed) + ".log")).string();
       running_.push_back({i, spawn_f16race(run_, cell_train_args(cfg_, c, status_[i].state), log), Clock::now(),
-                          cell_work(status_[i], c.run_dir).done});
+                          queued_work(i).done});
       run_.say(format("study: %s %s (%s)\n", status_[i].state == CellState::partial ? "resuming" : "training",
                       cell_label(c).c_str(), log.c_str()));
     }
@@ -158,8 +166,7 @@ class CellTrainer {
     }
     double queued_left = 0.0;
     for (std::size_t q = next_; q < todo_.size(); ++q) {
-      const std::size_t i = todo_[q];
-      const CellWork w = cell_work(status_[i], cells_[i].run_dir);
+      const CellWork w = queued_work(todo_[q]);
       queued_left += static_cast<double>(w.total - w.done);
     }
     run_.say(study_progress_line(finished_, cells_.size(), progress, queued_left));
