@@ -15,6 +15,7 @@
 #include "bench/network_cost.hpp"
 #include "commands.hpp"
 #include "io/json_text.hpp"
+#include "io/numeric_mode.hpp"
 #include "io/provenance.hpp"
 #include "race/race_env.hpp"
 #include "models/attention_encoder.hpp"
@@ -96,10 +97,10 @@ void time_case(NetCase& c, const NetsBenchOptions& o, double peak_gflops, const 
     std::printf("{\"bench\": \"nets\", \"network\": %s, \"samples\": %d, \"threads\": %d, "
                 "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
                 "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
-                "\"blas_core\": %s}\n",
+                "\"blas_core\": %s, \"numerics\": %s}\n",
                 io::json_string(c.name).c_str(), o.samples, torch::get_num_threads(),
                 static_cast<long long>(c.flops_per_sample), fwd_us, fwd_bwd_us, gflops, peak_gflops,
-                io::json_string(blas).c_str());
+                io::json_string(blas).c_str(), io::json_string(io::numeric_mode_name()).c_str());
   } else {
     std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
                 gflops, fwd_bwd_us, gflops / peak_gflops);
@@ -153,8 +154,8 @@ void run_bench_nets(const NetsBenchOptions& o) {
   const double peak_gflops = bench::matmul_gflops(o.repeats);
   const std::string blas = io::blas_core();
   if (!o.json) {
-    std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads\n", o.samples, o.repeats,
-                torch::get_num_threads());
+    std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads, %s build\n", o.samples, o.repeats,
+                torch::get_num_threads(), io::numeric_mode_name());
     std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s)\n", peak_gflops,
                 blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str());
     std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",

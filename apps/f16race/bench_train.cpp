@@ -18,6 +18,7 @@
 #include "dist/process_group.hpp"
 #include "dist_options.hpp"
 #include "io/json_text.hpp"
+#include "io/numeric_mode.hpp"
 #include "io/provenance.hpp"
 #include "io/yaml_config.hpp"
 
@@ -96,8 +97,8 @@ void run_bench_train(const TrainBenchOptions& o, const dist::DistConfig& dc, int
   if (!o.json) {
     const std::string blas = io::blas_core();
     std::printf("f16race bench train: %d runs of %lld updates per config (LL and HL phases as configured), %d "
-                "threads; %s, OpenBLAS kernels %s\n",
-                o.repeat, o.updates, omp_get_max_threads(), io::cpu_model().c_str(),
+                "threads; %s, %s build, OpenBLAS kernels %s\n",
+                o.repeat, o.updates, omp_get_max_threads(), io::cpu_model().c_str(), io::numeric_mode_name(),
                 blas.empty() ? "- (not OpenBLAS)" : blas.c_str());
   }
   for (std::size_t c = 0; c < o.configs.size(); ++c) {

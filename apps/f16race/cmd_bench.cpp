@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "io/input_error.hpp"
 #include "io/json_text.hpp"
+#include "io/numeric_mode.hpp"
 #include "io/provenance.hpp"
 #include "race/soak.hpp"
 
@@ -45,8 +46,8 @@ void run_bench_sim(const SimBenchOptions& o) {
   if (!o.json) {
     std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s, references: %s\n",
                 o.dt_s, o.law == "held" ? "held over each step" : (o.law + " law at every RK stage").c_str());
-    std::printf("machine: %s, %d cores; %d aircraft, %d substeps per run, median of %d runs\n", io::cpu_model().c_str(),
-                omp_get_num_procs(), o.aircraft, o.substeps, o.repeats);
+    std::printf("machine: %s, %d cores, %s build; %d aircraft, %d substeps per run, median of %d runs\n",
+                io::cpu_model().c_str(), omp_get_num_procs(), io::numeric_mode_name(), o.aircraft, o.substeps, o.repeats);
     std::printf("%-8s %8s %10s %22s\n", "model", "threads", "aircraft", "aircraft-substeps/s");
   }
   for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
@@ -55,9 +56,9 @@ void run_bench_sim(const SimBenchOptions& o) {
           {model, bench::parse_stage_law(o.law), o.aircraft, t, o.substeps, o.repeats, o.dt_s});
       if (o.json) {
         std::printf("{\"bench\": \"sim\", \"model\": %s, \"law\": %s, \"threads\": %d, \"aircraft\": %d, "
-                    "\"substeps_per_s\": %.6g}\n",
+                    "\"substeps_per_s\": %.6g, \"numerics\": %s}\n",
                     io::json_string(aero_model_name(model)).c_str(), io::json_string(o.law).c_str(), t, o.aircraft,
-                    rate);
+                    rate, io::json_string(io::numeric_mode_name()).c_str());
       } else {
         std::printf("%-8s %8d %10d %22.4g\n", aero_model_name(model), t, o.aircraft, rate);
       }
@@ -85,7 +86,7 @@ void run_bench_env(const EnvBenchOptions& o) {
   if (!o.json) {
     std::printf("f16race bench env: %d envs x %d aircraft, %d RK4 substeps per LL step, %d LL steps per run, median of %d\n",
                 o.envs, 2 * o.team_size, cfg.substeps, o.steps, o.repeats);
-    std::printf("machine: %s, %d cores\n", io::cpu_model().c_str(), omp_get_num_procs());
+    std::printf("machine: %s, %d cores, %s build\n", io::cpu_model().c_str(), omp_get_num_procs(), io::numeric_mode_name());
     std::printf("%8s %16s %20s %22s %10s\n", "threads", "env_steps/s", "aircraft_steps/s", "sim_only_aircraft/s", "overhead");
   }
   for (int t : threads) {
@@ -122,8 +123,9 @@ void run_bench_soak(const SoakBenchOptions& o) {
   so.aircraft_steps = static_cast<std::int64_t>(o.aircraft_steps);
   if (!o.json)
     std::printf("f16race bench soak: %.3g aircraft-steps of random, NaN, +-inf, +-1e30 and sign-flipping actions and "
-                "out-of-range HL bins, %d envs x %d aircraft, %d threads\nmachine: %s\n",
-                o.aircraft_steps, o.envs, 2 * o.team_size, omp_get_max_threads(), io::cpu_model().c_str());
+                "out-of-range HL bins, %d envs x %d aircraft, %d threads\nmachine: %s, %s build\n",
+                o.aircraft_steps, o.envs, 2 * o.team_size, omp_get_max_threads(), io::cpu_model().c_str(),
+                io::numeric_mode_name());
   const race::SoakResult r = race::run_soak(so);
   if (o.json) {
     std::printf("{\"bench\": \"soak\", \"aircraft_steps\": %lld, \"non_finite\": %lld, \"races_finished\": %lld, "

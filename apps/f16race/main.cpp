@@ -6,9 +6,12 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include <ATen/Context.h>
+#include <ATen/Version.h>
 #include <CLI/CLI.hpp>
 #include <c10/util/Exception.h>
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -21,6 +24,7 @@
 #include "commands.hpp"
 #include "dist/process_group.hpp"
 #include "io/input_error.hpp"
+#include "io/numeric_mode.hpp"
 #include "io/provenance.hpp"
 
 // OpenBLAS (LibTorch's BLAS on Debian) runs its own thread pool that spins against the
@@ -31,12 +35,62 @@ static void single_threaded_blas() {
   if (auto f = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) f(1);
 }
 
-// OpenBLAS picks its kernels from the CPU model when it loads, and takes its pre-AVX "Prescott"
-// set for a model it does not know (0.3.21 on Intel family 6 model 207): every LibTorch GEMM then
-// ran ~3x slower (bench nets, 1024^3 float product, 2 threads: 30 against 97 GFLOP/s with the
-// SkylakeX set; LL actor-critic forward+backward 20.6 -> 8.2 us/sample). Only OPENBLAS_CORETYPE,
-// read at load time, overrides that choice, so main sets it from the CPU's features and runs
-// itself again, once (~0.4 s more start-up, there only). A user's OPENBLAS_CORETYPE is left as it is.
+// The binary's own path, not /proc/self/exe, so that ps and top still show "f16race"; "" without /proc.
+static std::string own_path() {
+  char self[4096];
+  const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+  if (n <= 0) return std::string();
+  self[n] = '\0';
+  return self;
+}
+
+// The reproducible build's kernels use AVX2 and FMA: on an older CPU say so, before any static
+// initializer of those kernels could stop on an illegal instruction.
+__attribute__((constructor(101))) static void cpu_runs_this_build() {
+  if (f16race::io::numeric_mode() != f16race::io::NumericMode::kReproducible) return;
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return;
+  std::fprintf(stderr, "f16race: error: this CPU lacks AVX2 or FMA, which the reproducible build needs (x86-64-v3: Intel "
+                       "since Haswell, AMD since Zen 1); build for it with F16RACE_ARCH=native scripts/build.sh\n");
+  std::_Exit(2);
+}
+
+// Reproducible mode: the environment every library reads its kernel choice from is pinned
+// (io/numeric_mode.hpp). OpenBLAS reads OPENBLAS_CORETYPE and glibc its tunables when they load,
+// before main, so a process whose environment differs runs itself again, once (~0.4 s). Then the
+// choices are checked, so that a run never silently trains with other kernels.
+static void pin_reproducible_kernels(char** argv) {
+  if (f16race::io::pin_numeric_environment()) {
+    const std::string self = own_path();
+    if (!self.empty()) execv(self.c_str(), argv);
+    std::fprintf(stderr, "f16race: error: could not run itself again with its kernel choices pinned (%s); run it "
+                         "with OPENBLAS_CORETYPE=Haswell ATEN_CPU_CAPABILITY=avx2 set, or build with F16RACE_ARCH=native\n",
+                 self.empty() ? "no /proc/self/exe" : std::strerror(errno));
+    std::exit(2);
+  }
+  const std::string core = f16race::io::blas_core();
+  if (strcasecmp(core.c_str(), "haswell") != 0) {
+    std::fprintf(stderr, "f16race: error: the reproducible build needs OpenBLAS's Haswell kernels as LibTorch's BLAS, and "
+                         "%s; select Debian's OpenBLAS (update-alternatives --config libblas.so.3-x86_64-linux-gnu; "
+                         "scripts/setup.sh installs libopenblas0-pthread) or build with F16RACE_ARCH=native\n",
+                 core.empty() ? "libblas.so.3 is not OpenBLAS" : ("OpenBLAS runs its " + core + " set").c_str());
+    std::exit(2);
+  }
+  // LibTorch 1.13 exports no query of its capability but this line of its build summary.
+  if (at::show_config().find("CPU capability usage: AVX2\n") == std::string::npos) {
+    std::fprintf(stderr, "f16race: error: LibTorch did not take its avx2 kernels (ATEN_CPU_CAPABILITY=avx2); build with "
+                         "F16RACE_ARCH=native\n");
+    std::exit(2);
+  }
+  // oneDNN is not on any path the networks take today; off, it cannot become one.
+  at::globalContext().setUserEnabledMkldnn(false);
+}
+
+// Native mode: OpenBLAS picks its kernels from the CPU model when it loads, and takes its pre-AVX
+// "Prescott" set for a model it does not know (0.3.21 on Intel family 6 model 207): every LibTorch
+// GEMM then ran ~3x slower (bench nets, 1024^3 float product, 2 threads: 30 against 97 GFLOP/s with
+// the SkylakeX set). Only OPENBLAS_CORETYPE, read at load time, overrides that choice, so main sets
+// it from the CPU's features and runs itself again, once. A user's OPENBLAS_CORETYPE is left as it is.
 static void known_blas_kernels(char** argv) {
   if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
   if (strcasecmp(f16race::io::blas_core().c_str(), "prescott") != 0) return;
@@ -50,13 +104,10 @@ static void known_blas_kernels(char** argv) {
   else if (__builtin_cpu_supports("avx"))
     core = "Sandybridge";
   if (core == nullptr) return;  // Prescott is the right set for this CPU
-  // The binary's own path, not /proc/self/exe, so that ps and top still show "f16race".
-  char self[4096];
-  const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-  if (n <= 0) return;  // no /proc: go on with the slower kernels
-  self[n] = '\0';
+  const std::string self = own_path();
+  if (self.empty()) return;  // no /proc: go on with the slower kernels
   if (setenv("OPENBLAS_CORETYPE", core, 1) != 0) return;
-  execv(self, argv);
+  execv(self.c_str(), argv);
   unsetenv("OPENBLAS_CORETYPE");  // the exec failed: the same, slower kernels
 }
 
@@ -102,6 +153,31 @@ static void numbers_only(CLI::App* app) {
   for (CLI::App* sub : app->get_subcommands([](CLI::App*) { return true; })) numbers_only(sub);
 }
 
+static std::string subcommand_names(const CLI::App& app) {
+  std::string names;
+  for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  return names;
+}
+
+// The first word where a subcommand belongs, when no subcommand was parsed and it names none:
+// CLI11 reports that only as "A subcommand is required", without the word.
+static std::string unknown_subcommand(const CLI::App& app, int argc, char** argv) {
+  if (!app.get_subcommands().empty()) return "";
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    if (a == "--threads") {
+      ++k;  // its value
+      continue;
+    }
+    if (a.empty() || a[0] == '-') continue;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+      if (sub->check_name(a)) return "";
+    return a;
+  }
+  return "";
+}
+
 static int out_of_memory() {
   std::fprintf(stderr, "f16race: error: out of memory: the workload does not fit in this machine's memory; make it "
                        "smaller (race.n_env, race.team_size, ll.n_steps, network sizes, --races, --aircraft, ...)\n");
@@ -109,12 +185,14 @@ static int out_of_memory() {
 }
 
 int main(int argc, char** argv) {
-  known_blas_kernels(argv);
+  if (f16race::io::numeric_mode() == f16race::io::NumericMode::kReproducible) pin_reproducible_kernels(argv);
+  else known_blas_kernels(argv);
   keep_freed_memory();
   single_threaded_blas();
   CLI::App app{"f16race: simulate, race, train and evaluate teams of F-16 aircraft (AeroBench dynamics)"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("f16race 0.1.0, commit ") + f16race::io::build_commit());
+  app.set_version_flag("--version", std::string("f16race 0.1.0, commit ") + f16race::io::build_commit() +
+                                        "\nnumerics: " + f16race::io::numeric_mode_summary());
   int threads = 0;
   // Bounded by the machine: more threads than 4 x its cores only spin against each other (OpenMP
   // waits actively), which made a large count look like a hang.
@@ -140,6 +218,11 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (const std::string word = unknown_subcommand(app, argc, argv); !word.empty()) {
+      std::fprintf(stderr, "f16race: error: '%s' is not a subcommand; give one of %s (f16race --help)\n", word.c_str(),
+                   subcommand_names(app).c_str());
+      return 2;
+    }
     // --help and --version are "errors" with code 0; real parse errors exit 2 like bad input.
     const int rc = app.exit(e);
     return rc == 0 ? 0 : 2;

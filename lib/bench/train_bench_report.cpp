@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "io/json_text.hpp"
+#include "io/numeric_mode.hpp"
 #include "io/provenance.hpp"
 
 namespace f16race::bench {
@@ -61,7 +62,7 @@ std::string train_bench_json(const std::string& path, const train::TrainConfig& 
               "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
               "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
               "\"runs_ppo_chunk_wait_s\": [%s], \"runs_run_end_s\": [%s], "
-              "\"cpu\": %s, \"blas_core\": %s}\n",
+              "\"cpu\": %s, \"blas_core\": %s, \"numerics\": %s}\n",
               io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(),
               static_cast<long long>(s.env_steps), res.rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.run_end, t.total, t.ppo_chunk_wait, t.es_chunk_wait,
               res.floor_rate, floor.ll_forward_s,
@@ -73,7 +74,7 @@ std::string train_bench_json(const std::string& path, const train::TrainConfig& 
               joined(res.floor_rates, "%.6g").c_str(), joined(res.ratios, "%.4g").c_str(), joined(res.env_s, "%.4g").c_str(),
               joined(res.inference_s, "%.4g").c_str(), joined(res.ppo_s, "%.4g").c_str(), joined(res.es_s, "%.4g").c_str(),
               joined(res.io_s, "%.4g").c_str(), joined(res.ppo_chunk_wait_s, "%.4g").c_str(), joined(res.run_end_s, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
-              io::json_string(io::blas_core()).c_str());
+              io::json_string(io::blas_core()).c_str(), io::json_string(io::numeric_mode_name()).c_str());
   return out;
 }
 

@@ -20,6 +20,8 @@
 #include "eval/tournament_output.hpp"
 #include "io/atomic_file.hpp"
 #include "io/input_error.hpp"
+#include "io/numeric_mode.hpp"
+#include "train/run_numerics.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
 #include "train/run_policy.hpp"
@@ -247,6 +249,24 @@ void add_entries(const TournamentOptions& o, std::vector<train::RunPolicy>* pol,
                          "(drop --no-untrained) or add --controls");
 }
 
+// The runs' numeric modes in one line when they differ (an ensemble A+B+C counts each of its runs).
+std::string numerics_note(const std::vector<std::string>& runs) {
+  std::vector<std::pair<std::string, io::RunNumerics>> seen;
+  bool differ = false;
+  for (const std::string& spec : runs) {
+    std::stringstream parts(spec);
+    for (std::string run; std::getline(parts, run, '+');) {
+      seen.emplace_back(run, train::run_numerics(run));
+      differ |= !io::numerics_difference(seen.front().second, seen.back().second).empty();
+    }
+  }
+  if (!differ) return "";
+  std::string note = "the runs were trained in different numeric modes, so their winrates also compare kernels:";
+  for (const auto& [run, n] : seen) note += " " + run + " " + io::describe(n) + ";";
+  note.back() = '.';
+  return note;
+}
+
 // The first run's race with the options' tracks, time limit and goal placement.
 race::RaceConfig tournament_race(const TournamentOptions& o, const train::RunPolicy& first) {
   race::RaceConfig rc = first.config.race;
@@ -324,6 +344,8 @@ TournamentResult run_tournament(const TournamentOptions& o, const std::function<
   TournamentResult res;
   std::vector<train::RunPolicy> pol;
   add_entries(o, &pol, &res.entries);
+  res.numerics_note = numerics_note(o.runs);
+  if (say && !res.numerics_note.empty()) say("tournament: warning: " + res.numerics_note);
   race::RaceConfig rc = tournament_race(o, pol.front());
   res.race = rc;
   if (o.controls_own_run && !o.controls && !o.axis_controls)

@@ -157,6 +157,9 @@ struct TournamentResult {
   race::RaceConfig race;  // what the races were run with (the first run's, or --tracks' tracks)
   // wins[i][j]: races entry i won against j (draws count half); games[i][j]: races played.
   std::vector<std::vector<double>> wins, games;
+  // "" when every run was trained in one numeric mode (io/numeric_mode.hpp) and, if native, on one
+  // CPU; otherwise one line naming each run's mode: their winrates then compare kernels too.
+  std::string numerics_note;
 };
 
 // Runs every pair; `progress(done, total)` after each batch; `say` gets one line about the

@@ -489,6 +489,7 @@ std::string summary_markdown(const TournamentResult& r, const TournamentStatisti
   std::ostringstream md;
   md << "# Tournament\n\n" << o.races_per_pair << " races per pair (race r on track r / 2: each track from both sides), HL epsilon " << o.epsilon
      << ", " << r.races.size() << " races in all.\n\n";
+  if (!r.numerics_note.empty()) md << "**Numeric modes differ**: " << r.numerics_note << "\n\n";
   variant_table_md(s, md);
   excluded_md(r, s, o, md);
   matrix_and_entries_md(r, s, md);

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 namespace f16race::io {
@@ -123,6 +124,20 @@ std::string gnuplot_script(const PlotSpec& spec, const std::string& script_path)
   return gp.str();
 }
 
+// gnuplot exits 0 with a PNG cut short when the disk fills under it, so a bad image on a disk with
+// less room than the image could take (uncompressed RGBA bounds a PNG) is a full disk: an error, as
+// for every other file, so that the caller keeps the earlier output whole instead of a figureless one.
+void throw_if_disk_full(const std::string& dir, const PlotSpec& spec, const std::string& why) {
+  struct statvfs fs {};
+  if (::statvfs(dir.c_str(), &fs) != 0) return;
+  const double free_bytes = static_cast<double>(fs.f_bavail) * static_cast<double>(fs.f_frsize);
+  const double image_bound = 4.0 * spec.width_px * spec.height_px + 65536.0;
+  if (free_bytes >= image_bound) return;
+  throw FileWriteError(dir + "/" + base_of(spec.output) + ": no space left on device (" +
+                       std::to_string(static_cast<long long>(free_bytes / 1024)) + " KB free; " + why +
+                       "); nothing earlier was replaced: free some space and run the command again");
+}
+
 }  // namespace
 
 bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message) {
@@ -153,6 +168,7 @@ bool render_plot(const PlotSpec& spec, const std::string& script_path, std::stri
   const std::string problem = rc == 0 ? image_problem(image) : std::string();
   if (rc != 0 || !problem.empty()) {
     std::remove(image.c_str());
+    throw_if_disk_full(dir, spec, rc != 0 ? "gnuplot failed: " + one_line(out) : problem);
     if (message)
       *message = rc != 0 ? "gnuplot failed on " + script_path + ": " + one_line(out)
                          : "gnuplot ran on " + script_path + " but " + problem + " (" + base_of(spec.output) + ")";

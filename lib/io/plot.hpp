@@ -39,7 +39,8 @@ struct PlotSpec {
 // exited 0 and the image is whole (a PNG with its signature and IEND end, an SVG ending in
 // </svg>). Otherwise false with `message` (one line) saying why (gnuplot missing or failed, the
 // image empty or cut short), and no image under the output's name. Throws io::FileWriteError
-// only when the script itself cannot be written.
+// when the script cannot be written, or when the image failed on a disk with less free space than
+// it could take (a full disk: the caller keeps its earlier output, as for any other file).
 bool render_plot(const PlotSpec& spec, const std::string& script_path, std::string* message);
 
 // Why the image at `path` is not a whole PNG (or, for *.svg, SVG), or "" when it is.

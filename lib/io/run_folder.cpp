@@ -34,6 +34,7 @@ RunFolderLock::RunFolderLock(const std::string& run_dir) {
   fs::create_directories(run_dir, ec);
   if (ec) throw io::InputError(run_dir + ": cannot create the run folder: " + ec.message());
   const std::string path = (fs::path(run_dir) / kLockName).string();
+  existed_ = fs::exists(path, ec);
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) throw io::InputError(path + ": cannot open the run folder's lock: " + std::strerror(errno));
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
@@ -46,6 +47,9 @@ RunFolderLock::RunFolderLock(const std::string& run_dir) {
                                "); wait for it to end or stop it, or choose another --run folder");
     throw io::InputError(path + ": cannot lock the run folder: " + std::strerror(err));
   }
+  char buf[64];
+  const ssize_t n = ::pread(fd_, buf, sizeof buf, 0);
+  found_.assign(buf, n > 0 ? static_cast<std::size_t>(n) : 0);
   // Who holds it, for the message above; the lock itself is the flock, not this text.
   const std::string pid = std::to_string(::getpid()) + "\n";
   // Unchecked on purpose: without the pid the lock still works, and a full disk is reported by
@@ -53,16 +57,29 @@ RunFolderLock::RunFolderLock(const std::string& run_dir) {
   if (::ftruncate(fd_, 0) == 0) (void)!::pwrite(fd_, pid.data(), pid.size(), 0);
 }
 
-RunFolderLock::~RunFolderLock() {
-  if (fd_ >= 0) ::close(fd_);  // releases the flock
+void RunFolderLock::release() {
+  if (fd_ < 0) return;
+  // Still held: no other process writes the file. One this lock created stays, empty: unlinking it
+  // could hand a process that opened it meanwhile a lock on a file no one else sees.
+  if (!claimed_ && ::ftruncate(fd_, 0) == 0 && existed_) (void)!::pwrite(fd_, found_.data(), found_.size(), 0);
+  ::close(fd_);  // releases the flock
+  fd_ = -1;
 }
 
-RunFolderLock::RunFolderLock(RunFolderLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+RunFolderLock::~RunFolderLock() { release(); }
+
+RunFolderLock::RunFolderLock(RunFolderLock&& other) noexcept
+    : fd_(other.fd_), claimed_(other.claimed_), existed_(other.existed_), found_(std::move(other.found_)) {
+  other.fd_ = -1;
+}
 
 RunFolderLock& RunFolderLock::operator=(RunFolderLock&& other) noexcept {
   if (this != &other) {
-    if (fd_ >= 0) ::close(fd_);
+    release();
     fd_ = other.fd_;
+    claimed_ = other.claimed_;
+    existed_ = other.existed_;
+    found_ = std::move(other.found_);
     other.fd_ = -1;
   }
   return *this;

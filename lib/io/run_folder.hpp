@@ -11,17 +11,26 @@ namespace f16race::io {
 // one process, and the kernel drops the lock when the process dies (kill -9 included).
 class RunFolderLock {
  public:
-  // Creates the folder if needed. Throws io::InputError with one line naming the folder and
-  // the holder's pid when another process (or another lock in this one) holds it.
+  // Creates the folder if needed and writes this process's pid into the file. Throws
+  // io::InputError with one line naming the folder and the holder's pid when another process (or
+  // another lock in this one) holds it.
   explicit RunFolderLock(const std::string& run_dir);
+  // Unless claim() was called, leaves the file as it was found (its text back, or empty), so a
+  // process that took the lock and then refused the folder changed nothing in it.
   ~RunFolderLock();
+  // This process writes the folder: its pid stays in the file after the lock is released.
+  void claim() { claimed_ = true; }
   RunFolderLock(const RunFolderLock&) = delete;
   RunFolderLock& operator=(const RunFolderLock&) = delete;
   RunFolderLock(RunFolderLock&& other) noexcept;
   RunFolderLock& operator=(RunFolderLock&& other) noexcept;
 
  private:
+  void release();
   int fd_ = -1;
+  bool claimed_ = false;
+  bool existed_ = false;  // the file was there before this lock
+  std::string found_;     // the text it held
 };
 
 // The pid (as RUN/.lock records it) of the process holding `run_dir`'s lock, or "" when no one

@@ -289,6 +289,13 @@ ConfigReader ConfigReader::child(const char* key) {
   used_.insert(key);
   if (!has(key)) return ConfigReader(YAML::Node(), source_, key_path(key));
   const YAML::Node n = node_[key];
+  // `race: ~` or `race:` with nothing under it reads like a section yet sets nothing: say so, as
+  // it may be a section whose keys lost their indentation.
+  if (n.IsNull()) {
+    const int line = n.Mark().line;
+    throw ConfigError(origin(n) + (line >= 0 ? ":" + std::to_string(line + 1) : std::string()) + ": " + key_path(key) +
+                      " is an empty section; give its keys indented under it, or leave it out to take every default");
+  }
   return ConfigReader(n, origin(n), key_path(key));
 }
 

@@ -16,6 +16,7 @@
 #include "io/run_folder.hpp"
 #include "io/stale_temporaries.hpp"
 #include "io/yaml_config.hpp"
+#include "train/run_numerics.hpp"
 #include "train/trainer_state.hpp"
 
 namespace f16race::train {
@@ -98,6 +99,7 @@ Trainer::Trainer(const TrainConfig& config, const std::string& run_dir, dist::Gr
   // in between resumes afresh, while a missing LATEST beside checkpoint folders is a lost pointer.
   fs::create_directories(fs::path(run_dir) / "checkpoint");
   fs::create_directories(fs::path(run_dir) / "pool");
+  s_->lock->claim();  // from here on the folder is this run's
   io::write_file_atomic(run_dir + "/config.yaml", s_->resolved_yaml);
   io::write_file_atomic(run_dir + "/checkpoint/LATEST", "");
   // The untrained policy is the first pool snapshot, so pool matches exist from the start.
@@ -117,7 +119,10 @@ RunConfig read_run_to_resume(const std::string& run_dir, bool* fresh) {
                                    "f16race train --config CONFIG --run " + run_dir);
   RunConfig run = read_run_config(run_dir);
   *fresh = false;
-  if (!latest_checkpoint_name(run_dir).empty()) return run;
+  if (!latest_checkpoint_name(run_dir).empty()) {
+    check_resume_numerics(run_dir);  // a run goes on in the mode it trained in
+    return run;
+  }
   // An empty LATEST, as a new run writes it: no checkpoint is durable yet (a folder beside it is
   // one whose LATEST was never written), so the run starts afresh.
   if (fs::exists(fs::path(run_dir) / "checkpoint" / "LATEST")) {
@@ -183,6 +188,7 @@ std::unique_ptr<Trainer> Trainer::resume(const std::string& run_dir, dist::Group
   st->run_dir = run_dir;
   st->resolved_yaml = std::move(run.yaml);
   st->hash = run.hash;
+  if (st->lock) st->lock->claim();  // every refusal is behind: this process writes the run
   if (fresh) {
     // Nothing durable yet: what the killed start left (a first pool snapshot, metrics rows) goes,
     // and the run begins again from its config, as `train --run` would have.

@@ -16,6 +16,7 @@
 #include "io/atomic_file.hpp"
 #include "io/byte_hash.hpp"
 #include "train/checkpoint_archive.hpp"
+#include "train/run_numerics.hpp"
 #include "train/trainer_state.hpp"
 
 namespace f16race::train {
@@ -133,6 +134,7 @@ void Trainer::State::save_checkpoint(bool last) {
     meta << "format: " << kCheckpointFormat << "\nconfig_hash: " << hash << "\nenv_steps: " << env_steps
          << "\nupdates: " << ppo_updates + es_updates << "\n";
     if (world > 1) meta << "world_size: " << world << "\n";
+    meta << numerics_meta_lines();  // the mode these weights were computed in
     io::write_file_atomic((dir / "meta.yaml").string(), meta.str());
     // The pointer flips only once the folder is complete; then older checkpoints go.
     io::write_file_atomic(run_dir + "/checkpoint/LATEST", name);

@@ -17,6 +17,7 @@ before=$(snapshot)
 printf 'race:\n  n_env: [1\n' > bad_syntax.yaml
 printf 'race:\n  n_env: 6\n  n_env: 4\n' > duplicate.yaml
 printf 'seed: 1\nrace: 5\n' > not_mapping.yaml
+printf 'seed: 1\nrace: ~\n' > empty_section.yaml
 printf '\x00\x01\x02binary' > binary.yaml
 printf 't_s,Nz_ref_g\n' > header_only.csv
 printf 't_s,Nz_ref_g\n0,1\n0,2\n' > not_increasing.csv
@@ -73,6 +74,8 @@ case_ "config is binary" binary.yaml -- "$bin" train --config binary.yaml --run 
 case_ "YAML syntax" bad_syntax.yaml:3 -- "$bin" train --config bad_syntax.yaml --run "$work/n5"
 case_ "duplicate key" "duplicate.yaml:3: race.n_env" -- "$bin" train --config duplicate.yaml --run "$work/n6"
 case_ "section not a mapping" "not_mapping.yaml: 'race'" -- "$bin" train --config not_mapping.yaml --run "$work/n7"
+case_ "empty section" "empty_section.yaml:2: race is an empty section" -- "$bin" train --config empty_section.yaml --run "$work/n7"
+case_ "unknown subcommand" "'bogus' is not a subcommand" -- "$bin" --threads 1 bogus --races 2
 case_ "unknown key" "unknown key 'foo'" -- $T --set foo=1
 case_ "n_env 0" "race.n_env: value 0" -- $T --set race.n_env=0
 case_ "n_env text" "race.n_env: expected an integer, got 'abc'" -- $T --set race.n_env=abc

@@ -243,6 +243,37 @@ if mount -t tmpfs -o size=6m tmpfs full 2>/dev/null; then
   [ "$(sig full/exp)" = "$sea" ] || fail "export onto a full disk changed the earlier export"
   [ "$(sig full/tour)" = "$st2" ] || fail "tournament onto a full disk changed the earlier tournament"
   [ "$(ls -A full | tr '\n' ' ')" = "exp filler tour " ] || fail "a full disk left temporaries: $(ls -A full)"
+  # A disk that fills while gnuplot draws (the data files fit, the figure does not): either the new
+  # output whole with its figures, or exit 2 in one line with the earlier output kept; never an
+  # output without its figures (gnuplot exits 0 with a PNG cut short).
+  rm -f full/filler
+  "$bin" replay --run runA --out full/rep --seed 1 > /dev/null 2>&1 || fail "reference replay on the tmpfs"
+  srep=$(sig full/rep)
+  for free_kb in 40 80 140 200 300; do
+    rm -f full/filler
+    avail_kb=$(df -k --output=avail full | tail -n 1 | tr -d ' ')
+    [ "$avail_kb" -gt "$free_kb" ] && head -c "$(((avail_kb - free_kb) * 1024))" /dev/zero > full/filler 2>/dev/null
+    for what in tournament replay; do
+      if [ $what = tournament ]; then out=$(T 4 full/tour 2>&1); else out=$("$bin" replay --run runA --out full/rep --seed 2 2>&1); fi
+      rc=$?
+      d=full/tour old=$st2 png=tournament.png
+      [ $what = replay ] && d=full/rep old=$srep png=replay.png
+      if [ $rc -eq 0 ]; then
+        png_whole "$d/$png" || fail "$what with $free_kb KB free exited 0 without a whole $png: $out"
+        grep -q "not drawn" <<< "$out" && fail "$what with $free_kb KB free exited 0 with a figure not drawn: $out"
+        # the new output stays for the next size; its earlier one is the reference again
+        if [ $what = tournament ]; then rm -rf full/tour && cp -a ref_t2 full/tour; else
+          rm -rf full/rep && "$bin" replay --run runA --out full/rep --seed 1 > /dev/null 2>&1; fi
+      else
+        msg=$(grep -v '^ *[0-9]*%' <<< "$out" | grep -v "^resuming\|^tournament:" | tail -n 1)
+        [ $rc -eq 2 ] && [[ "${msg,,}" == *"no space left on device"* ]] ||
+          fail "$what with $free_kb KB free: rc $rc: $out"
+        [ "$(sig $d)" = "$old" ] || fail "$what with $free_kb KB free changed the earlier output"
+        echo "$what with $free_kb KB free: $msg"
+      fi
+    done
+  done
+  rm -f full/filler
   umount full && trap - EXIT
 else
   echo "full-disk case skipped: cannot mount a tmpfs here (needs root)"

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 
@@ -35,6 +36,34 @@ TEST(RunFolderLock, SecondWriterIsRefusedWithTheHoldersPidUntilTheFirstEnds) {
     EXPECT_THROW(RunFolderLock third(dir), std::runtime_error);
   }
   EXPECT_NO_THROW(RunFolderLock again(dir));  // released with its owner
+}
+
+std::string lock_text(const std::string& dir) {
+  std::ifstream in(dir + "/.lock", std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// A process that takes the lock and then refuses the folder leaves the file as it found it; one
+// that claims it (it writes the run) leaves its pid, which names the writer of that run.
+TEST(RunFolderLock, AnUnclaimedLockLeavesTheFileAsFoundAClaimedOneItsPid) {
+  const std::string dir = fresh_dir("claim");
+  fs::create_directories(dir);
+  { std::ofstream(dir + "/.lock") << "4242\n"; }
+  {
+    RunFolderLock refused(dir);
+    EXPECT_EQ(lock_text(dir), std::to_string(getpid()) + "\n");  // the holder, while held
+  }
+  EXPECT_EQ(lock_text(dir), "4242\n");
+  {
+    RunFolderLock writer(dir);
+    writer.claim();
+    RunFolderLock moved(std::move(writer));  // the claim travels with the lock
+  }
+  EXPECT_EQ(lock_text(dir), std::to_string(getpid()) + "\n");
+  const std::string fresh = fresh_dir("claim_new");
+  { RunFolderLock refused(fresh); }
+  EXPECT_TRUE(fs::exists(fresh + "/.lock"));  // kept, empty: unlinking could split the lock
+  EXPECT_EQ(lock_text(fresh), "");
 }
 
 TEST(RunFolder, RunDataIsAnythingButTheLockAndEmptyFolders) {

@@ -23,6 +23,22 @@ rm "$run/checkpoint/LATEST"
 msg=$("$bin" train --config "$config" --run "$run" --seed 4 --quiet 2>&1); rc=$?
 [ "$rc" -eq 2 ] && [[ "$msg" == *"already holds a run"* ]] || fail "fresh run over a run without LATEST: rc $rc: $msg"
 [ -f "$run/checkpoint/$latest/trainer.pt" ] || fail "the refused run changed the folder"
+# Refused, a start over a run (or a resume in another numeric mode) leaves it byte for byte, its lock included.
+echo "$latest" > "$run/checkpoint/LATEST"
+sig() { (cd "$1" && find . -type f | LC_ALL=C sort | xargs md5sum) | md5sum; }
+before=$(sig "$run")
+msg=$("$bin" train --config "$config" --run "$run" --quiet 2>&1); rc=$?
+[ "$rc" -eq 2 ] && [[ "$msg" == *"already holds a run"* ]] || fail "fresh run over a run: rc $rc: $msg"
+[ "$(sig "$run")" = "$before" ] || fail "the refused start changed the run's files (its .lock?)"
+meta="$run/checkpoint/$latest/meta.yaml"
+cp "$meta" "$work/meta.keep"
+sed -i 's/^numerics: .*/numerics: turbo/' "$meta"
+before=$(sig "$run")
+msg=$("$bin" train --resume "$run" --quiet 2>&1); rc=$?
+[ "$rc" -eq 2 ] && [[ "$msg" == *"meta.yaml: numerics is 'turbo'"* ]] || fail "resume with a bad numerics record: rc $rc: $msg"
+[ "$(sig "$run")" = "$before" ] || fail "the refused resume changed the run's files"
+cp "$work/meta.keep" "$meta"
+rm "$run/checkpoint/LATEST"
 "$bin" train --config "$config" --run "$run" --seed 4 --overwrite --max-updates 1 --quiet || fail "--overwrite"
 [ -f "$run.old-1/checkpoint/$latest/trainer.pt" ] || fail "--overwrite did not keep the old run in $run.old-1"
 grep -q "^seed: 4" "$run/config.yaml" || fail "--overwrite did not start the new run"
