@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/fma_peak.hpp"
 #include "bench/network_cost.hpp"
 #include "commands.hpp"
 #include "io/json_text.hpp"
@@ -77,8 +78,19 @@ std::vector<NetCase> net_cases(const models::ObsDims& dims, const models::HlObs&
   return cases;
 }
 
+// What the networks' rates are read against: this LibTorch's float matrix product (the kernels'
+// practical peak) and the CPU's float FMA peak (the physical one, bench/fma_peak.hpp).
+struct Reference {
+  double matmul_gflops = 0.0;
+  double fma_gflops = 0.0;
+};
+
+// Backward FLOPs counted as twice the forward's (per dense layer, the weight and the input
+// gradients each cost the forward's multiply-adds), so a forward and backward is three forwards.
+constexpr double kForwardBackwardFactor = 3.0;
+
 // One network's forward and forward+backward medians, as a table row or a JSON line.
-void time_case(NetCase& c, const NetsBenchOptions& o, double peak_gflops, const std::string& blas) {
+void time_case(NetCase& c, const NetsBenchOptions& o, const Reference& ref, const std::string& blas) {
   const double fwd_s = bench::time_median_s(
       [&]() {
         torch::NoGradGuard no_grad;
@@ -93,24 +105,30 @@ void time_case(NetCase& c, const NetsBenchOptions& o, double peak_gflops, const 
       o.repeats);
   const double fwd_us = 1e6 * fwd_s / o.samples, fwd_bwd_us = 1e6 * fwd_bwd_s / o.samples;
   const double gflops = static_cast<double>(c.flops_per_sample) / (fwd_us * 1e3);
+  const double fb_gflops = kForwardBackwardFactor * static_cast<double>(c.flops_per_sample) / (fwd_bwd_us * 1e3);
   if (o.json) {
     std::printf("{\"bench\": \"nets\", \"network\": %s, \"samples\": %d, \"threads\": %d, "
-                "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
-                "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, \"matmul_gflops\": %.6g, "
-                "\"blas_core\": %s, \"numerics\": %s}\n",
+                "\"flops_per_sample\": %lld, \"backward_flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, "
+                "\"forward_backward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, "
+                "\"forward_backward_gflops\": %.6g, \"matmul_gflops\": %.6g, \"fma_peak_gflops\": %.6g, "
+                "\"forward_fma_share\": %.4g, \"forward_backward_fma_share\": %.4g, \"blas_core\": %s, "
+                "\"numerics\": %s}\n",
                 io::json_string(c.name).c_str(), o.samples, torch::get_num_threads(),
-                static_cast<long long>(c.flops_per_sample), fwd_us, fwd_bwd_us, gflops, peak_gflops,
-                io::json_string(blas).c_str(), io::json_string(io::numeric_mode_name()).c_str());
+                static_cast<long long>(c.flops_per_sample), static_cast<long long>(2 * c.flops_per_sample), fwd_us,
+                fwd_bwd_us, gflops, fb_gflops, ref.matmul_gflops, ref.fma_gflops, gflops / ref.fma_gflops,
+                fb_gflops / ref.fma_gflops, io::json_string(blas).c_str(),
+                io::json_string(io::numeric_mode_name()).c_str());
   } else {
-    std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f\n", c.name.c_str(), 1e-3 * c.flops_per_sample, fwd_us,
-                gflops, fwd_bwd_us, gflops / peak_gflops);
+    std::printf("%-20s %12.1f %12.4f %10.1f %12.4f %10.2f %9.3f %9.3f\n", c.name.c_str(), 1e-3 * c.flops_per_sample,
+                fwd_us, gflops, fwd_bwd_us, gflops / ref.matmul_gflops, gflops / ref.fma_gflops,
+                fb_gflops / ref.fma_gflops);
   }
   std::fflush(stdout);
 }
 
 // The forwards on the Eigen kernels (PpoConfig and EsConfig::eigen_inference, rollouts only):
 // forward alone. The HL one for the shared es_d1/es_d2 critic.
-void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims, double peak_gflops) {
+void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims, const Reference& ref) {
   models::LlActorCriticConfig lc;
   lc.dims = dims;
   models::HlCriticConfig hc;
@@ -132,12 +150,12 @@ void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims,
     if (o.json)
       std::printf("{\"bench\": \"nets\", \"network\": \"%s\", \"samples\": %d, \"threads\": %d, "
                   "\"flops_per_sample\": %lld, \"forward_us_per_sample\": %.6g, \"forward_gflops\": %.6g, "
-                  "\"matmul_gflops\": %.6g}\n",
+                  "\"matmul_gflops\": %.6g, \"fma_peak_gflops\": %.6g, \"forward_fma_share\": %.4g}\n",
                   e.name, o.samples, torch::get_num_threads(), static_cast<long long>(e.flops), e.us, eigen_gflops,
-                  peak_gflops);
+                  ref.matmul_gflops, ref.fma_gflops, eigen_gflops / ref.fma_gflops);
     else
-      std::printf("%-20s %12.1f %12.4f %10.1f %12s %10.2f\n", e.short_name, 1e-3 * e.flops, e.us, eigen_gflops, "-",
-                  eigen_gflops / peak_gflops);
+      std::printf("%-20s %12.1f %12.4f %10.1f %12s %10.2f %9.3f %9s\n", e.short_name, 1e-3 * e.flops, e.us, eigen_gflops,
+                  "-", eigen_gflops / ref.matmul_gflops, eigen_gflops / ref.fma_gflops, "-");
   }
 }
 
@@ -150,19 +168,31 @@ void run_bench_nets(const NetsBenchOptions& o) {
   const models::LlObs ll{hl.ego, hl.prev_action, hl.ado, hl.ado_alive, hl.task};
   std::vector<NetCase> cases = net_cases(dims, hl, ll);
 
-  // The reference: what this LibTorch's float matrix product reaches here at these threads.
-  const double peak_gflops = bench::matmul_gflops(o.repeats);
+  // The references: what this LibTorch's float matrix product reaches here at these threads, and
+  // what the CPU's FMA units can.
+  Reference ref;
+  ref.matmul_gflops = bench::matmul_gflops(o.repeats);
+  const bench::FmaPeak fma = bench::measure_fma_peak(torch::get_num_threads(), o.repeats);
+  ref.fma_gflops = fma.f32_gflops;
   const std::string blas = io::blas_core();
-  if (!o.json) {
+  if (o.json) {
+    std::printf("{\"bench\": \"fma_peak\", \"isa\": \"%s\", \"threads\": %d, \"f32_gflops\": %.6g, "
+                "\"f64_gflops\": %.6g}\n",
+                fma.isa, fma.threads, fma.f32_gflops, fma.f64_gflops);
+  } else {
     std::printf("f16race bench nets: %d samples, median of %d runs, %d torch threads, %s build\n", o.samples, o.repeats,
                 torch::get_num_threads(), io::numeric_mode_name());
-    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s)\n", peak_gflops,
-                blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str());
-    std::printf("%-20s %12s %12s %10s %12s %10s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
-                "fwd+bwd us", "x peak");
+    std::printf("reference: 1024^3 float matrix product %.1f GFLOP/s (%s); float FMA peak %.1f GFLOP/s (%s, %d "
+                "threads; double %.1f)\n",
+                ref.matmul_gflops, blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str(),
+                fma.f32_gflops, fma.isa, fma.threads, fma.f64_gflops);
+    std::printf("x matmul, x FMA: the forward's GF/s as a share of the matrix product's and of the FMA peak; f+b: the\n"
+                "forward and backward's, counting the backward as twice the forward's FLOPs\n");
+    std::printf("%-20s %12s %12s %10s %12s %10s %9s %9s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",
+                "fwd+bwd us", "x matmul", "x FMA", "f+b xFMA");
   }
-  for (auto& c : cases) time_case(c, o, peak_gflops, blas);
-  time_eigen_forwards(o, dims, peak_gflops);
+  for (auto& c : cases) time_case(c, o, ref, blas);
+  time_eigen_forwards(o, dims, ref);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/fma_peak.hpp"
 #include "bench/sim_throughput.hpp"
 #include "commands.hpp"
 #include "io/input_error.hpp"
@@ -48,8 +49,19 @@ void run_bench_sim(const SimBenchOptions& o) {
                 o.dt_s, o.law == "held" ? "held over each step" : (o.law + " law at every RK stage").c_str());
     std::printf("machine: %s, %d cores, %s build; %d aircraft, %d substeps per run, median of %d runs\n",
                 io::cpu_model().c_str(), omp_get_num_procs(), io::numeric_mode_name(), o.aircraft, o.substeps, o.repeats);
-    std::printf("%-8s %8s %10s %22s\n", "model", "threads", "aircraft", "aircraft-substeps/s");
   }
+  // The roofline: the CPU's double FMA peak at each measured thread count (bench/fma_peak.hpp).
+  std::vector<double> peak;
+  for (int t : threads) {
+    const bench::FmaPeak p = bench::measure_fma_peak(t, o.repeats);
+    peak.push_back(p.f64_gflops);
+    if (o.json)
+      std::printf("{\"bench\": \"fma_peak\", \"isa\": \"%s\", \"threads\": %d, \"f32_gflops\": %.6g, "
+                  "\"f64_gflops\": %.6g}\n", p.isa, t, p.f32_gflops, p.f64_gflops);
+    else
+      std::printf("double FMA peak at %d thread%s: %.1f GFLOP/s (%s)\n", t, t == 1 ? "" : "s", p.f64_gflops, p.isa);
+  }
+  if (!o.json) std::printf("%-8s %8s %10s %22s\n", "model", "threads", "aircraft", "aircraft-substeps/s");
   for (AeroModel model : {AeroModel::kMorelli, AeroModel::kStevens}) {
     for (int t : threads) {
       const double rate = bench::sim_substeps_per_s(

@@ -20,6 +20,16 @@ for l in lines:
     try: j = json.loads(l)
     except ValueError as e: sys.exit(what + ": not JSON (" + str(e) + "): " + l)
     if want and j.get("config") != want: sys.exit(what + ": config " + repr(j.get("config")) + " != " + repr(want))
+    if j.get("bench") == "fma_peak":  # the roofline: the widest vectors this CPU has, both precisions measured
+        flags = open("/proc/cpuinfo").read().split()
+        isa = "avx512" if "avx512f" in flags else "avx2" if "avx2" in flags and "fma" in flags else "sse2"
+        if j.get("isa") != isa: sys.exit(what + ": fma_peak isa " + repr(j.get("isa")) + " on a CPU with " + isa)
+        if not (j["f32_gflops"] > 0 and j["f64_gflops"] > 0): sys.exit(what + ": fma_peak " + l)
+    if j.get("bench") == "nets" and "fma_peak_gflops" in j:  # every network read against the peak printed
+        peaks = [json.loads(m)["f32_gflops"] for m in lines if json.loads(m).get("bench") == "fma_peak"]
+        if peaks != [j["fma_peak_gflops"]]: sys.exit(what + ": fma_peak_gflops " + repr(j["fma_peak_gflops"]) + " != " + repr(peaks))
+        if abs(j["forward_fma_share"] - j["forward_gflops"] / j["fma_peak_gflops"]) > 1e-3 * j["forward_fma_share"]:
+            sys.exit(what + ": forward_fma_share " + repr(j["forward_fma_share"]))
     if j.get("bench") == "train":  # the floor is timed on rows with the alive shares of the run
         for k in ("ll_forward_alive_share", "ll_train_alive_share", "hl_forward_alive_share", "hl_train_alive_share"):
             if not 0.0 <= j.get(k, -1.0) <= 1.0: sys.exit(what + ": " + k + " = " + repr(j.get(k)))
