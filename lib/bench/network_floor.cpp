@@ -62,6 +62,21 @@ FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::Netwo
   return c;
 }
 
+PhysicalFloor physical_floor(const train::TrainConfig& cfg, const train::NetworkWork& w, double fma_gflops) {
+  models::LlActorCriticConfig lc = cfg.ll.net;
+  lc.dims = train::obs_dims(cfg.race);
+  agents::EsConfig ec = cfg.hl;
+  ec.dims = lc.dims;
+  if (ec.n_atoms > 1 && !(ec.v_max > ec.v_min)) ec.v_max = ec.v_min + 1.0;  // the support does not change the FLOPs
+  const double ll = static_cast<double>(models::LlActorCritic(lc)->flops_per_sample());
+  const double hl = static_cast<double>(models::HlCritic(agents::es_critic_config(ec))->flops_per_sample());
+  PhysicalFloor f;
+  f.flops = ll * (static_cast<double>(w.ll_forward_rows) + 3.0 * static_cast<double>(w.ll_train_rows)) +
+            hl * (static_cast<double>(w.hl_forward_rows) + 3.0 * static_cast<double>(w.hl_train_rows));
+  f.seconds = fma_gflops > 0.0 ? f.flops / (fma_gflops * 1e9) : 0.0;
+  return f;
+}
+
 NetworkFloor price_floor(const train::TrainConfig& cfg, const train::NetworkWork& w, const FloorCosts& before,
                          const FloorCosts& after) {
   NetworkFloor f;

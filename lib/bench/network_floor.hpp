@@ -38,4 +38,14 @@ FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::Netwo
 NetworkFloor price_floor(const train::TrainConfig& cfg, const train::NetworkWork& w, const FloorCosts& before,
                          const FloorCosts& after);
 
+// The run's network FLOPs (no-grad rows at a forward's FLOPs, training rows at three: the
+// backward counted as twice the forward) and the seconds they take at the CPU's float FMA peak:
+// the physical floor, which no kernel beats (the dead aircraft the attention core skips counted as
+// work, so it is lower still).
+struct PhysicalFloor {
+  double flops = 0.0;
+  double seconds = 0.0;
+};
+PhysicalFloor physical_floor(const train::TrainConfig& cfg, const train::NetworkWork& w, double fma_gflops);
+
 }  // namespace f16race::bench

@@ -1,11 +1,13 @@
 #include "bench/train_bench.hpp"
 
+#include <omp.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <sstream>
 
+#include "bench/fma_peak.hpp"
 #include "bench/timing.hpp"
 
 namespace f16race::bench {
@@ -44,6 +46,9 @@ void summarise(TrainBenchResult& r) {
   r.rate = median_of(r.rates);
   r.floor_rate = median_of(r.floor_rates);
   r.ratio = median_of(r.ratios);
+  std::vector<double> physical;
+  for (const TrainBenchRun& m : r.runs) physical.push_back(m.physical_floor_rate);
+  r.physical_floor_rate = median_of(physical);
 }
 
 }  // namespace
@@ -56,6 +61,7 @@ TrainBenchResult bench_training(const train::TrainConfig& cfg, long long updates
   const std::string dir = scratch_run_dir();
   const int n_agent = 2 * cfg.race.team_size;
   TrainBenchResult r;
+  r.fma_gflops = measure_fma_peak(omp_get_max_threads(), 5).f32_gflops;
   FloorCosts previous;
   for (int k = 0; k < repeat; ++k) {
     TrainBenchRun m;
@@ -66,6 +72,8 @@ TrainBenchResult bench_training(const train::TrainConfig& cfg, long long updates
     // Per update, as a run of any length trains: without the wait for its last figure (run_end).
     m.rate = static_cast<double>(m.summary.env_steps) * n_agent / m.summary.time.per_update_loop();
     m.floor_rate = static_cast<double>(m.summary.env_steps) * n_agent / m.floor.total_s;
+    m.physical = physical_floor(cfg, m.summary.work, r.fma_gflops);
+    m.physical_floor_rate = static_cast<double>(m.summary.env_steps) * n_agent / m.physical.seconds;
     r.runs.push_back(std::move(m));
   }
   if (r.runs.size() > 1) r.runs.erase(r.runs.begin());

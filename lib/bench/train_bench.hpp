@@ -17,7 +17,9 @@ namespace f16race::bench {
 struct TrainBenchRun {
   train::TrainSummary summary;
   NetworkFloor floor;
+  PhysicalFloor physical;
   double rate = 0, floor_rate = 0;  // aircraft-steps/s end to end, and at the floor
+  double physical_floor_rate = 0;   // ... and at the physical floor (its FLOPs at the FMA peak)
 };
 
 struct TrainBenchResult {
@@ -26,6 +28,8 @@ struct TrainBenchResult {
   std::vector<double> rates, floor_rates, ratios, env_s, inference_s, ppo_s, es_s, io_s, ppo_chunk_wait_s, run_end_s;
   std::size_t median_run = 0;  // by end-to-end rate: the run whose breakdown is reported
   double rate = 0, floor_rate = 0, ratio = 0;  // medians over `runs`
+  double fma_gflops = 0;              // the CPU's float FMA peak at these threads (bench/fma_peak.hpp)
+  double physical_floor_rate = 0;     // median over `runs`
 };
 
 // A run folder of this process under the temporary directory, so two benches at once do not

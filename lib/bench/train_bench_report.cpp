@@ -62,7 +62,7 @@ std::string train_bench_json(const std::string& path, const train::TrainConfig& 
               "\"runs_floor_aircraft_steps_per_s\": [%s], \"runs_floor_ratio\": [%s], \"runs_env_s\": [%s], "
               "\"runs_inference_s\": [%s], \"runs_ppo_s\": [%s], \"runs_es_s\": [%s], \"runs_io_s\": [%s], "
               "\"runs_ppo_chunk_wait_s\": [%s], \"runs_run_end_s\": [%s], "
-              "\"cpu\": %s, \"blas_core\": %s, \"numerics\": %s}\n",
+              "\"cpu\": %s, \"blas_core\": %s, \"numerics\": %s, ",
               io::json_string(path).c_str(), cfg.race.n_env, cfg.race.n_env * n_agent, omp_get_max_threads(),
               static_cast<long long>(s.env_steps), res.rate, t.env, t.inference, t.ppo, t.es, t.io, t.other, t.run_end, t.total, t.ppo_chunk_wait, t.es_chunk_wait,
               res.floor_rate, floor.ll_forward_s,
@@ -75,6 +75,11 @@ std::string train_bench_json(const std::string& path, const train::TrainConfig& 
               joined(res.inference_s, "%.4g").c_str(), joined(res.ppo_s, "%.4g").c_str(), joined(res.es_s, "%.4g").c_str(),
               joined(res.io_s, "%.4g").c_str(), joined(res.ppo_chunk_wait_s, "%.4g").c_str(), joined(res.run_end_s, "%.4g").c_str(), io::json_string(io::cpu_model()).c_str(),
               io::json_string(io::blas_core()).c_str(), io::json_string(io::numeric_mode_name()).c_str());
+  // The physical floor: the median run's network FLOPs at the CPU's float FMA peak.
+  const double physical_ratio = res.physical_floor_rate > 0 ? res.rate / res.physical_floor_rate : 0.0;
+  appendf(out, "\"fma_peak_gflops\": %.6g, \"network_gflop\": %.6g, \"physical_floor_aircraft_steps_per_s\": %.6g, "
+               "\"physical_floor_ratio\": %.4g}\n",
+          res.fma_gflops, mid.physical.flops * 1e-9, res.physical_floor_rate, physical_ratio);
   return out;
 }
 
@@ -113,6 +118,12 @@ std::string train_bench_text(const std::string& path, const train::TrainConfig& 
               static_cast<long long>(floor.hl_train_batch), floor.ll_forward_s, floor.ll_train_s,
               floor.hl_forward_s, floor.hl_train_s, floor.ll_forward_alive, floor.ll_train_alive,
               floor.hl_forward_alive, floor.hl_train_alive);
+  appendf(out, "  physical floor %.0f aircraft-steps/s: the median run's %.1f GFLOP of networks at the CPU's float "
+              "FMA peak, %.0f GFLOP/s (end to end / physical floor %.3f; the kernel-priced floor above is %.3f of "
+              "it)\n",
+          res.physical_floor_rate, mid.physical.flops * 1e-9, res.fma_gflops,
+          res.physical_floor_rate > 0 ? res.rate / res.physical_floor_rate : 0.0,
+          res.physical_floor_rate > 0 ? res.floor_rate / res.physical_floor_rate : 0.0);
   return out;
 }
 

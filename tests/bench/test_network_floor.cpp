@@ -9,6 +9,8 @@
 #include "bench/sim_throughput.hpp"
 #include "bench/timing.hpp"
 #include "io/input_error.hpp"
+#include "agents/expected_sarsa.hpp"
+#include "train/obs_views.hpp"
 
 namespace f16race::bench {
 namespace {
@@ -53,6 +55,29 @@ TEST(BenchNetworkFloor, PricesTheWorkAtTheMeanOfBothCosts) {
   EXPECT_EQ(f.hl_train_batch, 0);
   EXPECT_DOUBLE_EQ(f.ll_forward_alive, 0.0);  // rows without alive aircraft counted
   EXPECT_DOUBLE_EQ(f.hl_train_alive, kDefaultAliveShare);
+}
+
+// The physical floor: forward rows at one forward's FLOPs, training rows at three, priced at the peak.
+TEST(BenchNetworkFloor, PhysicalFloorCountsTrainingRowsThriceAndPricesAtThePeak) {
+  train::TrainConfig cfg;
+  train::NetworkWork w;
+  w.ll_forward_rows = 1000;
+  w.ll_train_rows = 100;
+  w.hl_forward_rows = 10;
+  w.hl_train_rows = 5;
+  const PhysicalFloor f = physical_floor(cfg, w, 200.0);
+  models::LlActorCriticConfig lc = cfg.ll.net;
+  lc.dims = train::obs_dims(cfg.race);
+  agents::EsConfig ec = cfg.hl;
+  ec.dims = lc.dims;
+  if (ec.n_atoms > 1 && !(ec.v_max > ec.v_min)) ec.v_max = ec.v_min + 1.0;
+  const double ll = static_cast<double>(models::LlActorCritic(lc)->flops_per_sample());
+  const double hl = static_cast<double>(models::HlCritic(agents::es_critic_config(ec))->flops_per_sample());
+  ASSERT_GT(ll, 0.0);
+  ASSERT_GT(hl, 0.0);
+  EXPECT_DOUBLE_EQ(f.flops, ll * (1000 + 3 * 100) + hl * (10 + 3 * 5));
+  EXPECT_DOUBLE_EQ(f.seconds, f.flops / 200e9);
+  EXPECT_EQ(physical_floor(cfg, w, 0.0).seconds, 0.0);  // no peak measured: no floor
 }
 
 TEST(BenchSimThroughput, LawNamesAndATinyCase) {

@@ -29,6 +29,9 @@ TrainBenchResult two_runs() {
     for (auto* v : {&res.inference_s, &res.ppo_s, &res.es_s, &res.io_s, &res.ppo_chunk_wait_s, &res.run_end_s})
       v->push_back(0.5);
   }
+  res.runs[1].physical.flops = 2.0e9;
+  res.fma_gflops = 400.0;
+  res.physical_floor_rate = 60000.0;
   res.median_run = 1;
   res.rate = 1500.0;
   res.floor_rate = 4000.0;
@@ -54,6 +57,9 @@ TEST(TrainBenchReport, JsonIsOneParsableLineWithTheMediansAndEveryRun) {
   EXPECT_EQ(j["runs"].as<int>(), 2);
   EXPECT_EQ(j["runs_aircraft_steps_per_s"][1].as<double>(), 2000.0);
   EXPECT_EQ(j["runs_floor_ratio"][0].as<double>(), 0.25);
+  EXPECT_EQ(j["fma_peak_gflops"].as<double>(), 400.0);
+  EXPECT_EQ(j["network_gflop"].as<double>(), 2.0) << "the median run's";
+  EXPECT_EQ(j["physical_floor_ratio"].as<double>(), 0.025);
 }
 
 TEST(TrainBenchReport, TextNamesTheMedianTheRunsAndTheShares) {
@@ -63,6 +69,11 @@ TEST(TrainBenchReport, TextNamesTheMedianTheRunsAndTheShares) {
   // The median run: env 2 s and PPO 2 s of a 5 s loop.
   EXPECT_NE(text.find("env (sim + race + obs) 40%, inference 0%, PPO updates 40%"), std::string::npos) << text;
   EXPECT_NE(text.find("network floor 4000 aircraft-steps/s"), std::string::npos) << text;
+  EXPECT_NE(text.find("physical floor 60000 aircraft-steps/s: the median run's 2.0 GFLOP of networks at the CPU's "
+                      "float FMA peak, 400 GFLOP/s (end to end / physical floor 0.025; the kernel-priced floor above "
+                      "is 0.067 of it)"),
+            std::string::npos)
+      << text;
 }
 
 }  // namespace
