@@ -70,7 +70,7 @@ std::vector<double> race_returns(const TrainConfig& cfg) {
 }
 
 TEST(HlTargets, DerivedScaleAndSupportHoldEveryRaceReturnOfEveryShippedConfig) {
-  for (const char* name : {"default.yaml", "paper.yaml", "smoke.yaml"}) {
+  for (const char* name : {"default.yaml", "paper.yaml", "smoke.yaml", "long.yaml"}) {
     for (const double dt_hl : {8.0, 20.0}) {
       const TrainConfig cfg = shipped(name, dt_hl);
       SCOPED_TRACE(std::string(name) + " dt_hl_s " + std::to_string(dt_hl));
