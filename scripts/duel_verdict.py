@@ -12,7 +12,9 @@ CPU and the binary go to KEEP_DIR/sS.json, small enough to commit.
 The verdict: M = mean of w_S over the kept seeds; its 95 % interval by bootstrap over seeds
 (10 000 replicates, Random("107:es_d3:es_d2"), percentiles 2.5 and 97.5). ES+D3 beats ES+D2:
 holds if lo > 0.5; does not hold if hi < 0.55 (the study's delta; "reversed" when hi < 0.5);
-otherwise cannot tell at this power. Reported beside it, deciding nothing: each variant's mean
+otherwise cannot tell at this power; with fewer than the eight seeds the rule names, only how
+many are kept (no number is shown before all are in). Reported beside it, deciding nothing: each
+variant's mean
 winrate against its own center line and blocks per race minus its center line's. Standard
 library only.
 """
@@ -100,7 +102,10 @@ def main(argv):
         sys.exit("usage: duel_verdict.py KEEP_DIR")
     pieces = load(argv[1])
     if len(pieces) < PLANNED:
-        print(f"**Provisional**: {len(pieces)} of the {PLANNED} pre-registered seeds; notebook 107 reads none before all are in.\n")
+        # The rule reads no seed before all are in: no winrate is printed, so none can be seen early.
+        print(f"{len(pieces)} of the {PLANNED} pre-registered seeds kept; notebook 107 reads none before all are in: "
+              "no table and no verdict yet.")
+        return
     print("| seed | ES+D3 vs ES+D2 | races | es_d2 vs @center | es_d3 vs @center | es_d2 blocks | es_d3 blocks | CPU |")
     print("|---|---|---|---|---|---|---|---|")
     for p in pieces:

@@ -85,7 +85,8 @@ with tempfile.TemporaryDirectory() as tmp:
 
     write_kept(f"{tmp}/five", cases["holds"][:5])
     out = run(f"{tmp}/five")
-    assert "**Provisional**: 5 of the 8" in out.stdout, out.stdout
+    assert out.returncode == 0 and "5 of the 8 pre-registered seeds kept" in out.stdout, out
+    assert "M(es_d3" not in out.stdout and "0.6" not in out.stdout, out.stdout  # nothing read early
 
     os.makedirs(f"{tmp}/bad")
     json.dump({"seed": 1}, open(f"{tmp}/bad/s1.json", "w"))
@@ -99,4 +100,4 @@ with tempfile.TemporaryDirectory() as tmp:
     assert out.returncode != 0 and "s1.json: unreadable" in out.stderr, out
     assert len(out.stderr.strip().splitlines()) == 1, out.stderr
 
-print("duel_verdict: kept pieces, holds, reversed, cannot tell, provisional and bad input as expected")
+print("duel_verdict: kept pieces, holds, reversed, cannot tell, too few seeds and bad input as expected")
