@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "config_versions/config_versions.hpp"
 #include "dynamics/f16_batch.hpp"
 #include "dynamics/trim.hpp"
 #include "io/input_error.hpp"
@@ -160,6 +161,8 @@ race::RaceConfig read_config(const py::object& config_path, const py::object& ov
     source = py::str(py::module_::import("os").attr("fspath")(config_path));
     root = io::load_yaml_with_overrides(source, sets);
   }
+  config_versions::migrate(root, source, config_path.is_none() ? config_versions::Written::kByUser
+                                                                : config_versions::written_by(source));
   io::ConfigReader top(root, source);
   io::ConfigReader rr = top.child("race");
   race::RaceConfig cfg;

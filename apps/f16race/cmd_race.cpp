@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "config_versions/config_versions.hpp"
 #include "io/csv_table.hpp"
 #include "io/plot.hpp"
 #include "io/yaml_config.hpp"
@@ -34,9 +35,9 @@ struct RaceOptions {
   long long seed = -1;
   int plot_race = 0;
   std::vector<double> airspeeds;  // the pilots' set points: one for all, or blue's and red's
-  bool lines = false;             // also each track's shortest line (docs/notebook/82; ~20 ms a track)
+  bool lines = false;             // also each track's shortest line (~20 ms a track)
   // The autopilot's racing line per team: its lanes shifted by the taut line whose points keep
-  // within this fraction of the radius (0: its start lanes; docs/notebook/83). One for both, or blue's and red's.
+  // within this fraction of the radius (0: its start lanes). One for both, or blue's and red's.
   std::vector<double> line_fracs;
   double line_max_offset = 1.0;  // a line's aim points held within this fraction of the radius
 };
@@ -44,6 +45,7 @@ struct RaceOptions {
 // The race config with the command line's overrides, checked before any race is flown.
 RaceConfig race_config(const RaceOptions& o) {
   YAML::Node root = io::load_yaml_with_overrides(o.config, o.overrides);
+  config_versions::migrate(root, o.config, config_versions::written_by(o.config));
   RaceConfig cfg;
   io::ConfigReader top(root, o.config);
   io::ConfigReader rr = top.child("race");

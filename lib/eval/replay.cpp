@@ -56,7 +56,7 @@ Side make_side(const std::string& spec, const train::RunPolicy* blue, std::uint6
   return Side{name, std::move(p), rule};
 }
 
-// The built-in autopilot as the tournament races it: the tuned baseline (docs/notebook/96), or
+// The built-in autopilot as the tournament races it: the tuned baseline (docs/race.md), or
 // on the race's racing line for `autopilot@line`, which a center-line run's race does not have.
 race::AutopilotPilotConfig replay_autopilot(const race::RaceConfig& rc, const race::RaceEnv& env,
                                             const std::string& red_name, const std::string& run) {

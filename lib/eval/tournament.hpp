@@ -76,10 +76,10 @@ struct TournamentOptions {
   double autopilot_airspeed_ftps = 0.0;  // its set point; 0: the first run's race.autopilot_airspeed_ftps
   // The autopilot's start lanes shifted onto each race's racing line (the race's goal_line_frac,
   // which must be > 0), its aim points held within 0.8 of the radius: the classic pilot given the
-  // line the learned team's goals are placed around (docs/notebook/83, 84).
+  // line the learned team's goals are placed around.
   bool autopilot_on_line = false;
   // The autopilot's aim points moved up by this fraction of the local radius (negative: down),
-  // held within 0.8 of it; NaN: the first run's race.autopilot_shift_up_frac (docs/notebook/96).
+  // held within 0.8 of it; NaN: the first run's race.autopilot_shift_up_frac.
   double autopilot_shift_up_frac = std::numeric_limits<double>::quiet_NaN();
   // Non-empty: race on this config file's tracks (race.track) and time limit (race.time_limit_s)
   // instead of the first run's, e.g. trained runs on configs/long.yaml's long tracks.
@@ -88,7 +88,7 @@ struct TournamentOptions {
   // (race.goal_line_frac; 0: the center-line) instead of the first run's setting.
   double goal_line_frac = -1.0;
   // NaN: the first run's race.goal_shift_up_frac; else every entry's goals moved up by this
-  // fraction of the radius (negative: down; docs/notebook/97).
+  // fraction of the radius (negative: down).
   double goal_shift_up_frac = std::numeric_limits<double>::quiet_NaN();
   int races_per_pair = 64;        // half with each side
   std::uint64_t seed = 1;         // tracks and starting positions, and the @random streams

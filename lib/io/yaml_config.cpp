@@ -257,34 +257,6 @@ void ConfigReader::read(const char* key, std::vector<std::string>* value, const 
   *value = out;
 }
 
-namespace {
-// `n` holds `value`: the same text, or the same number (0 and 0.0) or boolean (false and no).
-bool holds(const YAML::Node& n, const char* value) {
-  if (!n.IsScalar()) return false;
-  if (n.Scalar() == value) return true;
-  const YAML::Node want = YAML::Load(value);
-  try {
-    return n.as<double>() == want.as<double>();
-  } catch (const YAML::BadConversion&) {
-  }
-  try {
-    return n.as<bool>() == want.as<bool>();
-  } catch (const YAML::BadConversion&) {
-  }
-  return false;
-}
-}  // namespace
-
-void ConfigReader::retired(const char* key, const char* value, const Retirement& why) {
-  used_.insert(key);
-  retired_.insert(key);
-  if (!has(key)) return;
-  const YAML::Node n = node_[key];
-  if (holds(n, value)) return;
-  throw ConfigError(origin(n) + ": " + key_path(key) + ": " + (n.IsScalar() ? n.Scalar() : scalar_text(n)) +
-                    " was removed " + why.removed + "; build commit " + why.last_commit + " to use it");
-}
-
 ConfigReader ConfigReader::child(const char* key) {
   used_.insert(key);
   if (!has(key)) return ConfigReader(YAML::Node(), source_, key_path(key));
@@ -305,8 +277,7 @@ void ConfigReader::finish() const {
     const std::string k = kv.first.as<std::string>();
     if (!used_.count(k)) {
       std::string known;
-      for (const std::string& u : used_)
-        if (!retired_.count(u)) known += (known.empty() ? "" : ", ") + u;
+      for (const std::string& u : used_) known += (known.empty() ? "" : ", ") + u;
       throw ConfigError(origin(kv.second) + ": unknown key '" + key_path(k.c_str()) + "' (known here: " + known + ")");
     }
   }

@@ -60,13 +60,13 @@ void RaceEnv::goal_lane_here(int i, double* right_ft, double* up_ft) const {
     here = line.offset_at(progress_ft_[i]);
   }
   // The goal's offset from the line in feet, as placed, carried along the line (keeping it as a
-  // fraction of the local radius instead was measured and not adopted: docs/notebook/89, 92).
+  // fraction of the local radius instead was measured and not adopted).
   *right_ft = goal_lateral_ft_[i] + (here.right_ft - at_goal.right_ft);
   *up_ft = goal_vertical_ft_[i] + (here.up_ft - at_goal.up_ft);
 }
 
 // Once per race, not per step; the solver's few kilobytes of vectors are the one allocation a
-// reset makes (an experiment's switch: docs/notebook/86 decides whether it stays).
+// reset makes.
 void RaceEnv::compute_racing_line(int env) {
   if (config_.goal_line_frac <= 0.0) return;
   const Track& tr = tracks_[env];

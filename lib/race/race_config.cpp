@@ -54,9 +54,6 @@ void bind_start_and_limit_keys(R& r, RaceConfig* c) {
   r.read("turn_rate_max_dps", &c->turn_rate_max_dps, 1.0, 360.0);
   r.read("mach_max", &c->mach_max, 0.0, 3.0);
   r.read("mach_governor", &c->mach_governor);
-  r.retired("governor_holds", "mach", io::kNotebook96Keys);
-  r.retired("governor_band_mach", "0.04", io::kNotebook80Keys);
-  r.retired("governor_sets_throttle_at_cap", "false", io::kNotebook78Keys);
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 3000.0);
   r.read("autopilot_shift_up_frac", &c->autopilot_shift_up_frac, -0.8, 0.8);
   std::string exit = c->tube_exit == TubeExit::kGrace ? "grace" : "terminate";
@@ -77,16 +74,11 @@ void bind_goal_keys(R& r, RaceConfig* c) {
   std::string frame = c->goal_frame == GoalFrame::kTrack ? "track" : "world";
   r.read("goal_frame", &frame, {"world", "track"});
   c->goal_frame = frame == "track" ? GoalFrame::kTrack : GoalFrame::kWorld;
-  r.retired("goal_origin", "center");  // lane: docs/notebook/12
   r.read("goal_refresh_ft", &c->goal_refresh_ft, 0.0, 1e6);
   r.read("goal_line_frac", &c->goal_line_frac, 0.0, 0.95);
   r.read("goal_shift_up_frac", &c->goal_shift_up_frac, -0.8, 0.8);
-  r.retired("lane_scales_with_radius", "false", io::kNotebook92Keys);
   r.read("preview_points", &c->preview_points, 1, 64);
   r.read("preview_spacing_ft", &c->preview_spacing_ft, 10.0, 1e5);
-  r.retired("preview_on_line", "false", io::kNotebook88Keys);
-  r.retired("observe_team_lanes", "false");  // docs/notebook/08, 09
-  r.retired("lane_error_average_s", "0", io::kNotebook74Keys);
 }
 
 // The low level's reward weights.
@@ -101,8 +93,6 @@ void bind_reward_keys(R& r, RaceConfig* c) {
   r.read("w_separation", &c->w_separation, -1e6, 1e6);
   r.read("goal_min_separation_ft", &c->goal_min_separation_ft, 0.0, 1e5);
   r.read("w_tube", &c->w_tube, -1e6, 1e6);
-  r.retired("w_tube_wall", "0", io::kNotebook95Keys);
-  r.retired("tube_wall_frac", "0.8", io::kNotebook95Keys);
   r.read("w_collision", &c->w_collision, -1e6, 1e6);
   r.read("w_termination", &c->w_termination, -1e6, 1e6);
   r.read("w_action_change", &c->w_action_change, -1e6, 1e6);

@@ -17,7 +17,7 @@ namespace {
 // start offset in the tube's cross-section there.
 // With a racing line, its offset there is added (and shift_up_frac of the radius upward), and the
 // sum held within max_offset_frac of the radius: a lane near the wall plus the line's cut would aim
-// outside the tube (docs/notebook/83).
+// outside the tube.
 Vec3 lane_aim_point(const RaceEnv& env, int i, double lookahead_ft, double lane_fraction,
                     const TubeLine* line = nullptr, double max_offset_frac = 1.0, double shift_up_frac = 0.0) {
   const double s = env.progress_ft(i) + lookahead_ft;

@@ -47,14 +47,14 @@ struct AutopilotPilotConfig {
   // level that flies exactly what the high level asks: train.ll_pilot autopilot).
   bool follow_goal = false;
   // Non-null (start lanes only): each env's racing line, [n_env], its offsets added to the lane:
-  // the team flies its lanes shifted onto the line (docs/notebook/83).
+  // the team flies its lanes shifted onto the line.
   const std::vector<TubeLine>* lines = nullptr;
   // On a line or shifted, the aim point's offset from the center-line is held within this fraction
   // of the local radius: a lane near the wall plus a cut or a shift would aim outside the tube
-  // (0.8, docs/notebook/84; 1: not held). Start lanes alone are never held.
+  // (0.8; 1: not held). Start lanes alone are never held.
   double line_max_offset_frac = 0.8;
   // Start lanes only: the aim point moved up by this fraction of the local radius (negative: down),
-  // then held within line_max_offset_frac. Under a Mach governor lower air is faster (docs/notebook/96).
+  // then held within line_max_offset_frac. Under a Mach governor lower air is faster.
   double shift_up_frac = 0.0;
 };
 // As scripted_actions: the aircraft in `rows`, or all of them.

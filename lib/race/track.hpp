@@ -28,7 +28,7 @@ struct Waypoint {
 
 // How random tracks are drawn. Angles in degrees, lengths in feet.
 struct TrackConfig {
-  int n_waypoints = 12;
+  int n_waypoints = 6;
   double leg_min_ft = 5000.0;
   double leg_max_ft = 8000.0;
   double max_turn_deg = 30.0;          // heading change between consecutive legs

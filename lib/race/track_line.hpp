@@ -1,7 +1,7 @@
 #pragma once
 // The shortest line through a stretch of a track's tube: a taut string held inside every
 // cross-section. What the best line could save over the center-line, at equal speed, is the
-// ceiling on what a pilot gains by its line alone (docs/notebook/82).
+// ceiling on what a pilot gains by its line alone.
 #include <vector>
 
 #include "race/track.hpp"

@@ -11,6 +11,7 @@
 #include "io/byte_hash.hpp"
 #include "io/csv_table.hpp"
 #include "io/input_error.hpp"
+#include "config_versions/config_versions.hpp"
 #include "io/yaml_config.hpp"
 
 namespace f16race::train {
@@ -52,9 +53,6 @@ void bind_ll(R& r, agents::PpoConfig* c) {
   r.read("anneal_lr", &c->anneal_lr);
   r.read("normalize_advantages", &c->normalize_advantages);
   r.read("normalize_obs", &c->normalize_obs);
-  r.retired("inference", "eigen");  // a test hook: PpoConfig::eigen_inference
-  r.retired("normalize_returns", "false", io::kNotebook70Keys);
-  r.retired("init_at_trim", "false", io::kNotebook71Keys);
   r.finish();
 }
 
@@ -72,13 +70,6 @@ void bind_hl(R& r, agents::EsConfig* c) {
   r.read("reward_scale", &c->reward_scale, 0.0, 1e6);
   r.read("gamma", &c->gamma, 0.0, 1.0);
   r.read("epsilon", &c->epsilon, 0.0, 1.0);
-  // Experiment switches measured not to help (their notebook entries keep the commits that ran them).
-  r.retired("explore", "aircraft");        // docs/notebook/25, 26, 31
-  r.retired("team_explore_scale", "1");    // docs/notebook/30
-  r.retired("critic", "shared");           // docs/notebook/27
-  r.retired("team_target", "sum");         // docs/notebook/28
-  r.retired("lateral", "aircraft");        // docs/notebook/29
-  r.retired("inference", "eigen");         // a test hook: EsConfig::eigen_inference
   read_i64(r, "n_steps_per_update", &c->n_steps_per_update, 1, 100000);
   read_i64(r, "target_update_interval", &c->target_update_interval, 1, 1000000);
   read_i64(r, "n_epochs", &c->n_epochs, 1, 1000);
@@ -113,22 +104,16 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("ll_throttle", &throttle, {"policy", "governor"});
   c->ll_throttle = throttle == "governor" ? LowLevelThrottle::kGovernor : LowLevelThrottle::kPolicy;
   r.read("hl_tail_share", &c->hl_tail_share, 0.0, 0.95);
-  r.retired("hl_average_share", "0");  // docs/notebook/33, 35
   r.skip("tail_member");  // read_tail_member's, from run folders only
   r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
   r.read("ll_from", &c->ll_from, {});
-  r.retired("ll_choice_snapshots", "0", io::kNotebook105Keys);
-  r.retired("ll_choice_races", "384", io::kNotebook105Keys);
-  r.retired("ll_both_teams", "false", io::kNotebook69Keys);
   r.finish();
 }
 
 template <class R>
 void bind_pool(R& r, PoolConfig* c) {
   r.read("p_self_play", &c->p_self_play, 0.0, 1.0);
-  r.retired("p_center", "0");  // docs/notebook/18, 23
   r.read("p_center_tail", &c->p_center_tail, 0.0, 1.0);
-  r.retired("p_autopilot", "0", io::kNotebook73Keys);
   r.read("snapshot_every_updates", &c->snapshot_every_updates, 1, 1000000);
   r.read("max_snapshots", &c->max_snapshots, 1, 100000);
   r.read("randomize_sides", &c->randomize_sides);
@@ -230,6 +215,8 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
 }  // namespace
 
 TrainConfig read_train_config(const YAML::Node& root, const std::string& source, ConfigOrigin origin) {
+  config_versions::migrate(root, source, origin == ConfigOrigin::kRunFolder ? config_versions::Written::kByTrain
+                                                                           : config_versions::Written::kByUser);
   TrainConfig c;
   c.loop.tail_member = read_tail_member(root, source, origin);
   io::ConfigReader top(root, source);
@@ -288,6 +275,7 @@ void resolve_hl_scales(TrainConfig* c) {
 std::string train_config_yaml(const TrainConfig& config) {
   TrainConfig c = config;
   YAML::Node root;
+  root[config_versions::kVersionKey] = config_versions::kCurrent;
   root["seed"] = c.seed;
   io::ConfigWriter race(root["race"]);
   race::write_race_config(race, c.race);

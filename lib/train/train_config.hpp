@@ -24,11 +24,11 @@ namespace f16race::train {
 enum class LowLevelPilot { kPpo, kAutopilot, kResidual };
 // Who sets the low level's throttle: the policy (its first action, the paper's), or the race's
 // Mach governor alone: full throttle, capped by race.mach_governor, as the autopilot flies with its
-// set point above the cap. The policy's throttle output is then not used (docs/notebook/91).
+// set point above the cap. The policy's throttle output is then not used.
 enum class LowLevelThrottle { kPolicy, kGovernor };
 
 struct LoopConfig {
-  std::int64_t total_env_steps = 200000;  // LL steps summed over envs (paper: 1 M per env x 1024 envs)
+  std::int64_t total_env_steps = 5250000;  // LL steps summed over envs (paper: 1 M per env x 1024 envs)
   int ll_phase_updates = 8;               // PPO updates per low-level phase (HL frozen)
   int hl_phase_updates = 2;               // ES updates per high-level phase (LL frozen)
   int checkpoint_every_updates = 20;      // also at the end and on Ctrl-C
@@ -37,10 +37,10 @@ struct LoopConfig {
   LowLevelPilot ll_pilot = LowLevelPilot::kPpo;  // autopilot: no LL phase, every update is an ES update
   double autopilot_airspeed_ftps = 0.0;          // its set point; 0: race.start_speed_ftps, as the `autopilot` entry
   double ll_residual_scale = 0.5;  // residual: action = autopilot's + this x the network's, before the env's clamp
-  LowLevelThrottle ll_throttle = LowLevelThrottle::kPolicy;
+  LowLevelThrottle ll_throttle = LowLevelThrottle::kGovernor;
   // Share of total_env_steps at the end of a run in which the LL is frozen and only the HL learns
   // (every update an ES update): the bilevel problem's outer level against the final inner one.
-  double hl_tail_share = 0.0;
+  double hl_tail_share = 0.3333333333;  // the last third
   // Not a config key: > 0 in the run folders RUN/members/m that a run with hl_tail_members > 1
   // forks (their config.yaml lists it, read by read_run_config only). From the first update of the
   // HL-only tail on, such a run draws from member m's random streams (new races' tracks and
@@ -51,7 +51,7 @@ struct LoopConfig {
   // mean of their critics' action values. The run itself is tail 0; at its tail's first update it
   // writes a checkpoint and forks RUN/members/1..K-1 (run folders of this config with
   // tail_member m), which `train` trains after it, each as long as the run's own tail.
-  int hl_tail_members = 1;
+  int hl_tail_members = 3;
   // A trained run folder whose low level this run flies, frozen, from its first update: only the
   // high level learns, every update an ES update. High-level rules are then compared on one pilot
   // that races (the Fig. 3 study); the run copies the weights into its own checkpoints, so it
@@ -66,7 +66,7 @@ struct PoolConfig {
   // bin, the `@center` entry of a tournament. With the low level frozen, the high level then
   // learns to beat the formation its final low level flies (docs/learning.md, "The center line
   // in the tail"). The bilevel part before the tail has the paper's pool only.
-  double p_center_tail = 0.0;
+  double p_center_tail = 0.25;
   int snapshot_every_updates = 40; // PPO+ES updates between pool snapshots
   int max_snapshots = 20;          // oldest snapshots are removed beyond this
   bool randomize_sides = true;     // learner plays blue or red at random per race
@@ -76,18 +76,33 @@ struct PoolConfig {
 // resolve_hl_scales; 8 epochs x 8 minibatches per ES update (64 gradient steps on each batch):
 // measured on the default config over 220 updates, the loss on each new batch before its update
 // fell to 3.87 (1 x 1, i.e. ~ln 51: no learning), 2.69 (4 x 4), 2.36 (8 x 8), see docs/learning.md.
+// The main job's high level: es_d2, 2 HL transitions per env per update, each gradient step's
+// teams in 2 concurrent chunks.
 inline agents::EsConfig auto_scaled_es_config() {
   agents::EsConfig c;
+  c.variant = agents::EsVariant::kEsD2;
   c.v_min = c.v_max = 0.0;
   c.reward_scale = 0.0;
+  c.n_steps_per_update = 2;
   c.n_epochs = 8;
   c.n_minibatches = 8;
+  c.minibatch_chunks = 2;
   return c;
 }
 
+// The main job's low level: calm initial exploration (std 0.37), as random full-stick pilots
+// leave the tube in seconds.
+inline agents::PpoConfig recipe_ppo_config() {
+  agents::PpoConfig c;
+  c.net.init_log_std = -1.0;
+  return c;
+}
+
+// The defaults are the main job's (configs/default.yaml lists them; a test holds the two equal):
+// a config that leaves a key out gets the value here. Other configs are overlays on them.
 struct TrainConfig {
   race::RaceConfig race;
-  agents::PpoConfig ll;
+  agents::PpoConfig ll = recipe_ppo_config();
   agents::EsConfig hl = auto_scaled_es_config();
   LoopConfig loop;
   PoolConfig pool;
@@ -108,8 +123,8 @@ enum class ConfigOrigin { kUser, kRunFolder };
 
 // Reads `root` (already loaded, --set overrides applied). Unknown top-level sections
 // or keys, wrong types and out-of-range values throw io::ConfigError naming `source` and the key;
-// so does a retired key (io::ConfigReader::retired) at another value than this build behaves as,
-// and a race.seed other than seed.
+// and a race.seed other than seed. `root` is first brought to the current version in place
+// (config_versions::migrate: a run folder's file without config_version is version 1).
 TrainConfig read_train_config(const YAML::Node& root, const std::string& source,
                               ConfigOrigin origin = ConfigOrigin::kUser);
 

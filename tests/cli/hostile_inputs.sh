@@ -94,16 +94,16 @@ case_ "support crossed" "hl.v_min must be < hl.v_max (or both 0: derived from th
 case_ "one atom" "hl.n_atoms: value 1" -- $T --set hl.n_atoms=1
 # Issue 51's retired switches: at another value than this build behaves as, one line naming the
 # key, the value and the commit to build.
-case_ "retired per-axis critic" "hl.critic: per_axis was removed in" -- $T --set hl.critic=per_axis
-case_ "retired per-axis target" "hl.team_target: per_axis was removed in" -- $T --set hl.team_target=per_axis
-case_ "retired team lane" "hl.lateral: team was removed in" -- $T --set hl.lateral=team
-case_ "retired team exploration" "hl.explore: team was removed in" -- $T --set hl.explore=team
-case_ "retired team explore scale" "hl.team_explore_scale: 0.25 was removed in" -- $T --set hl.team_explore_scale=0.25
-case_ "retired lane origin" "race.goal_origin: lane was removed in" -- $T --set race.goal_origin=lane
-case_ "retired team lanes" "race.observe_team_lanes: true was removed in" -- $T --set race.observe_team_lanes=true
-case_ "retired center share" "pool.p_center: 0.25 was removed in" -- $T --set pool.p_center=0.25
-case_ "retired weight average" "train.hl_average_share: 0.2 was removed in" -- $T --set train.hl_tail_share=0.3 --set train.hl_average_share=0.2
-case_ "retired inference switch" "hl.inference: torch was removed in" -- $T --set hl.inference=torch
+case_ "retired per-axis critic" "hl.critic: per_axis was removed" -- $T --set hl.critic=per_axis
+case_ "retired per-axis target" "hl.team_target: per_axis was removed" -- $T --set hl.team_target=per_axis
+case_ "retired team lane" "hl.lateral: team was removed" -- $T --set hl.lateral=team
+case_ "retired team exploration" "hl.explore: team was removed" -- $T --set hl.explore=team
+case_ "retired team explore scale" "hl.team_explore_scale: 0.25 was removed" -- $T --set hl.team_explore_scale=0.25
+case_ "retired lane origin" "race.goal_origin: lane was removed" -- $T --set race.goal_origin=lane
+case_ "retired team lanes" "race.observe_team_lanes: true was removed" -- $T --set race.observe_team_lanes=true
+case_ "retired center share" "pool.p_center: 0.25 was removed" -- $T --set pool.p_center=0.25
+case_ "retired weight average" "train.hl_average_share: 0.2 was removed" -- $T --set train.hl_tail_share=0.3 --set train.hl_average_share=0.2
+case_ "retired inference switch" "hl.inference: torch was removed" -- $T --set hl.inference=torch
 case_ "race seed other than seed" "race.seed = 5 differs from seed = 3" -- $T --set race.seed=5
 case_ "empty hidden" "ll.hidden" -- $T --set "ll.hidden=[]"
 case_ "zero hidden" "ll.hidden: element 0 = 0" -- $T --set "ll.hidden=[0]"
@@ -156,10 +156,10 @@ accepted_ "a run listing retired keys at their values: export" -- "$bin" export 
 accepted_ "a run listing retired keys at their values: replay" -- "$bin" replay --run old_defaults --out r_old
 accepted_ "a run listing retired keys at their values: resume" -- "$bin" train --resume old_defaults --max-updates 3 --quiet
 [ "$(md5sum < old_defaults/config.yaml)" = "$old_yaml" ] || { echo "FAIL: resume rewrote old_defaults/config.yaml"; fails=$((fails + 1)); }
-case_ "a run trained with hl.explore team: tournament" "old_team/config.yaml: hl.explore: team was removed in" -- "$bin" tournament --runs old_team --races 2 --out t_team
-case_ "a run trained with hl.explore team: export" "hl.explore: team was removed in" -- "$bin" export --run old_team --out team_export
-case_ "a run trained with hl.explore team: replay" "hl.explore: team was removed in" -- "$bin" replay --run old_team --out r_team
-case_ "a run trained with hl.explore team: resume" "hl.explore: team was removed in" -- "$bin" train --resume old_team
+case_ "a run trained with hl.explore team: tournament" "old_team/config.yaml: hl.explore: team was removed" -- "$bin" tournament --runs old_team --races 2 --out t_team
+case_ "a run trained with hl.explore team: export" "hl.explore: team was removed" -- "$bin" export --run old_team --out team_export
+case_ "a run trained with hl.explore team: replay" "hl.explore: team was removed" -- "$bin" replay --run old_team --out r_team
+case_ "a run trained with hl.explore team: resume" "hl.explore: team was removed" -- "$bin" train --resume old_team
 case_ "tournament missing run" -- "$bin" tournament --runs "$work/nothing" --out t1
 case_ "tournament run twice" -- "$bin" tournament --runs "$run" "$run" --out t2
 case_ "tournament 0 races" -- "$bin" tournament --runs "$run" --races 0 --out t3

@@ -29,6 +29,7 @@ fs::path fresh_dir(const std::string& name) {
 void write(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 
 const char* kTinyBase = R"(
+config_version: 1  # the tiny runs these tests were written for: version 1's defaults
 race: {n_env: 2, team_size: 2, time_limit_s: 10.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
 ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8], d_model: 8, n_heads: 2}
 hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}

@@ -34,6 +34,7 @@ std::string trained_run(const std::string& name, int seed, int team_size = 2, co
   const fs::path dir = fs::temp_directory_path() / ("f16race_tour_" + name);
   fs::remove_all(dir);
   YAML::Node root = YAML::Load(R"(
+config_version: 1  # the tiny runs these tests were written for: version 1's defaults
 race: {n_env: 2, time_limit_s: 10.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
 ll: {n_steps: 8, n_minibatches: 2, n_epochs: 1, hidden: [8, 8], d_model: 8, n_heads: 2}
 hl: {hidden: [8, 8], d_model: 8, n_heads: 2, n_atoms: 11, n_steps_per_update: 1}

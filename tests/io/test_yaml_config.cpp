@@ -132,7 +132,6 @@ TEST(YamlConfig, ErrorsInOverriddenValuesNameTheSetNotTheFile) {
       r.read("n", &n, 1, 1024);
       ConfigReader sub = r.child("sub");
       sub.read("inner", &inner, 0, 10);
-      r.retired("old", "0");
       sub.finish();
       r.finish();
     } catch (const ConfigError& e) {
@@ -145,8 +144,6 @@ TEST(YamlConfig, ErrorsInOverriddenValuesNameTheSetNotTheFile) {
       << error_after({"sub.inner=11"});
   EXPECT_EQ(error_after({"sub.innr=2"}).rfind("--set sub.innr=2: unknown key 'sub.innr'", 0), 0u)
       << error_after({"sub.innr=2"});
-  EXPECT_EQ(error_after({"old=1"}).rfind("--set old=1: old: 1 was removed in", 0), 0u) << error_after({"old=1"});
-  // A retired key is consumed but not offered as a known one.
   EXPECT_EQ(error_after({"nn=2"}), "--set nn=2: unknown key 'nn' (known here: n, sub)");
   // A whole section given by --set: a bad key inside it names that --set too.
   EXPECT_EQ(error_after({"sub={inner: 1, x: 2}"}).rfind("--set sub={inner: 1, x: 2}: unknown key 'sub.x'", 0), 0u)

@@ -243,6 +243,22 @@ class BadInput(unittest.TestCase):
         one(ValueError, lambda: f16race.RaceEnv(os.path.join(WORK, "no_such.yaml")), "no_such.yaml", "cannot open")
         one(ValueError, lambda: f16race.RaceEnv(overrides={"race.dt_hl_s": 600.0}), "dt_hl_s")
 
+    def test_the_default_race_is_the_default_config(self):
+        self.assertEqual(f16race.RaceEnv().config, f16race.RaceEnv(CONFIG).config)
+
+    def test_a_run_folders_older_config_reads_with_the_defaults_of_its_time(self):
+        # A run folder's config.yaml without config_version (version 1): a key it does not list
+        # had that version's default (time_limit_s 120), not today's (60).
+        run = os.path.join(WORK, "v1_run")
+        os.makedirs(os.path.join(run, "checkpoint"), exist_ok=True)
+        with open(os.path.join(run, "config.yaml"), "w") as f:
+            f.write("seed: 1\nrace: {n_env: 2, lane_error_average_s: 0}\n")
+        self.assertEqual(f16race.RaceEnv(os.path.join(run, "config.yaml")).config["time_limit_s"], 120.0)
+        user = os.path.join(WORK, "v1_user.yaml")
+        with open(user, "w") as f:
+            f.write("seed: 1\nrace: {n_env: 2}\n")
+        self.assertEqual(f16race.RaceEnv(user).config["time_limit_s"], 60.0)
+
 
 class HighLevelAndRanks(unittest.TestCase):
     def test_hl_due_cycle(self):

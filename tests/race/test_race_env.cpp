@@ -18,6 +18,7 @@
 #include "dynamics/inner_loop.hpp"
 #include "io/yaml_config.hpp"
 #include "race/race_env.hpp"
+#include "support/center_line_race.hpp"
 #include "race/ranking.hpp"
 #include "random/random_stream.hpp"
 #include "race/scripted_pilot.hpp"
@@ -31,7 +32,7 @@ using dynamics::kAlt;
 using dynamics::kNumStates;
 
 RaceConfig small_config(int n_env = 4, int team_size = 2) {
-  RaceConfig c;
+  RaceConfig c = test_support::center_line_race();
   c.n_env = n_env;
   c.team_size = team_size;
   c.seed = 42;

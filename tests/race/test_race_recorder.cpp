@@ -10,6 +10,7 @@
 #include "dynamics/engine.hpp"
 #include "race/race_env.hpp"
 #include "race/race_recorder.hpp"
+#include "support/center_line_race.hpp"
 #include "race/scripted_pilot.hpp"
 
 namespace f16race::race {
@@ -18,7 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
-  RaceConfig c;
+  RaceConfig c = test_support::center_line_race();
   c.n_env = 3;
   c.team_size = 2;
   c.seed = 11;
@@ -115,7 +116,7 @@ TEST(RaceRecorder, RecordsEachRaceToItsEndWithGoals) {
 // RaceEnv.MachGovernorHoldsFullThrottleInsideTheEnvelope): the rows then record the command
 // untouched and the throttle flown cut to the governor's limit, none of it once past the band.
 TEST(RaceRecorder, RecordsTheThrottleTheGovernorCuts) {
-  RaceConfig c;
+  RaceConfig c = test_support::center_line_race();
   c.n_env = 1;
   c.team_size = 1;
   c.seed = 42;

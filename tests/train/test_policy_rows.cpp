@@ -54,6 +54,7 @@ TEST(PolicyRows, ScatterWritesEachPolicysRowsAndNothingElse) {
 // rows not given keep what they held.
 TEST(GreedyLowLevel, NetworkMeanOrGoalFollowingAutopilotOnTheGivenRowsOnly) {
   TrainConfig c;
+  c.loop.ll_throttle = LowLevelThrottle::kPolicy;  // the network's own throttle
   c.race.n_env = 2;
   c.race.team_size = 2;
   c.race.seed = 5;
@@ -131,6 +132,7 @@ TEST(GreedyLowLevel, NetworkMeanOrGoalFollowingAutopilotOnTheGivenRowsOnly) {
 // train.ll_throttle governor, nothing else touched; the policy's throttle untouched.
 TEST(GreedyLowLevel, GovernorThrottleSetsOnlyTheThrottleOfTheGivenRows) {
   TrainConfig c;
+  c.loop.ll_throttle = LowLevelThrottle::kPolicy;
   std::vector<float> a(4 * race::kActionDim, -0.5f);
   const std::int64_t rows[] = {1, 3};
   apply_ll_throttle(c, rows, 2, a.data());

@@ -35,7 +35,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A tiny run of version 1's defaults (the paper's simpler run: center-line goals, the policy's
+// throttle and exploration, es_d3, no HL-only tail), which the tests below switch features on from.
 const char* kSmoke = R"(
+config_version: 1
 seed: 3
 race: {n_env: 3, team_size: 2, time_limit_s: 12.0, dt_hl_s: 1.6, track: {n_waypoints: 5}}
 ll: {n_steps: 8, n_minibatches: 2, n_epochs: 2, hidden: [16, 16], d_model: 8, n_heads: 2}
@@ -126,86 +129,6 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8) must be <= time_limit_s (5)"),
             std::string::npos);
-}
-
-// The keys issue 51 and notebooks 69, 70, 71, 73, 74, 78, 80, 88, 92, 95 and 96 retired (io::ConfigReader::retired), as a run folder's
-// config.yaml from an older build lists them: at the value this build behaves as they change
-// nothing; at another value the config is refused in one line naming the key, the value and the
-// commit to build.
-TEST(TrainConfig, RetiredKeysAtTheirValueChangeNothingOtherwiseAreRefused) {
-  const char* old_defaults = R"(
-race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0, governor_sets_throttle_at_cap: false,
-       governor_band_mach: 0.04, preview_on_line: false, lane_scales_with_radius: false, w_tube_wall: 0,
-       tube_wall_frac: 0.80000000000000004, governor_holds: mach}
-ll: {inference: eigen, normalize_returns: false, init_at_trim: false}
-hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
-train: {hl_average_share: 0, tail_member: 0, ll_both_teams: false, ll_choice_snapshots: 0, ll_choice_races: 384}
-pool: {p_center: 0.0, p_autopilot: 0}
-)";
-  const std::string plain = train_config_yaml(read_train_config(YAML::Load("{}"), "cfg.yaml"));
-  EXPECT_EQ(train_config_yaml(read_train_config(YAML::Load(old_defaults), "cfg.yaml")), plain);
-  for (const char* key : {"goal_origin", "observe_team_lanes", "inference", "explore", "team_explore_scale", "critic",
-                          "team_target", "lateral", "hl_average_share", " tail_member:", "p_center:", "ll_both_teams",
-                          "p_autopilot", "normalize_returns", "init_at_trim", "lane_error_average_s",
-                          "governor_sets_throttle_at_cap", "governor_band_mach", "preview_on_line",
-                          "lane_scales_with_radius", "tube_wall", "governor_holds", "ll_choice"})
-    EXPECT_EQ(plain.find(key), std::string::npos) << key << " is still written to config.yaml";
-  const std::string tail = "{hl_tail_share: 0.3, hl_average_share: 0.2}";
-  for (const auto& [yaml, line] : std::vector<std::pair<std::string, std::string>>{
-           {"race: {goal_origin: lane}", "race.goal_origin: lane"},
-           {"race: {observe_team_lanes: true}", "race.observe_team_lanes: true"},
-           {"ll: {inference: torch}", "ll.inference: torch"},
-           {"hl: {explore: team_y}", "hl.explore: team_y"},
-           {"hl: {team_explore_scale: 0.25}", "hl.team_explore_scale: 0.25"},
-           {"hl: {critic: per_axis}", "hl.critic: per_axis"},
-           {"hl: {team_target: per_axis}", "hl.team_target: per_axis"},
-           {"hl: {lateral: team}", "hl.lateral: team"},
-           {"hl: {inference: torch}", "hl.inference: torch"},
-           {"train: " + tail, "train.hl_average_share: 0.2"},
-           {"pool: {p_center: 0.25}", "pool.p_center: 0.25"}}) {
-    const std::string e = error_of(yaml);
-    EXPECT_EQ(e.rfind("cfg.yaml: " + line + " was removed in ", 0), 0u) << yaml << " -> " << e;
-    EXPECT_NE(e.find("; build commit " + std::string(io::kIssue51Keys.last_commit) + " to use it"), std::string::npos) << e;
-    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
-  }
-  EXPECT_EQ(error_of("train: {ll_both_teams: true}"),
-            "cfg.yaml: train.ll_both_teams: true was removed after docs/notebook/69's verdict; build commit c8c67be "
-            "to use it");
-  EXPECT_EQ(error_of("train: {ll_choice_snapshots: 4}"),
-            "cfg.yaml: train.ll_choice_snapshots: 4 was removed after docs/notebook/105's verdict; build commit "
-            "f91e291 to use it");
-  EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"),
-            "cfg.yaml: pool.p_autopilot: 0.25 was removed after docs/notebook/73's verdict; build commit e9c8edf "
-            "to use it");
-  EXPECT_EQ(error_of("ll: {normalize_returns: true}"),
-            "cfg.yaml: ll.normalize_returns: true was removed after docs/notebook/70's verdict; build commit c8c67be "
-            "to use it");
-  EXPECT_EQ(error_of("ll: {init_at_trim: true}"),
-            "cfg.yaml: ll.init_at_trim: true was removed after docs/notebook/71's verdict; build commit c8c67be "
-            "to use it");
-  EXPECT_EQ(error_of("race: {lane_error_average_s: 8}"),
-            "cfg.yaml: race.lane_error_average_s: 8 was removed after docs/notebook/74's verdict; build commit 46d4f04 "
-            "to use it");
-  EXPECT_EQ(error_of("race: {governor_sets_throttle_at_cap: true}"),
-            "cfg.yaml: race.governor_sets_throttle_at_cap: true was removed after docs/notebook/78's and 79's verdicts; "
-            "build commit 0b55350 to use it");
-  EXPECT_EQ(error_of("race: {governor_band_mach: 0.01}"),
-            "cfg.yaml: race.governor_band_mach: 0.01 was removed after docs/notebook/80's verdict; build commit c3a8ae5 "
-            "to use it");
-  EXPECT_EQ(error_of("race: {lane_scales_with_radius: true}"),
-            "cfg.yaml: race.lane_scales_with_radius: true was removed after docs/notebook/92's verdict; build commit "
-            "0bda7d6 to use it");
-  EXPECT_EQ(error_of("race: {w_tube_wall: 0.15}"),
-            "cfg.yaml: race.w_tube_wall: 0.15 was removed after docs/notebook/94's and 95's verdicts; build commit "
-            "833c6d1 to use it");
-  EXPECT_EQ(error_of("race: {tube_wall_frac: 0.9}"),
-            "cfg.yaml: race.tube_wall_frac: 0.9 was removed after docs/notebook/94's and 95's verdicts; build commit "
-            "833c6d1 to use it");
-  EXPECT_EQ(error_of("race: {governor_holds: airspeed}"),
-            "cfg.yaml: race.governor_holds: airspeed was removed after docs/notebook/96's verdict; build commit "
-            "d48ab5e to use it");
-  // A key never known is still an unknown key, not a retired one.
-  EXPECT_NE(error_of("hl: {explorer: team}").find("unknown key 'hl.explorer'"), std::string::npos);
 }
 
 // One seed drives a training run: race.seed may only repeat it (the config.yaml of every run
@@ -420,7 +343,7 @@ TEST(Trainer, CenterShareInTheTailChangesOnlyTheTail) {
   expect_same_rows(full, plain, k);
   EXPECT_EQ(stopped_and_resumed(centered, "ctail_split", static_cast<std::int64_t>(k) + 2)->hl_parameters(),
             b.hl_parameters());
-  EXPECT_NE(error_of("pool: {p_center_tail: 0.25}").find("pool.p_center_tail = 0.25 applies to the HL-only tail"),
+  EXPECT_NE(error_of("train: {hl_tail_share: 0}\npool: {p_center_tail: 0.25}").find("pool.p_center_tail = 0.25 applies to the HL-only tail"),
             std::string::npos);
 }
 
@@ -578,7 +501,7 @@ TEST(Trainer, TailMembersAreTheRunsForksAndItsPolicyTheirEnsemble) {
   train_tail_members(split);
   EXPECT_EQ(Trainer::resume(split + "/members/1")->hl_parameters(), alone.hl_parameters());
   EXPECT_EQ(Trainer::resume(split)->hl_parameters(), plain.hl_parameters());
-  EXPECT_NE(error_of("train: {hl_tail_members: 2}").find("train.hl_tail_members = 2 is an ensemble of HL-only tails"),
+  EXPECT_NE(error_of("train: {hl_tail_share: 0, hl_tail_members: 2}\npool: {p_center_tail: 0}").find("train.hl_tail_members = 2 is an ensemble of HL-only tails"),
             std::string::npos);
 }
 
@@ -659,6 +582,7 @@ TEST(Trainer, RunFromBeforeTheRetiredKeysResumesLoadsOrIsRefused) {
   // under its hash; returns the file's text.
   auto as_older_build = [](const std::string& dir, const std::string& explore) {
     YAML::Node root = YAML::LoadFile(dir + "/config.yaml");
+    root.remove("config_version");
     root["race"]["goal_origin"] = "center";
     root["race"]["observe_team_lanes"] = false;
     root["ll"]["inference"] = "eigen";
@@ -701,7 +625,7 @@ TEST(Trainer, RunFromBeforeTheRetiredKeysResumesLoadsOrIsRefused) {
   EXPECT_EQ(p.env_steps, full.env_steps);
   EXPECT_EQ(p.config.hl.epsilon, smoke().hl.epsilon);
   as_older_build(refused, "team");
-  const std::string want = refused + "/config.yaml: hl.explore: team was removed in ";
+  const std::string want = refused + "/config.yaml: hl.explore: team was removed, measured not to help";
   for (int use = 0; use < 2; ++use) {
     try {
       if (use == 0) Trainer::resume(refused);
@@ -710,8 +634,7 @@ TEST(Trainer, RunFromBeforeTheRetiredKeysResumesLoadsOrIsRefused) {
     } catch (const io::ConfigError& e) {
       const std::string what = e.what();
       EXPECT_EQ(what.rfind(want, 0), 0u) << what;
-      EXPECT_NE(what.find("; build commit " + std::string(io::kIssue51Keys.last_commit) + " to use it"),
-                std::string::npos) << what;
+      EXPECT_NE(what.find("; build commit b8c9f8c to use it"), std::string::npos) << what;
     }
   }
 }
