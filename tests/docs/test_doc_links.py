@@ -43,7 +43,7 @@ def anchors(path):
 
 def markdown_files(root):
     yield os.path.join(root, "README.md")
-    for top in ("docs", "examples", "configs", "scripts", "tests"):
+    for top in ("docs", "examples", "configs", "scripts", "tests", "experiments"):
         for d, dirs, files in os.walk(os.path.join(root, top)):
             dirs[:] = [x for x in dirs if x not in ("node_modules", "data")]
             for f in files:

@@ -987,7 +987,7 @@ TEST(RaceEnv, MachGovernorHoldsFullThrottleInsideTheEnvelope) {
 
 // Held on Mach, the governor lets the lower of two aircraft fly faster, by the ratio of their
 // speeds of sound: full throttle in level flight for 40 s at 6 000 and 16 000 ft ends ~23 ft/s
-// apart (636 and 613 ft/s). Height in the tube is pace (docs/notebook/96).
+// apart (636 and 613 ft/s). Height in the tube is pace (experiments/notebook/96).
 TEST(RaceEnv, MachGovernorLetsTheLowerAircraftFlyFaster) {
   RaceConfig c = small_config(1, 1);
   c.tube_grace_s = 1e6;

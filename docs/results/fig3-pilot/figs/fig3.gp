@@ -1,4 +1,4 @@
-# Written by scripts/study_figures.py; `gnuplot fig3.gp` in this folder redraws fig3.png.
+# Written by experiments/scripts/study_figures.py; `gnuplot fig3.gp` in this folder redraws fig3.png.
 set terminal pngcairo size 1600,1440 font 'Sans,10'
 set output 'fig3.png'
 set datafile separator ','
