@@ -10,6 +10,7 @@
 
 #include "bench/fma_peak.hpp"
 #include "bench/sim_throughput.hpp"
+#include "dynamics/f16_batch.hpp"
 #include "commands.hpp"
 #include "io/input_error.hpp"
 #include "io/json_text.hpp"
@@ -47,8 +48,9 @@ void run_bench_sim(const SimBenchOptions& o) {
   if (!o.json) {
     std::printf("f16race bench sim: RK4 (4 closed-loop derivative evaluations per substep), dt %.3g s, references: %s\n",
                 o.dt_s, o.law == "held" ? "held over each step" : (o.law + " law at every RK stage").c_str());
-    std::printf("machine: %s, %d cores, %s build; %d aircraft, %d substeps per run, median of %d runs\n",
-                io::cpu_model().c_str(), omp_get_num_procs(), io::numeric_mode_name(), o.aircraft, o.substeps, o.repeats);
+    std::printf("machine: %s, %d cores, %s build, %s simulator kernels; %d aircraft, %d substeps per run, median of "
+                "%d runs\n", io::cpu_model().c_str(), omp_get_num_procs(), io::numeric_mode_name(),
+                dynamics::wide_kernels_available() ? "AVX-512" : "the build's", o.aircraft, o.substeps, o.repeats);
   }
   // The roofline: the CPU's double FMA peak at each measured thread count (bench/fma_peak.hpp).
   std::vector<double> peak;
@@ -68,9 +70,10 @@ void run_bench_sim(const SimBenchOptions& o) {
           {model, bench::parse_stage_law(o.law), o.aircraft, t, o.substeps, o.repeats, o.dt_s});
       if (o.json) {
         std::printf("{\"bench\": \"sim\", \"model\": %s, \"law\": %s, \"threads\": %d, \"aircraft\": %d, "
-                    "\"substeps_per_s\": %.6g, \"numerics\": %s}\n",
+                    "\"substeps_per_s\": %.6g, \"numerics\": %s, \"wide_kernels\": %s}\n",
                     io::json_string(aero_model_name(model)).c_str(), io::json_string(o.law).c_str(), t, o.aircraft,
-                    rate, io::json_string(io::numeric_mode_name()).c_str());
+                    rate, io::json_string(io::numeric_mode_name()).c_str(),
+                    dynamics::wide_kernels_available() ? "true" : "false");
       } else {
         std::printf("%-8s %8d %10d %22.4g\n", aero_model_name(model), t, o.aircraft, rate);
       }
@@ -98,7 +101,8 @@ void run_bench_env(const EnvBenchOptions& o) {
   if (!o.json) {
     std::printf("f16race bench env: %d envs x %d aircraft, %d RK4 substeps per LL step, %d LL steps per run, median of %d\n",
                 o.envs, 2 * o.team_size, cfg.substeps, o.steps, o.repeats);
-    std::printf("machine: %s, %d cores, %s build\n", io::cpu_model().c_str(), omp_get_num_procs(), io::numeric_mode_name());
+    std::printf("machine: %s, %d cores, %s build, %s simulator kernels\n", io::cpu_model().c_str(), omp_get_num_procs(),
+                io::numeric_mode_name(), dynamics::wide_kernels_available() ? "AVX-512" : "the build's");
     std::printf("%8s %16s %20s %22s %10s\n", "threads", "env_steps/s", "aircraft_steps/s", "sim_only_aircraft/s", "overhead");
   }
   for (int t : threads) {

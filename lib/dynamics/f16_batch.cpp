@@ -55,6 +55,28 @@ const char* status_name(std::int32_t status) {
 
 void F16Batch::FreeDeleter::operator()(void* p) const { std::free(p); }
 
+// The AVX-512 copies of the kernels, for a build whose own target lacks AVX-512 (the reproducible
+// x86-64-v3 one): the same inline code compiled a second time for these extensions, chosen at run
+// time. The callees are always_inline and carry no target of their own, so they are compiled
+// inside each copy (a subset of its extensions may be inlined); no out-of-line function is shared.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__AVX512F__)
+#define F16_WIDE_KERNELS 1
+#define F16_WIDE_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,prefer-vector-width=512")))
+#else
+#define F16_WIDE_KERNELS 0
+#endif
+
+bool wide_kernels_available() {
+#if F16_WIDE_KERNELS
+  static const bool available = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                                __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+                                __builtin_cpu_supports("avx512vl");
+  return available;
+#else
+  return false;
+#endif
+}
+
 namespace {
 
 template <typename T>
@@ -73,6 +95,7 @@ struct BatchView {
   int stride;            // padded aircraft count (int: keeps index arithmetic affine for GCC)
   std::int32_t* status;  // [stride]
   const double* law;     // [kNumLawParams] x [stride]; nullptr for StageLaw::kHeld
+  bool wide;             // the AVX-512 copies of the kernels
 };
 
 F16_INLINE bool is_finite(double v) { return std::fabs(v) <= DBL_MAX; }
@@ -156,15 +179,32 @@ F16_INLINE void step_lane(double* __restrict data, int stride, std::int32_t* __r
   status_arr[i] = active ? verdict : status;
 }
 
-// One block of kBlock lanes, one step. Kept out of line with restrict pointers and scalars
-// by value: that is the shape GCC's vectoriser reliably turns into full-width SIMD.
+// One block of kBlock lanes, one step, SIMD across the lanes.
 template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
-__attribute__((noinline)) void step_block(double* __restrict data, int stride, std::int32_t* __restrict status,
-                                          const double* __restrict law, int i0, double dt, EnvelopeLimits lim) {
+F16_INLINE void step_lanes(double* __restrict data, int stride, std::int32_t* __restrict status,
+                           const double* __restrict law, int i0, double dt, const EnvelopeLimits& lim) {
 #pragma omp simd
   for (int i = i0; i < i0 + F16Batch::kBlock; ++i)
     step_lane<MODEL, INTEGRATOR, LAW>(data, stride, status, law, i, dt, lim);
 }
+
+// Kept out of line with restrict pointers and scalars by value: that is the shape GCC's
+// vectoriser reliably turns into full-width SIMD.
+template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
+__attribute__((noinline)) void step_block(double* __restrict data, int stride, std::int32_t* __restrict status,
+                                          const double* __restrict law, int i0, double dt, EnvelopeLimits lim) {
+  step_lanes<MODEL, INTEGRATOR, LAW>(data, stride, status, law, i0, dt, lim);
+}
+
+#if F16_WIDE_KERNELS
+template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
+__attribute__((noinline)) F16_WIDE_TARGET void step_block_wide(double* __restrict data, int stride,
+                                                               std::int32_t* __restrict status,
+                                                               const double* __restrict law, int i0, double dt,
+                                                               EnvelopeLimits lim) {
+  step_lanes<MODEL, INTEGRATOR, LAW>(data, stride, status, law, i0, dt, lim);
+}
+#endif
 
 template <AeroModel MODEL, Integrator INTEGRATOR, StageLaw LAW>
 void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimits& lim) {
@@ -172,8 +212,15 @@ void step_kernel(const BatchView& v, double dt, int substeps, const EnvelopeLimi
 #pragma omp parallel for schedule(static)
   for (int b = 0; b < n_blocks; ++b) {
     // Substeps inside the block loop: the block's state stays in L1 for the whole call.
-    for (int k = 0; k < substeps; ++k)
+    for (int k = 0; k < substeps; ++k) {
+#if F16_WIDE_KERNELS
+      if (v.wide) {
+        step_block_wide<MODEL, INTEGRATOR, LAW>(v.data, v.stride, v.status, v.law, b * F16Batch::kBlock, dt, lim);
+        continue;
+      }
+#endif
       step_block<MODEL, INTEGRATOR, LAW>(v.data, v.stride, v.status, v.law, b * F16Batch::kBlock, dt, lim);
+    }
   }
 }
 
@@ -211,11 +258,28 @@ __attribute__((noinline)) void outputs_block(double* __restrict data, int stride
   for (int i = i0; i < i0 + F16Batch::kBlock; ++i) outputs_lane<MODEL, LAW>(data, stride, law, i);
 }
 
+#if F16_WIDE_KERNELS
+template <AeroModel MODEL, StageLaw LAW>
+__attribute__((noinline)) F16_WIDE_TARGET void outputs_block_wide(double* __restrict data, int stride,
+                                                                  const double* __restrict law, int i0) {
+#pragma omp simd
+  for (int i = i0; i < i0 + F16Batch::kBlock; ++i) outputs_lane<MODEL, LAW>(data, stride, law, i);
+}
+#endif
+
 template <AeroModel MODEL, StageLaw LAW>
 void outputs_kernel(const BatchView& v) {
   const int n_blocks = v.stride / F16Batch::kBlock;
 #pragma omp parallel for schedule(static)
-  for (int b = 0; b < n_blocks; ++b) outputs_block<MODEL, LAW>(v.data, v.stride, v.law, b * F16Batch::kBlock);
+  for (int b = 0; b < n_blocks; ++b) {
+#if F16_WIDE_KERNELS
+    if (v.wide) {
+      outputs_block_wide<MODEL, LAW>(v.data, v.stride, v.law, b * F16Batch::kBlock);
+      continue;
+    }
+#endif
+    outputs_block<MODEL, LAW>(v.data, v.stride, v.law, b * F16Batch::kBlock);
+  }
 }
 
 // The kernels of one model and integrator for the batch's stage law.
@@ -253,7 +317,8 @@ void outputs_for_law(StageLaw law, const BatchView& v) {
 
 }  // namespace
 
-F16Batch::F16Batch(const F16BatchConfig& config) : config_(config) {
+F16Batch::F16Batch(const F16BatchConfig& config)
+    : config_(config), wide_(config.isa == KernelIsa::kWidest && wide_kernels_available()) {
   if (config.n_env < 1 || config.n_agent < 1) {
     throw std::invalid_argument("F16Batch: n_env and n_agent must be >= 1 (got " + std::to_string(config.n_env) +
                                 " x " + std::to_string(config.n_agent) + ")");
@@ -312,7 +377,7 @@ StateVector F16Batch::aircraft_state(int i) const {
 
 namespace {
 BatchView make_view(F16Batch& b, double* data, int padded, const double* law) {
-  return BatchView{data, padded, b.status(), law};
+  return BatchView{data, padded, b.status(), law, b.uses_wide_kernels()};
 }
 }  // namespace
 

@@ -54,6 +54,14 @@ enum LawParamIndex : int {
   kNumLawParams = 5
 };
 
+// The instructions of the step and output kernels: the widest this CPU has (AVX-512 where the
+// build's own target lacks it, chosen at run time), or the build's own (x86-64-v3's AVX2 in the
+// reproducible build). Both give the same bits, which a test holds: every aircraft is computed
+// alone in its lane, by the same operations, whatever the vector's width.
+enum class KernelIsa { kWidest, kBuild };
+// True when this binary holds the AVX-512 kernels and this CPU runs them.
+bool wide_kernels_available();
+
 struct F16BatchConfig {
   int n_env = 1;
   int n_agent = 1;
@@ -61,6 +69,7 @@ struct F16BatchConfig {
   Integrator integrator = Integrator::kRk4;
   EnvelopeLimits limits{};
   StageLaw stage_law = StageLaw::kHeld;
+  KernelIsa isa = KernelIsa::kWidest;
 };
 
 class F16Batch {
@@ -79,6 +88,7 @@ class F16Batch {
   int size() const { return size_; }                // n_env * n_agent
   int padded_size() const { return padded_; }       // size rounded up to kBlock
   const F16BatchConfig& config() const { return config_; }
+  bool uses_wide_kernels() const { return wide_; }  // the AVX-512 kernels (KernelIsa)
 
   // State row s (StateIndex): [n_env * n_agent], contiguous, 64-byte aligned.
   double* state(int s) { return data_.get() + static_cast<std::size_t>(s) * padded_; }
@@ -120,6 +130,7 @@ class F16Batch {
 
  private:
   F16BatchConfig config_;
+  bool wide_ = false;
   int size_ = 0;
   int padded_ = 0;
   struct FreeDeleter {

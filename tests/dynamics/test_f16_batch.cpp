@@ -217,6 +217,58 @@ TEST(BatchLayout, PaddingLanesAreNeverAircraft) {
   for (int i = b.size(); i < b.padded_size(); ++i) EXPECT_EQ(b.status()[i], kStatusPadding);
 }
 
+// The AVX-512 copies of the kernels (chosen at run time where the build lacks them) give the
+// build's own bits: states, envelope verdicts and outputs, for every integrator and stage law,
+// through hard pulls and turns that trip a tightened envelope. Skipped where this CPU has no AVX-512.
+TEST_P(Batch, WideKernelsGiveTheBuildsBits) {
+  if (!wide_kernels_available()) GTEST_SKIP() << "no AVX-512 kernels on this CPU and build";
+  const AeroModel model = GetParam();
+  for (Integrator integrator : {Integrator::kRk4, Integrator::kEuler}) {
+    for (StageLaw law : {StageLaw::kHeld, StageLaw::kGcas, StageLaw::kWaypoint}) {
+      std::vector<double> bytes[2];
+      std::vector<std::int32_t> status[2];
+      for (int k = 0; k < 2; ++k) {
+        F16BatchConfig cfg;
+        cfg.n_env = 9;
+        cfg.n_agent = 7;  // 63 aircraft: four blocks, the last with padding
+        cfg.model = model;
+        cfg.integrator = integrator;
+        cfg.stage_law = law;
+        cfg.isa = k == 0 ? KernelIsa::kWidest : KernelIsa::kBuild;
+        cfg.limits.alpha_max_rad = 8.0 * kDegToRad;  // tight, so that the pulls and turns trip it
+        cfg.limits.theta_max_rad = 12.0 * kDegToRad;
+        cfg.limits.alt_max_ft = 16000.0;  // the fleet's highest trim (19 000 ft) is out at once
+        F16Batch batch(cfg);
+        ASSERT_EQ(batch.uses_wide_kernels(), k == 0);
+        fill_fleet(batch, model);
+        for (int i = 0; i < batch.size(); ++i) {
+          batch.ref(kNzRef)[i] += (i % 4 == 0) ? 6.0 : 0.0;  // a quarter pull hard, into the envelope's limits
+          if (law == StageLaw::kWaypoint) {
+            batch.law(kLawTargetN)[i] = 3000.0 + 700.0 * (i % 5);
+            batch.law(kLawTargetE)[i] = -2000.0 + 900.0 * (i % 7);
+          }
+        }
+        for (int part = 0; part < 4; ++part) batch.step(integrator == Integrator::kRk4 ? 0.01 : 0.002, 60);
+        batch.evaluate_outputs();
+        for (int r = 0; r < kNumStates + kNumRefs + kNumOutputs; ++r) {
+          const double* row = r < kNumStates ? batch.state(r)
+                              : r < kNumStates + kNumRefs ? batch.ref(r - kNumStates)
+                                                          : batch.output(r - kNumStates - kNumRefs);
+          bytes[k].insert(bytes[k].end(), row, row + batch.size());
+        }
+        status[k].assign(batch.status(), batch.status() + batch.size());
+      }
+      const std::string what = std::string(integrator_name(integrator)) + ", " + stage_law_name(law);
+      ASSERT_EQ(bytes[0].size(), bytes[1].size());
+      EXPECT_EQ(0, std::memcmp(bytes[0].data(), bytes[1].data(), bytes[0].size() * sizeof(double))) << what;
+      EXPECT_EQ(status[0], status[1]) << what;
+      int flagged = 0;
+      for (std::int32_t v : status[1]) flagged += v != kStatusOk;
+      EXPECT_GT(flagged, 0) << what << ": no aircraft left the envelope, so the verdicts went unchecked";
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(BothModels, Batch, ::testing::Values(AeroModel::kMorelli, AeroModel::kStevens),
                          [](const auto& param_info) { return std::string(aero_model_name(param_info.param)); });
 
