@@ -2,6 +2,10 @@
 """Notebook 108's verdict: does the residual pilot out-fly the paper's against the autopilot on its line?
 
     experiments/scripts/residual_verdict.py KEEP_DIR
+    experiments/scripts/residual_verdict.py --arms CONTROL TREATMENT KEEP_DIR
+
+With --arms the same rule compares KEEP_DIR/TREATMENT with KEEP_DIR/CONTROL (notebook 109: ppo and
+progress); the default arms are notebook 108's, ppo and residual.
 
 KEEP_DIR holds ppo/ and residual/, each with the kept pieces of experiments/scripts/pilot_arm_piece.sh per
 seed S: sS.json (the tournament against the tuned autopilot on its lanes and the run's controls,
@@ -60,18 +64,23 @@ def t_interval(xs):
 
 
 def main(argv):
+    names = ARMS
+    if len(argv) == 5 and argv[1] == "--arms" and argv[2] != argv[3]:
+        names, argv = (argv[2], argv[3]), [argv[0], argv[4]]
     if len(argv) != 2 or not os.path.isdir(argv[1]):
-        sys.exit("usage: experiments/scripts/residual_verdict.py KEEP_DIR (with ppo/ and residual/ of kept pieces)")
-    arms = {arm: load_arm(argv[1], arm) for arm in ARMS}
+        sys.exit("usage: experiments/scripts/residual_verdict.py [--arms CONTROL TREATMENT] KEEP_DIR "
+                 "(with ppo/ and residual/, or CONTROL/ and TREATMENT/, of kept pieces)")
+    control, treatment = names
+    arms = {arm: load_arm(argv[1], arm) for arm in names}
     kept = sum(len(v) for v in arms.values())
     if kept < 2 * len(SEEDS):
-        print(f"{kept} of the {2 * len(SEEDS)} pre-registered pieces kept; notebook 108 reads none before all are in: "
+        print(f"{kept} of the {2 * len(SEEDS)} pre-registered pieces kept; the rule reads none before all are in: "
               "no table and no verdict yet.")
         return
     print("| arm | vs the autopilot on its line [t 95 %] | on its lanes | vs its @center | lost to the tube per race (lanes) |")
     print("|---|---|---|---|---|")
     means = {}
-    for arm in ARMS:
+    for arm in names:
         on_line = [arms[arm][s][1] for s in SEEDS]
         lanes = [arms[arm][s][0]["ap"] for s in SEEDS]
         center = [arms[arm][s][0]["c"] for s in SEEDS]
@@ -79,13 +88,13 @@ def main(argv):
         cells = [t_interval(v) for v in (on_line, lanes, center, tube)]
         means[arm] = [c[0] for c in cells]
         print(f"| {arm} | " + " | ".join(f"{m:.3f} [{lo:.3f}, {hi:.3f}]" for m, lo, hi in cells) + " |")
-    d = [arms["residual"][s][1] - arms["ppo"][s][1] for s in SEEDS]
+    d = [arms[treatment][s][1] - arms[control][s][1] for s in SEEDS]
     m, lo, hi = t_interval(d)
     word = "holds" if lo > 0 else "does not hold" if hi < 0.05 else "cannot tell at this power"
-    print(f"\nD = {m:+.3f}, t 95 % [{lo:+.3f}, {hi:+.3f}] over {len(d)} seed pairs: the residual pilot out-flies "
-          f"the paper's on the line: **{word}**")
-    adopt = word == "holds" and means["residual"][1] >= means["ppo"][1] - 0.02 and means["residual"][2] >= 0.6
-    print(f"Adopted as the default: **{'yes' if adopt else 'no'}** (needs: holds; lanes >= ppo's - 0.02; "
+    print(f"\nD = {m:+.3f}, t 95 % [{lo:+.3f}, {hi:+.3f}] over {len(d)} seed pairs: the {treatment} pilot out-flies "
+          f"the {control} one on the line: **{word}**")
+    adopt = word == "holds" and means[treatment][1] >= means[control][1] - 0.02 and means[treatment][2] >= 0.6
+    print(f"Adopted as the default: **{'yes' if adopt else 'no'}** (needs: holds; lanes >= {control}'s - 0.02; "
           f"@center >= 0.6)")
 
 

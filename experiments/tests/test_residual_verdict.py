@@ -59,6 +59,21 @@ with tempfile.TemporaryDirectory() as tmp:
     arm_pair(f"{tmp}/cannot", [0.05 + 0.05 * k for k in spread])
     assert "**cannot tell at this power**" in run(f"{tmp}/cannot").stdout
 
+    # --arms: the same rule on other folders (notebook 109's ppo and progress); the arms' roles
+    # count: swapped, the holding difference becomes one that does not hold.
+    for s, dd in enumerate([0.20 + 0.01 * k for k in spread], start=1):
+        write(f"{tmp}/arms", "ppo", s, 0.35)
+        write(f"{tmp}/arms", "progress", s, 0.35 + dd)
+    out = run("--arms", "ppo", "progress", f"{tmp}/arms")
+    assert out.returncode == 0 and "D = +0.200" in out.stdout and "the progress pilot out-flies the ppo one" in out.stdout, out
+    assert "**holds**" in out.stdout and "| progress | 0.550" in out.stdout, out.stdout
+    out = run("--arms", "progress", "ppo", f"{tmp}/arms")
+    assert "D = -0.200" in out.stdout and "**does not hold**" in out.stdout, out.stdout
+    out = run(f"{tmp}/arms")  # the default arms: residual/ is missing, so nothing is read
+    assert "8 of the 16 pre-registered pieces kept" in out.stdout and "D =" not in out.stdout, out.stdout
+    out = run("--arms", "ppo", "ppo", f"{tmp}/arms")
+    assert out.returncode != 0 and "usage:" in out.stderr, out
+
     arm_pair(f"{tmp}/bad", [0.2] * 8)
     json.dump({"seed": 3}, open(f"{tmp}/bad/ppo/s3.json", "w"))
     out = run(f"{tmp}/bad")
@@ -71,4 +86,4 @@ with tempfile.TemporaryDirectory() as tmp:
     assert out.returncode != 0 and "s2_online.json: unreadable" in out.stderr, out
     assert len(out.stderr.strip().splitlines()) == 1, out.stderr
 
-print("residual_verdict: too few pieces, holds, the adoption's conditions, does not hold, cannot tell and bad input as expected")
+print("residual_verdict: too few pieces, holds, other arms, the adoption's conditions, does not hold, cannot tell and bad input as expected")
