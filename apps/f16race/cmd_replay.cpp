@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "race_settings.hpp"
 #include "eval/replay.hpp"
 #include "eval/replay_page.hpp"
 #include "io/input_error.hpp"
@@ -20,6 +21,7 @@ namespace fs = std::filesystem;
 
 struct ReplayCliOptions {
   eval::ReplayOptions replay;
+  std::vector<std::string> sets;  // --set race.KEY=VALUE
   std::string out = "runs/replay";
   std::string html;  // empty: no page
 };
@@ -45,7 +47,8 @@ std::string html_in_out_folder(const ReplayCliOptions& o) {
   return name;
 }
 
-void run_replay_command(const ReplayCliOptions& o) {
+void run_replay_command(ReplayCliOptions o) {
+  apply_race_settings(o.sets, {{"goal_shift_up_frac", -0.8, 0.8, &o.replay.goal_shift_up_frac}}, "replay");
   // Written into a staging folder beside --out and swapped in whole; a folder that cannot be
   // written fails before the race.
   const std::string html_inside = html_in_out_folder(o);
@@ -84,10 +87,9 @@ void add_replay_command(CLI::App& app) {
                   "Red team: a run folder (@center, @random, @center_x/_y/_z allowed), self (default), untrained, scripted, autopilot (AeroBench's waypoint autopilot) or autopilot@line (the autopilot on the race's racing line)");
   cmd->add_option("--seed", o->replay.seed, "Seed of the track and the start")->check(kNonNegativeSeed);
   cmd->add_option("--epsilon", o->replay.epsilon, "HL exploration (default 0: greedy)")->check(CLI::Range(0.0, 1.0));
-  cmd->add_option("--goal-shift-up", o->replay.goal_shift_up_frac,
-                  "Move every goal up by this fraction of the tube radius (race.goal_shift_up_frac; negative: down); "
-                  "default: the run's")
-      ->check(CLI::Range(-0.8, 0.8));
+  cmd->add_option("--set", o->sets,
+                  "A race setting for both teams instead of the run's: race.goal_shift_up_frac=X moves every goal up by "
+                  "X of the tube radius (negative: down)");
   cmd->add_option("--out", o->out,
                   "Output folder, replaced whole by the new replay (a folder holding other files than a replay's "
                   "is refused)");

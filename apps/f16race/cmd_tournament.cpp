@@ -17,6 +17,7 @@
 #include "commands.hpp"
 #include "dist_options.hpp"
 #include "progress_bar.hpp"
+#include "race_settings.hpp"
 #include "eval/tournament.hpp"
 #include "eval/tournament_journal.hpp"
 #include "eval/tournament_output.hpp"
@@ -35,9 +36,10 @@ std::string fingerprint(const eval::TournamentOptions& o) {
     << o.batch_envs << "\n--bootstrap " << o.bootstrap_replicates << "\nuntrained " << o.include_untrained << " "
     << o.untrained_in_statistics << "\n--with-autopilot " << o.include_autopilot << "\n--controls " << o.controls
     << "\n--axis-controls " << o.axis_controls << "\n--controls-own-run " << o.controls_own_run
-    << "\n--autopilot-airspeed " << o.autopilot_airspeed_ftps
-    << "\n--tracks " << o.tracks_config << "\n--goal-line " << o.goal_line_frac << "\n--goal-shift-up " << o.goal_shift_up_frac
-    << "\n--autopilot-on-line " << o.autopilot_on_line << "\n--autopilot-shift-up " << o.autopilot_shift_up_frac
+    << "\nrace.autopilot_airspeed_ftps " << o.autopilot_airspeed_ftps
+    << "\n--tracks " << o.tracks_config << "\nrace.goal_line_frac " << o.goal_line_frac << "\nrace.goal_shift_up_frac "
+    << o.goal_shift_up_frac << "\n--autopilot-on-line " << o.autopilot_on_line << "\nrace.autopilot_shift_up_frac "
+    << o.autopilot_shift_up_frac
     << "\n--out " << o.out_dir;
   return f.str();
 }
@@ -145,34 +147,34 @@ void add_tournament_command(CLI::App& app) {
   cmd->add_flag("--controls-own-run", o->controls_own_run,
                 "Each control entry races its own run alone, not the other entries and controls: what the high "
                 "level adds, in a fraction of the races");
-  cmd->add_option("--autopilot-airspeed", o->autopilot_airspeed_ftps,
-                  "The autopilot entry's airspeed set point [ft/s] (default: the first run's race.autopilot_airspeed_ftps)")
-      ->check(CLI::Range(300.0, 3000.0));
   cmd->add_flag("--autopilot-on-line", o->autopilot_on_line,
                 "The autopilot entry flies its start lanes shifted onto each race's racing line (the race's "
-                "race.goal_line_frac, or --goal-line), its aim points held within 0.8 of the radius");
-  cmd->add_option("--autopilot-shift-up", o->autopilot_shift_up_frac,
-                  "The autopilot entry's aim points moved up by this fraction of the tube radius (negative: down), "
-                  "held within 0.8 of it (default: the first run's race.autopilot_shift_up_frac)")
-      ->check(CLI::Range(-0.8, 0.8));
+                "race.goal_line_frac), its aim points held within 0.8 of the radius");
   cmd->add_option("--tracks", o->tracks_config,
                   "Race on this config's tracks and time limit (race.track, race.time_limit_s), e.g. configs/long.yaml; "
                   "default: the first run's")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--goal-shift-up", o->goal_shift_up_frac,
-                  "Move every entry's goals up by this fraction of the tube radius (race.goal_shift_up_frac; "
-                  "negative: down); default: the first run's")
-      ->check(CLI::Range(-0.8, 0.8));
-  cmd->add_option("--goal-line", o->goal_line_frac,
-                  "Place every entry's goals around the racing line that keeps within this fraction of the tube "
-                  "radius (race.goal_line_frac; 0: the center-line); default: the first run's")
-      ->check(CLI::Range(0.0, 0.95));
+  auto sets = std::make_shared<std::vector<std::string>>();
+  cmd->add_option("--set", *sets,
+                  "A race setting for every entry instead of the first run's (repeatable): race.goal_line_frac "
+                  "(goals around the racing line within that fraction of the radius; 0: the center-line), "
+                  "race.goal_shift_up_frac (every goal moved up by that fraction; negative: down), "
+                  "race.autopilot_shift_up_frac and race.autopilot_airspeed_ftps (the autopilot entry's height and "
+                  "set point)");
   cmd->add_option("--out", o->out_dir,
                   "Output folder, replaced whole when the tournament is written (a folder holding other files than "
                   "a tournament's is refused)");
   auto dist_flags = std::make_shared<DistFlags>();
   dist_flags->add_to(cmd);
-  cmd->callback([o, dist_flags]() { run(*o, dist_flags->resolve()); });
+  cmd->callback([o, sets, dist_flags]() {
+    apply_race_settings(*sets,
+                        {{"goal_line_frac", 0.0, 0.95, &o->goal_line_frac},
+                         {"goal_shift_up_frac", -0.8, 0.8, &o->goal_shift_up_frac},
+                         {"autopilot_shift_up_frac", -0.8, 0.8, &o->autopilot_shift_up_frac},
+                         {"autopilot_airspeed_ftps", 300.0, 3000.0, &o->autopilot_airspeed_ftps}},
+                        "tournament");
+    run(*o, dist_flags->resolve());
+  });
 }
 
 }  // namespace f16race::app

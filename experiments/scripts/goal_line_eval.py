@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Notebook 85's rule: the same runs raced against the tuned autopilot with their goals on the
-racing line (`tournament --goal-line F`) and without, paired by seed.
+racing line (`tournament --set race.goal_line_frac=F`) and without, paired by seed.
 
     experiments/scripts/goal_line_eval.py WITHOUT_DIR WITH_DIR [--json FILE]
 

@@ -78,7 +78,7 @@ def main():
     races = 12
     extra = []
     if len(args) >= 3 and args[-2] == "--goal-shift-up":  # the replays' goals moved (notebook 97)
-        extra = ["--goal-shift-up", args[-1]]
+        extra = ["--set", f"race.goal_shift_up_frac={args[-1]}"]
         args = args[:-2]
     if len(args) >= 2 and args[-2] == "--races":
         if not args[-1].isdigit() or int(args[-1]) < 1:

@@ -8,7 +8,7 @@
         its winrate against the autopilot, with a bootstrap 95 % CI over pilots, and the slopes.
     experiments/scripts/vertical_pace.py shifts DIR SHIFT [SHIFT ...]
         Tournaments DIR/shiftX/t_sS (S = 1..8) of run sS against the autopilot moved up by X of the
-        radius (tournament --autopilot-shift-up X): each seed's winrate and the autopilot's tube
+        radius (tournament --set race.autopilot_shift_up_frac=X): each seed's winrate and the autopilot's tube
         losses per race, and the paired difference of each shift against the first, bootstrapped over
         the seeds.
     experiments/scripts/vertical_pace.py tuned CONTROL_DIR TREATMENT_DIR SHIFT [SHIFT ...]

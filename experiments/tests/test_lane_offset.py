@@ -29,7 +29,8 @@ def write(agent, lat, vert):
         for k in range(61):
             t = round(0.2 * k, 6)
             f.write(f"{t},0,{lat(t)},{vert(t)},1000\n")
-shift = float(a[a.index("--goal-shift-up") + 1]) if "--goal-shift-up" in a else 0.0  # blue 0 follows it
+sets = [a[k + 1] for k in range(len(a) - 1) if a[k] == "--set" and a[k + 1].startswith("race.goal_shift_up_frac=")]
+shift = float(sets[0].split("=", 1)[1]) if sets else 0.0  # blue 0 follows it
 write(0, lambda t: 200.0, lambda t: -3000.0 if t < 5 else 400.0 + 1000.0 * shift)
 write(1, lambda t: -400.0, lambda t: 0.0 if t <= 10 else 5000.0)
 write(2, lambda t: 9000.0, lambda t: 9000.0)

@@ -24,7 +24,7 @@ struct ReplayOptions {
   std::uint64_t seed = 1;  // track and starting positions
   double epsilon = 0.0;    // HL exploration of both teams
   // NaN: the run's race.goal_shift_up_frac; else every goal moved up by this fraction of the radius
-  // (as tournament --goal-shift-up).
+  // (replay --set race.goal_shift_up_frac=X).
   double goal_shift_up_frac = std::numeric_limits<double>::quiet_NaN();
 };
 

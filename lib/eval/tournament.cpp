@@ -280,10 +280,10 @@ race::RaceConfig tournament_race(const TournamentOptions& o, const train::RunPol
   if (o.autopilot_on_line && !o.include_autopilot)
     throw io::InputError("tournament: --autopilot-on-line sets the autopilot entry's lanes; add --with-autopilot");
   if (!std::isnan(o.autopilot_shift_up_frac) && !o.include_autopilot)
-    throw io::InputError("tournament: --autopilot-shift-up moves the autopilot entry's lanes; add --with-autopilot");
+    throw io::InputError("tournament: --set race.autopilot_shift_up_frac moves the autopilot entry's lanes; add --with-autopilot");
   if (o.autopilot_on_line && rc.goal_line_frac <= 0.0)
     throw io::InputError("tournament: --autopilot-on-line: " + first.run_dir +
-                         " races on the center-line (race.goal_line_frac 0); give --goal-line F for a line to fly");
+                         " races on the center-line (race.goal_line_frac 0); give --set race.goal_line_frac=F for a line to fly");
   return rc;
 }
 

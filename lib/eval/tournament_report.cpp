@@ -372,10 +372,10 @@ void excluded_md(const TournamentResult& r, const TournamentStatistics& s, const
           "point "
        << race::AutopilotPilotConfig{}.lookahead_ft << " ft ahead in each aircraft's start lane at "
        << (o.autopilot_airspeed_ftps > 0.0 ? o.autopilot_airspeed_ftps : r.race.autopilot_airspeed())
-       << " ft/s (its set point, race.autopilot_airspeed_ftps or --autopilot-airspeed)";
+       << " ft/s (its set point, race.autopilot_airspeed_ftps)";
   if (has_autopilot && autopilot_shift_up(o, r.race) != 0.0)
     md << ", its aim points moved up by " << autopilot_shift_up(o, r.race)
-       << " of the tube radius (race.autopilot_shift_up_frac or --autopilot-shift-up)";
+       << " of the tube radius (race.autopilot_shift_up_frac)";
   if (has_autopilot) md << ".";
   if (has_control)
     md << " `RUN@center` and `RUN@random` are controls: the run's trained low level with a fixed high level "

@@ -168,7 +168,10 @@ case_ "tournament batch 0" -- "$bin" tournament --runs "$run" --batch 0 --out t5
 case_ "tournament epsilon 2" -- "$bin" tournament --runs "$run" --epsilon 2 --out t6
 case_ "tournament one entry" -- "$bin" tournament --runs "$run" --no-untrained --out t7
 case_ "tournament rule typo" -- "$bin" tournament --runs "$run@centre" --out t8
-case_ "tournament autopilot shift without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --autopilot-shift-up -0.3 --out t20
+case_ "tournament autopilot shift without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --set race.autopilot_shift_up_frac=-0.3 --out t20
+case_ "tournament sets the tracks" "tournament sets race.goal_line_frac" -- "$bin" tournament --runs "$run" --set race.track.n_waypoints=4 --out t22
+case_ "tournament setting out of range" "race.goal_shift_up_frac must be a number in [-0.8, 0.8]" -- "$bin" tournament --runs "$run" --set race.goal_shift_up_frac=2 --out t23
+case_ "replay setting not a number" "race.goal_shift_up_frac must be a number" -- "$bin" replay --run "$run" --set race.goal_shift_up_frac=low --out r23
 case_ "tournament autopilot on line without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --autopilot-on-line --out t21
 "$bin" train --config "$smoke" --run other_ll --seed 2 --max-updates 1 --quiet >/dev/null || { echo "FAIL: setup run 2"; exit 1; }
 case_ "tournament ensemble over two low levels" -- "$bin" tournament --runs "$run+other_ll" --out t16

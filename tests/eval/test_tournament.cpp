@@ -621,7 +621,7 @@ TEST(TournamentAutopilot, OnTheRacingLineFliesOtherRaces) {
   };
   TournamentOptions center = o;
   center.goal_line_frac = 0.0;
-  EXPECT_NE(refusal(center).find("races on the center-line (race.goal_line_frac 0); give --goal-line F"),
+  EXPECT_NE(refusal(center).find("races on the center-line (race.goal_line_frac 0); give --set race.goal_line_frac=F"),
             std::string::npos);
   TournamentOptions no_entry = o;
   no_entry.include_autopilot = false;
