@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Ships a trained run as examples/trained_team/ (issue 52), the team `replay`, `tournament`,
+# Ships a trained run as examples/trained_team/, the team `replay`, `tournament`,
 # `export` and Python's f16race.load_policy use with no training: the run's policy-only copy
 # (`f16race export --policy-run`: config.yaml, checkpoint/LATEST and its checkpoint's meta.yaml,
 # ll.pt and hl.pt without optimiser state, the same for each tail member under members/), its
@@ -10,7 +10,7 @@
 #
 # usage: scripts/ship_team.sh RUN ["TRAIN COMMAND"]
 #   F16RACE=path/to/f16race (default build/f16race); RACES per pairing for provenance (default 256);
-#   TRAINED_BY="the build that trained RUN, when not this one" (e.g. "commit 619e12e (notebook 64)")
+#   TRAINED_BY="the build that trained RUN, when not this one" (e.g. "commit 619e12e")
 set -euo pipefail
 cd "$(dirname "$0")/.."
 run=${1:?usage: scripts/ship_team.sh RUN [\"TRAIN COMMAND\"]}
