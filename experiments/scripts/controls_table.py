@@ -9,7 +9,7 @@ head-to-heads pooled over the runs (as if their races were exchangeable), how ma
 each control, and how the round-robin winrate of the run and control entries splits into a
 between-runs part (the low level each seed learned) and a within-run part (the three HL rules
 flying the same low level). Standard library only; reads nothing but the summary.json the
-tournament wrote (docs/results/fig3-2core/README.md uses it).
+tournament wrote (experiments/results/fig3-2core/README.md uses it).
 """
 import json
 import math
