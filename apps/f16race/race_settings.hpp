@@ -1,13 +1,15 @@
 #pragma once
 // `--set race.KEY=VALUE` for the commands that race trained runs (tournament, replay): the race
-// settings they may change for every entry, with the ranges train's config reader allows. Only
-// how the entries fly, never the tracks (tournament --tracks picks those).
-#include <cmath>
+// settings they may change for every entry, read by the config reader train uses (the same
+// parsing, ranges and one-line errors). Only how the entries fly, never the tracks
+// (tournament --tracks picks those).
+#include <yaml-cpp/yaml.h>
+
 #include <string>
 #include <vector>
 
 #include "io/input_error.hpp"
-#include "io/csv_table.hpp"
+#include "io/yaml_config.hpp"
 
 namespace f16race::app {
 
@@ -17,33 +19,23 @@ struct RaceSetting {
   double* value;    // where the command keeps it
 };
 
-// Applies each `race.KEY=VALUE` of `sets` to the setting named KEY; one line naming the
-// assignment and what is allowed otherwise.
+// Applies every `race.KEY=VALUE` of `sets` to its setting; an assignment outside race:, a key not
+// in `allowed`, a wrong type or an out-of-range value is one line naming the --set.
 inline void apply_race_settings(const std::vector<std::string>& sets, const std::vector<RaceSetting>& allowed,
                                 const char* command) {
+  if (sets.empty()) return;
+  YAML::Node root(YAML::NodeType::Map);
   for (const std::string& s : sets) {
-    std::string keys;
-    for (const RaceSetting& a : allowed) keys += (keys.empty() ? "race." : ", race.") + std::string(a.key);
-    const auto eq = s.find('=');
-    const std::string key = s.substr(0, eq);
-    const RaceSetting* hit = nullptr;
-    for (const RaceSetting& a : allowed)
-      if (key == std::string("race.") + a.key) hit = &a;
-    if (eq == std::string::npos || hit == nullptr)
+    if (s.rfind("race.", 0) != 0) {
+      std::string keys;
+      for (const RaceSetting& a : allowed) keys += (keys.empty() ? "race." : ", race.") + std::string(a.key);
       throw io::InputError("--set '" + s + "': " + command + " sets " + keys + " (as KEY=VALUE)");
-    const std::string text = s.substr(eq + 1);
-    std::size_t used = 0;
-    double v = NAN;
-    try {
-      v = std::stod(text, &used);
-    } catch (const std::exception&) {
-      used = 0;
     }
-    if (used == 0 || used != text.size() || !(v >= hit->lo && v <= hit->hi))
-      throw io::InputError("--set '" + s + "': " + key + " must be a number in [" + io::format_double(hit->lo) + ", " +
-                           io::format_double(hit->hi) + "]");
-    *hit->value = v;
+    io::apply_override(root, s);
   }
+  io::ConfigReader race(root["race"], std::string("--set (") + command + ")", "race");
+  for (const RaceSetting& a : allowed) race.read(a.key, a.value, a.lo, a.hi);
+  race.finish();  // another key: named, with the ones this command sets
 }
 
 }  // namespace f16race::app

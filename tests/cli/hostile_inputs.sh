@@ -169,9 +169,10 @@ case_ "tournament epsilon 2" -- "$bin" tournament --runs "$run" --epsilon 2 --ou
 case_ "tournament one entry" -- "$bin" tournament --runs "$run" --no-untrained --out t7
 case_ "tournament rule typo" -- "$bin" tournament --runs "$run@centre" --out t8
 case_ "tournament autopilot shift without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --set race.autopilot_shift_up_frac=-0.3 --out t20
-case_ "tournament sets the tracks" "tournament sets race.goal_line_frac" -- "$bin" tournament --runs "$run" --set race.track.n_waypoints=4 --out t22
-case_ "tournament setting out of range" "race.goal_shift_up_frac must be a number in [-0.8, 0.8]" -- "$bin" tournament --runs "$run" --set race.goal_shift_up_frac=2 --out t23
-case_ "replay setting not a number" "race.goal_shift_up_frac must be a number" -- "$bin" replay --run "$run" --set race.goal_shift_up_frac=low --out r23
+case_ "tournament sets the tracks" "unknown key 'race.track' (known here: autopilot_airspeed_ftps" -- "$bin" tournament --runs "$run" --set race.track.n_waypoints=4 --out t22
+case_ "tournament setting out of range" "race.goal_shift_up_frac: value 2 is out of range; allowed [-0.8, 0.8]" -- "$bin" tournament --runs "$run" --set race.goal_shift_up_frac=2 --out t23
+case_ "tournament set outside race" "tournament sets race.goal_line_frac" -- "$bin" tournament --runs "$run" --set seed=3 --out t24
+case_ "replay setting not a number" "race.goal_shift_up_frac: expected a number, got 'low'" -- "$bin" replay --run "$run" --set race.goal_shift_up_frac=low --out r23
 case_ "tournament autopilot on line without the autopilot" "--with-autopilot" -- "$bin" tournament --runs "$run" --autopilot-on-line --out t21
 "$bin" train --config "$smoke" --run other_ll --seed 2 --max-updates 1 --quiet >/dev/null || { echo "FAIL: setup run 2"; exit 1; }
 case_ "tournament ensemble over two low levels" -- "$bin" tournament --runs "$run+other_ll" --out t16
