@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "models/dense_linear.hpp"
 #include "models/kernels/masked_attention.hpp"
 
 namespace f16race::models {
@@ -104,9 +105,10 @@ torch::Tensor AttentionEncoderImpl::forward(const torch::Tensor& ego, const torc
   check_tensor(ado, "ado", {b, n, cfg_.d_ado}, torch::kFloat32);
   check_tensor(ado_alive, "ado_alive", {b, n}, torch::kBool);
 
-  const auto attended = masked_attention(q_proj_(ego), k_proj_(ado), v_proj_(ado), ado_alive, h);
+  const auto attended = masked_attention(dense_linear(ego, q_proj_), dense_linear(ado, k_proj_),
+                                         dense_linear(ado, v_proj_), ado_alive, h);
   const auto any_alive = ado_alive.any(1, /*keepdim=*/true).to(torch::kFloat32);
-  return out_proj_(attended) * any_alive;  // drop the output bias too: exact zeros if nobody is alive
+  return dense_linear(attended, out_proj_) * any_alive;  // drop the output bias too: exact zeros if nobody is alive
 }
 
 DenseLayer dense_layer(const torch::nn::Linear& layer) {

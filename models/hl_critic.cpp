@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "models/dense_linear.hpp"
+
 namespace f16race::models {
 
 HlCriticImpl::HlCriticImpl(const HlCriticConfig& cfg) : cfg_(cfg) {
@@ -37,7 +39,8 @@ HlOutput HlCriticImpl::forward(const HlObs& obs, bool with_q) {
   check_obs(obs, cfg_.dims);
   const auto encoded = encoder_(obs.ego, obs.ado, obs.ado_alive);
   // [B, head_width()]: axis-major, atoms innermost
-  return from_head(head_(trunk_->forward(torch::cat({obs.ego, obs.prev_action, encoded, obs.task}, 1))), with_q);
+  const auto hidden = forward_mlp(trunk_, torch::cat({obs.ego, obs.prev_action, encoded, obs.task}, 1));
+  return from_head(dense_linear(hidden, head_), with_q);
 }
 
 HlOutput HlCriticImpl::from_head(const torch::Tensor& out, bool with_q) const {

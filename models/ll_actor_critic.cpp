@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "models/dense_linear.hpp"
+
 namespace f16race::models {
 namespace {
 
@@ -58,9 +60,9 @@ LlOutput LlActorCriticImpl::forward(const LlObs& obs) {
   const auto encoded = encoder_(obs.ego, obs.ado, obs.ado_alive);
   const auto x = torch::cat({obs.ego, obs.goal, encoded, obs.task}, 1);
   LlOutput out;
-  out.mean = actor_->forward(x);
+  out.mean = forward_mlp(actor_, x);
   out.log_std = log_std_.expand({b, cfg_.action_dim});
-  out.value = critic_->forward(x).squeeze(1);
+  out.value = forward_mlp(critic_, x).squeeze(1);
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <torch/torch.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <functional>
 #include <memory>
@@ -159,6 +160,28 @@ void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims,
   }
 }
 
+// The networks' own product, both copies where the CPU runs both (the same bits), against one
+// core's share of the FMA peak.
+void report_fixed_order_gemm(const NetsBenchOptions& o, const bench::FmaPeak& fma) {
+  using models::kernels::GemmIsa;
+  const double core_peak = fma.f32_gflops / std::max(1, fma.threads);
+  std::vector<GemmIsa> isas{GemmIsa::kAvx2};
+  if (models::kernels::avx512_gemm_available()) isas.push_back(GemmIsa::kAvx512);
+  for (GemmIsa isa : isas) {
+    const double gflops = bench::fixed_order_gemm_gflops(isa, o.repeats);
+    const char* name = models::kernels::gemm_isa_name(isa);
+    const bool used = isa == models::kernels::gemm_isa_in_use();
+    if (o.json)
+      std::printf("{\"bench\": \"fixed_order_gemm\", \"isa\": \"%s\", \"in_use\": %s, \"m\": 459, \"k\": 101, "
+                  "\"n\": 64, \"gflops\": %.6g, \"core_fma_peak_gflops\": %.6g, \"fma_share\": %.4g}\n",
+                  name, used ? "true" : "false", gflops, core_peak, gflops / core_peak);
+    else
+      std::printf("fixed-order product [459 x 101] x [101 x 64], one thread, %s copy%s: %.1f GFLOP/s, %.2f of a core's "
+                  "FMA peak\n",
+                  name, used ? " (in use)" : "", gflops, gflops / core_peak);
+  }
+}
+
 void run_bench_nets(const NetsBenchOptions& o) {
   torch::set_num_threads(omp_get_max_threads());
   const models::ObsDims dims{o.d_ego, o.d_ado, o.d_task, o.n_other};
@@ -186,6 +209,9 @@ void run_bench_nets(const NetsBenchOptions& o) {
                 "threads; double %.1f)\n",
                 ref.matmul_gflops, blas.empty() ? "BLAS: not OpenBLAS" : ("OpenBLAS kernels: " + blas).c_str(),
                 fma.f32_gflops, fma.isa, fma.threads, fma.f64_gflops);
+  }
+  report_fixed_order_gemm(o, fma);
+  if (!o.json) {
     std::printf("x matmul, x FMA: the forward's GF/s as a share of the matrix product's and of the FMA peak; f+b: the\n"
                 "forward and backward's, counting the backward as twice the forward's FLOPs\n");
     std::printf("%-20s %12s %12s %10s %12s %10s %9s %9s\n", "network", "kFLOP/sample", "fwd us/smp", "fwd GF/s",

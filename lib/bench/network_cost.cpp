@@ -132,4 +132,21 @@ double matmul_gflops(int repeats) {
   return 2.0 * n * n * n / s * 1e-9;
 }
 
+double fixed_order_gemm_gflops(models::kernels::GemmIsa isa, int repeats) {
+  constexpr std::int64_t m = 459, k = 101, n = 64, calls = 200;
+  auto gen = models::make_generator(3);
+  const auto a = torch::randn({m, k}, gen), b = torch::randn({k, n}, gen), bias = torch::randn({n}, gen);
+  torch::Tensor c = torch::empty({m, n});
+  models::kernels::GemmArgs g;
+  g.m = m, g.n = n, g.k = k;
+  g.a = a.data_ptr<float>(), g.a_row_stride = k;
+  g.b = b.data_ptr<float>(), g.b_row_stride = n;
+  g.bias = bias.data_ptr<float>();
+  g.c = c.data_ptr<float>(), g.c_row_stride = n;
+  const double s = time_median_s([&]() {
+    for (int i = 0; i < calls; ++i) models::kernels::fixed_order_gemm(g, isa);
+  }, repeats);
+  return 2.0 * m * n * k * calls / s * 1e-9;
+}
+
 }  // namespace f16race::bench

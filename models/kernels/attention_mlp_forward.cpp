@@ -1,5 +1,6 @@
 #include "models/kernels/attention_mlp_forward.hpp"
 
+#include "models/kernels/fixed_order_gemm.hpp"
 #include "models/kernels/masked_attention.hpp"
 
 #include <omp.h>
@@ -15,10 +16,28 @@ namespace {
 
 using RowMatrixF = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+// A layer as the fixed-order product reads it (the training path's kernels, dense_linear).
 struct Dense {
-  RowMatrixF weight;        // [out, in]
-  Eigen::RowVectorXf bias;  // [out]
+  int64_t out = 0, in = 0;
+  std::vector<float> weight_t;  // [in, out]: W transposed, the product's B
+  std::vector<float> bias;      // [out]
 };
+
+// y [rows, l.out] (row stride ldy) = x [rows, l.in] (row stride ldx) W^T + b.
+void dense_product(const Dense& l, const float* x, int64_t ldx, int64_t rows, float* y, int64_t ldy) {
+  kernels::GemmArgs g;
+  g.m = rows;
+  g.n = l.out;
+  g.k = l.in;
+  g.a = x;
+  g.a_row_stride = ldx;
+  g.b = l.weight_t.data();
+  g.b_row_stride = l.out;
+  g.bias = l.bias.data();
+  g.c = y;
+  g.c_row_stride = ldy;
+  kernels::fixed_order_gemm(g);
+}
 
 void check_layer(const DenseLayer& l, int64_t in, const std::string& name) {
   if (l.in != in || l.out <= 0 || static_cast<int64_t>(l.weight.size()) != l.out * l.in ||
@@ -38,8 +57,11 @@ int64_t check_mlp(const std::vector<DenseLayer>& layers, int64_t in, const std::
 }
 
 Dense dense_of(const DenseLayer& l) {
-  return Dense{Eigen::Map<const RowMatrixF>(l.weight.data(), l.out, l.in),
-               Eigen::Map<const Eigen::RowVectorXf>(l.bias.data(), l.out)};
+  Dense d{l.out, l.in, std::vector<float>(static_cast<std::size_t>(l.out * l.in)), l.bias};
+  for (int64_t o = 0; o < l.out; ++o)
+    for (int64_t i = 0; i < l.in; ++i)
+      d.weight_t[static_cast<std::size_t>(i * l.out + o)] = l.weight[static_cast<std::size_t>(o * l.in + i)];
+  return d;
 }
 
 std::vector<Dense> dense_of(const std::vector<DenseLayer>& layers) {
@@ -59,9 +81,8 @@ struct Scratch {
     for (std::size_t i = 0; i < layers.size(); ++i) {
       const bool last = i + 1 == layers.size();
       RowMatrixF* dst = last ? result : bufs[i % 2];
-      dst->resize(in->rows(), layers[i].weight.rows());
-      dst->noalias() = *in * layers[i].weight.transpose();
-      dst->rowwise() += layers[i].bias;
+      dst->resize(in->rows(), layers[i].out);
+      dense_product(layers[i], in->data(), in->cols(), in->rows(), dst->data(), dst->cols());
       if (!last && activation == Activation::kTanh) *dst = dst->array().tanh().matrix();
       if (!last && activation == Activation::kRelu) *dst = dst->cwiseMax(0.0f);
       in = dst;
@@ -108,16 +129,7 @@ struct AttentionMlpForward::Impl {
                      const bool* ado_alive, const float* task, float* mean, float* value) const;
 };
 
-// Eigen sizes its GEMM blocks from the cache sizes cpuid reports, and a block boundary along the
-// inner dimension is a rounding step (AVX2 floats with a 32 KB L1: a block every 288 inputs, with
-// 48 KB every 432). Fixed sizes give every CPU the same blocks, so the same bits.
-AttentionMlpForward::AttentionMlpForward() {
-  static const bool pinned = [] {
-    Eigen::setCpuCacheSizes(32 * 1024, 1024 * 1024, 8 * 1024 * 1024);
-    return true;
-  }();
-  (void)pinned;
-}
+AttentionMlpForward::AttentionMlpForward() = default;
 AttentionMlpForward::~AttentionMlpForward() = default;
 
 bool AttentionMlpForward::ready() const { return impl_ != nullptr; }
@@ -194,7 +206,7 @@ void AttentionMlpForward::run_blocks(int64_t batch, const LlRawRows* raw, const 
   const int64_t n_blocks = (batch + kBlockRows - 1) / kBlockRows;
   const int threads = static_cast<int>(std::min<int64_t>(omp_get_max_threads(), n_blocks));
   if (static_cast<int>(m.scratch.size()) < std::max(threads, 1)) m.scratch.resize(static_cast<std::size_t>(std::max(threads, 1)));
-  const int64_t n = m.n_other, a = m.mlp.back().weight.rows();
+  const int64_t n = m.n_other, a = m.mlp.back().out;
   auto block = [&](int64_t k, Scratch& sc) {
     const int64_t lo = k * kBlockRows, rows = std::min(kBlockRows, batch - lo);
     if (raw != nullptr) normalize_block(*raw, n, lo, rows);
@@ -218,14 +230,11 @@ void AttentionMlpForward::Impl::forward_block(Scratch& m, int64_t b, const float
   const int64_t n = n_other, d = d_model, h = n_heads;
   using CMap = Eigen::Map<const RowMatrixF>;
   m.q_.resize(b, d);
-  m.q_.noalias() = CMap(ego, b, d_ego) * this->q.weight.transpose();
-  m.q_.rowwise() += this->q.bias;
+  dense_product(this->q, ego, d_ego, b, m.q_.data(), d);
   m.k_.resize(b * n, d);
-  m.k_.noalias() = CMap(ado, b * n, d_ado) * this->k.weight.transpose();
-  m.k_.rowwise() += this->k.bias;
+  dense_product(this->k, ado, d_ado, b * n, m.k_.data(), d);
   m.v_.resize(b * n, d);
-  m.v_.noalias() = CMap(ado, b * n, d_ado) * this->v.weight.transpose();
-  m.v_.rowwise() += this->v.bias;
+  dense_product(this->v, ado, d_ado, b * n, m.v_.data(), d);
 
   // The attention core is the training path's kernel; a sample with nobody alive encodes to zeros.
   m.attended_.resize(b, d);
@@ -233,8 +242,7 @@ void AttentionMlpForward::Impl::forward_block(Scratch& m, int64_t b, const float
   kernels::masked_attention_forward(kernels::AttentionShape{n, h, d / h}, 0, b, m.q_.data(), m.k_.data(),
                                     m.v_.data(), ado_alive, m.weights_.data(), m.attended_.data());
   m.encoded_.resize(b, d);
-  m.encoded_.noalias() = m.attended_ * out.weight.transpose();
-  m.encoded_.rowwise() += out.bias;
+  dense_product(out, m.attended_.data(), d, b, m.encoded_.data(), d);
   for (int64_t i = 0; i < b; ++i) {
     bool any = false;
     for (int64_t j = 0; j < n; ++j) any = any || ado_alive[i * n + j];

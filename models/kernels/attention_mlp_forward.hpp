@@ -1,12 +1,13 @@
 #pragma once
 // The forward pass of an attention encoder followed by MLPs on [ego, goal or prev_action, encoded,
-// task], for no-grad inference on Eigen float kernels instead of LibTorch ops, with the weights
+// task], for no-grad inference on plain float kernels instead of LibTorch ops, with the weights
 // copied out of the LibTorch module. Two networks have this shape: the low-level actor-critic
 // (tanh MLPs for the action mean and the value; models/ll_actor_critic.hpp) and the high-level
 // critic with one shared branch (a ReLU trunk and its head, no value MLP; models/hl_critic.hpp).
 // At rollout batch sizes (a few to hundreds of rows) LibTorch spends more time per call in
 // dispatch and allocation of ~30 small ops than in arithmetic; this does the same arithmetic in a
-// handful of GEMMs and plain loops over preallocated scratch. Held equal to LlActorCritic::forward
+// handful of matrix products (the training path's fixed-order kernels, fixed_order_gemm.hpp) and
+// plain loops over preallocated Eigen scratch. Held equal to LlActorCritic::forward
 // and HlCritic::forward by tests/models/test_attention_mlp_forward.
 //
 // No Eigen type crosses this header: the kernels are compiled with the simulator's instruction-set

@@ -30,6 +30,11 @@ for l in lines:
         if peaks != [j["fma_peak_gflops"]]: sys.exit(what + ": fma_peak_gflops " + repr(j["fma_peak_gflops"]) + " != " + repr(peaks))
         if abs(j["forward_fma_share"] - j["forward_gflops"] / j["fma_peak_gflops"]) > 1e-3 * j["forward_fma_share"]:
             sys.exit(what + ": forward_fma_share " + repr(j["forward_fma_share"]))
+    if j.get("bench") == "fixed_order_gemm":  # the networks product: the copy in use is the widest the CPU has
+        gemms = [json.loads(m) for m in lines if json.loads(m).get("bench") == "fixed_order_gemm"]
+        if [g["in_use"] for g in gemms].count(True) != 1: sys.exit(what + ": not one fixed_order_gemm copy in use")
+        if not (j["gflops"] > 0 and abs(j["fma_share"] - j["gflops"] / j["core_fma_peak_gflops"]) < 1e-3 * j["fma_share"]):
+            sys.exit(what + ": fixed_order_gemm " + l)
     if j.get("bench") == "train":  # the floor is timed on rows with the alive shares of the run
         for k in ("ll_forward_alive_share", "ll_train_alive_share", "hl_forward_alive_share", "hl_train_alive_share"):
             if not 0.0 <= j.get(k, -1.0) <= 1.0: sys.exit(what + ": " + k + " = " + repr(j.get(k)))
