@@ -37,7 +37,7 @@ LlActorCriticImpl::LlActorCriticImpl(const LlActorCriticConfig& cfg) : cfg_(cfg)
                                                                                  cfg.dims.n_other, cfg.d_model,
                                                                                  cfg.n_heads}));
   const int64_t in = cfg.dims.d_ego + cfg.dims.d_goal + cfg.d_model + cfg.dims.d_task;
-  actor_ = register_module("actor", make_mlp(in, cfg.hidden, cfg.action_dim, cfg.actor_out_gain));
+  actor_ = register_module("actor", make_mlp(in, cfg.hidden, cfg.action_dim, 0.01));
   critic_ = register_module("critic", make_mlp(in, cfg.hidden, 1, 1.0));
   log_std_ = register_parameter("log_std", torch::full({cfg.action_dim}, cfg.init_log_std));
 }

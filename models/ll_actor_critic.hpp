@@ -25,9 +25,6 @@ struct LlActorCriticConfig {
   int64_t n_heads = 4;
   std::vector<int64_t> hidden{64, 64};  // paper Table I h_dim, for actor and critic each
   double init_log_std = 0.0;
-  // The gain of the actor's last layer (CleanRL's 0.01); 0: the mean starts at exactly zero, so a
-  // residual low level (train.ll_pilot residual) starts as its base controller.
-  double actor_out_gain = 0.01;
 };
 
 struct LlOutput {

@@ -42,10 +42,6 @@ void run_export(ExportOptions o) {
     throw io::InputError(o.run + "/config.yaml: train.ll_pilot is autopilot, so the run's low level is AeroBench's "
                          "waypoint autopilot, not a network: there is nothing to export as TorchScript; race the run "
                          "with f16race tournament or replay");
-  if (policy.config.loop.ll_pilot == train::LowLevelPilot::kResidual)
-    throw io::InputError(o.run + "/config.yaml: train.ll_pilot is residual, so the run's low level is AeroBench's "
-                         "waypoint autopilot plus the network's correction, and the autopilot is not a TorchScript "
-                         "module: race the run with f16race tournament or replay");
   if (!o.policy_run.empty()) {
     write_policy_run(o);
     o.run = o.policy_run;

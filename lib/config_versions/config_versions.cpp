@@ -67,8 +67,14 @@ constexpr Retired kRetired[] = {
     {"train", "ll_choice_snapshots", "0", "f91e291"},
     {"train", "ll_choice_races", "384", "f91e291"},
     {"train", "ll_both_teams", "false", "c8c67be"},
+    {"train", "ll_residual_scale", "0.5", "5761eb7"},
     {"pool", "p_center", "0", "b8c9f8c"},
     {"pool", "p_autopilot", "0", "e9c8edf"},
+};
+
+// Values of live keys that were measured and removed: the key stays, this value is refused.
+constexpr Retired kRetiredValues[] = {
+    {"train", "ll_pilot", "residual", "5761eb7"},
 };
 
 // The mapping at a dotted section path, or an undefined node when a part is missing or not a map.
@@ -155,6 +161,12 @@ void drop_retired_keys(YAML::Node root, const std::string& source) {
                             " was removed, measured not to help (this build behaves as " + r.value +
                             "); build commit " + r.last_commit + " to use it");
     section.remove(r.key);
+  }
+  for (const Retired& r : kRetiredValues) {
+    YAML::Node section = section_of(root, r.section);
+    if (!section.IsDefined() || !section[r.key] || !holds(section[r.key], r.value)) continue;
+    throw io::ConfigError(origin(section[r.key], source) + ": " + r.section + "." + r.key + ": " + r.value +
+                          " was removed, measured not to help; build commit " + r.last_commit + " to use it");
   }
 }
 

@@ -138,7 +138,6 @@ torch::Tensor Trainer::State::ll_actions(bool learn, agents::PpoAction* act) {
                             (ll_rows.rows(1).numel() > 0 ? models::count_alive(obs.ado_alive, ll_rows.rows(1)) : 0);
     work.ll_forward_calls += ll_rows.rows(1).numel() > 0 ? 2 : 1;
     // Every aircraft of a training race flies this run's low level (its own or a pool snapshot's).
-    add_residual_base(cfg, *env, nullptr, actions.size(0), actions.data_ptr<float>());
     apply_ll_throttle(cfg, nullptr, actions.size(0), actions.data_ptr<float>());
   }
   timing.inference += since(t_act);

@@ -32,7 +32,7 @@ RunPolicy make_policy(TrainConfig cfg) {
   cfg.hl.dims = p.dims;
   cfg.ll.total_updates = 1;  // only the learning-rate schedule reads it
   p.config = cfg;
-  p.ll = std::make_unique<agents::PpoAgent>(ll_agent_config(cfg));
+  p.ll = std::make_unique<agents::PpoAgent>(cfg.ll);
   p.hl = std::make_unique<agents::EsAgent>(cfg.hl);
   return p;
 }
@@ -133,25 +133,7 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
     return;
   }
   scatter_rows(rows, p.ll->act(obs, rows, gen, false).mean, actions);  // the Gaussian's mean
-  add_residual_base(p.config, env, rows.data_ptr<std::int64_t>(), rows.numel(), actions);
   apply_ll_throttle(p.config, rows.data_ptr<std::int64_t>(), rows.numel(), actions);
-}
-
-void add_residual_base(const TrainConfig& config, const race::RaceEnv& env, const std::int64_t* rows,
-                       std::int64_t n_rows, float* actions) {
-  if (config.loop.ll_pilot != LowLevelPilot::kResidual) return;
-  // One buffer per thread, grown once: this runs at every LL step of training.
-  thread_local std::vector<float> base;
-  base.resize(static_cast<std::size_t>(env.n_aircraft()) * race::kActionDim);
-  race::autopilot_actions(env, goal_lane_autopilot(config), base.data(), rows, n_rows);
-  const float scale = static_cast<float>(config.loop.ll_residual_scale);
-  for (std::int64_t k = 0; k < n_rows; ++k) {
-    const std::int64_t r = rows ? rows[k] : k;
-    for (int d = 0; d < race::kActionDim; ++d) {
-      const std::size_t i = static_cast<std::size_t>(r) * race::kActionDim + static_cast<std::size_t>(d);
-      actions[i] = base[i] + scale * actions[i];
-    }
-  }
 }
 
 void apply_ll_throttle(const TrainConfig& config, const std::int64_t* rows, std::int64_t n_rows, float* actions) {

@@ -54,7 +54,7 @@ void check_same_race_shape(const RunPolicy& reference, const RunPolicy& other);
 // Writes policy p's greedy LL actions [n_env * n_agent, 3] for the aircraft in `rows` (ascending
 // indices into env * n_agent + agent; the others untouched): its network's mean on those rows of
 // `obs`, or, for a run trained with train.ll_pilot autopilot, AeroBench's waypoint autopilot
-// flying each aircraft's goal lane (residual: that autopilot plus the scaled mean). The one
+// flying each aircraft's goal lane. The one
 // low-level act of the tournament and replay.
 void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const models::LlObs& obs,
                        const torch::Tensor& rows, at::Generator& gen, float* actions);
@@ -63,12 +63,6 @@ void greedy_ll_actions(const RunPolicy& p, const race::RaceEnv& env, const model
 // aircraft in `rows` (ascending indices; null: rows 0 .. n_rows - 1) set to full; the race's Mach
 // governor caps it. A policy throttle leaves them untouched.
 void apply_ll_throttle(const TrainConfig& config, const std::int64_t* rows, std::int64_t n_rows, float* actions);
-
-// train.ll_pilot residual: on the given rows (all n_rows aircraft when rows is null), the network's
-// actions become the goal-following autopilot's plus train.ll_residual_scale times them. Any other
-// pilot: nothing.
-void add_residual_base(const TrainConfig& config, const race::RaceEnv& env, const std::int64_t* rows,
-                       std::int64_t n_rows, float* actions);
 
 // Writes policy p's HL bins [n_env * n_agent, 3] for the aircraft in `rows` (ascending indices as
 // above), eps-greedy with `epsilon`. The one high-level act of the tournament and replay.

@@ -92,13 +92,9 @@ void bind_loop(R& r, LoopConfig* c) {
   r.read("checkpoint_every_updates", &c->checkpoint_every_updates, 1, 1000000);
   r.read("hl_epsilon_eval", &c->hl_epsilon_eval, 0.0, 1.0);
   r.read("log_every_updates", &c->log_every_updates, 1, 1000000);
-  static const char* const kPilots[] = {"ppo", "autopilot", "residual"};
-  std::string pilot = kPilots[static_cast<int>(c->ll_pilot)];
-  r.read("ll_pilot", &pilot, {"ppo", "autopilot", "residual"});
-  c->ll_pilot = pilot == "autopilot" ? LowLevelPilot::kAutopilot
-                : pilot == "residual" ? LowLevelPilot::kResidual
-                                      : LowLevelPilot::kPpo;
-  r.read("ll_residual_scale", &c->ll_residual_scale, 0.01, 2.0);
+  std::string pilot = c->ll_pilot == LowLevelPilot::kAutopilot ? "autopilot" : "ppo";
+  r.read("ll_pilot", &pilot, {"ppo", "autopilot"});
+  c->ll_pilot = pilot == "autopilot" ? LowLevelPilot::kAutopilot : LowLevelPilot::kPpo;
   r.read("autopilot_airspeed_ftps", &c->autopilot_airspeed_ftps, 0.0, 2000.0);
   std::string throttle = c->ll_throttle == LowLevelThrottle::kGovernor ? "governor" : "policy";
   r.read("ll_throttle", &throttle, {"policy", "governor"});
@@ -130,12 +126,6 @@ std::uint64_t steps_as_read(const YAML::Node& root) {
 }
 
 }  // namespace
-
-agents::PpoConfig ll_agent_config(const TrainConfig& c) {
-  agents::PpoConfig ll = c.ll;
-  if (c.loop.ll_pilot == LowLevelPilot::kResidual) ll.net.actor_out_gain = 0.0;
-  return ll;
-}
 
 race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& c) {
   race::AutopilotPilotConfig pilot;

@@ -19,9 +19,8 @@ namespace f16race::train {
 // Who flies the low level: the PPO policy (the paper), or AeroBench's waypoint autopilot flying
 // the lane of each aircraft's HL goal at a held airspeed, so that only the high level learns and
 // what it learns is measured without the low level's own learning in the way.
-// ppo: the network's action; autopilot: AeroBench's waypoint autopilot toward the goal, no network;
-// residual: the autopilot's action plus the network's, scaled (docs/learning.md, "A residual pilot").
-enum class LowLevelPilot { kPpo, kAutopilot, kResidual };
+// ppo: the network's action; autopilot: AeroBench's waypoint autopilot toward the goal, no network.
+enum class LowLevelPilot { kPpo, kAutopilot };
 // Who sets the low level's throttle: the policy (its first action, the paper's), or the race's
 // Mach governor alone: full throttle, capped by race.mach_governor, as the autopilot flies with its
 // set point above the cap. The policy's throttle output is then not used.
@@ -36,7 +35,6 @@ struct LoopConfig {
   int log_every_updates = 1;              // plain log line cadence when stdout is not a terminal
   LowLevelPilot ll_pilot = LowLevelPilot::kPpo;  // autopilot: no LL phase, every update is an ES update
   double autopilot_airspeed_ftps = 0.0;          // its set point; 0: race.start_speed_ftps, as the `autopilot` entry
-  double ll_residual_scale = 0.5;  // residual: action = autopilot's + this x the network's, before the env's clamp
   LowLevelThrottle ll_throttle = LowLevelThrottle::kGovernor;
   // Share of total_env_steps at the end of a run in which the LL is frozen and only the HL learns
   // (every update an ES update): the bilevel problem's outer level against the final inner one.
@@ -113,9 +111,6 @@ struct TrainConfig {
 // AeroBench's waypoint autopilot flying each aircraft's goal lane at the configured airspeed.
 race::AutopilotPilotConfig goal_lane_autopilot(const TrainConfig& config);
 
-// The low level's agent config: `ll` as configured, its actor's last layer at zero for a residual
-// pilot (the network's correction starts at nothing).
-agents::PpoConfig ll_agent_config(const TrainConfig& config);
 
 // Who wrote a config: a user (a file and --set), or train (a run folder's config.yaml, which may
 // also list the internal train.tail_member).

@@ -82,9 +82,9 @@ void Trainer::State::build_learners() {
   const double ll_steps = (1.0 - cfg.loop.hl_tail_share) * static_cast<double>(cfg.loop.total_env_steps);
   cfg.ll.total_updates =
       std::max<std::int64_t>(1, static_cast<std::int64_t>(ll_share * ll_steps / (cfg.ll.n_steps * n_env_global)) + 1);
-  ppo = std::make_unique<agents::PpoAgent>(ll_agent_config(cfg));
+  ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   es = std::make_unique<agents::EsAgent>(cfg.hl);
-  opp_ppo = std::make_unique<agents::PpoAgent>(ll_agent_config(cfg));
+  opp_ppo = std::make_unique<agents::PpoAgent>(cfg.ll);
   opp_es = std::make_unique<agents::EsAgent>(cfg.hl);
   buffer = std::make_unique<agents::RolloutBuffer>(cfg.ll.n_steps, static_cast<std::int64_t>(n_env) * ts, dims,
                                                    race::kActionDim);
@@ -101,11 +101,9 @@ void Trainer::State::load_frozen_low_level() {
   if (pilot.loop.ll_throttle != cfg.loop.ll_throttle)
     throw io::InputError(from + ": train.ll_from's low level was trained with another train.ll_throttle than this "
                          "config's: use its value from " + from + "/config.yaml");
-  // A residual network is a correction of the autopilot, flown only on top of it (and the same scale).
-  if (pilot.loop.ll_pilot != cfg.loop.ll_pilot ||
-      (pilot.loop.ll_pilot == LowLevelPilot::kResidual && pilot.loop.ll_residual_scale != cfg.loop.ll_residual_scale))
-    throw io::InputError(from + ": train.ll_from's low level was trained with another train.ll_pilot or "
-                         "train.ll_residual_scale than this config's: use its values from " + from + "/config.yaml");
+  if (pilot.loop.ll_pilot != cfg.loop.ll_pilot)
+    throw io::InputError(from + ": train.ll_from's low level was trained with another train.ll_pilot than this "
+                         "config's: use its value from " + from + "/config.yaml");
   const std::string path = from + "/checkpoint/" + name + "/ll.pt";
   const auto shapes = [this] {  // a load replaces tensors whole: a different network would just take their place
     std::vector<std::vector<std::int64_t>> out;

@@ -83,17 +83,21 @@ race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0, 
        tube_wall_frac: 0.80000000000000004, governor_holds: mach, n_env: 4}
 ll: {inference: eigen, normalize_returns: false, init_at_trim: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
-train: {hl_average_share: 0, ll_both_teams: false, ll_choice_snapshots: 0, ll_choice_races: 384}
+train: {hl_average_share: 0, ll_both_teams: false, ll_choice_snapshots: 0, ll_choice_races: 384, ll_residual_scale: 0.5,
+        ll_pilot: ppo}
 pool: {p_center: 0.0, p_autopilot: 0}
 )");
   migrate(old, "cfg.yaml", Written::kByUser);
-  EXPECT_EQ(emitted(old), "race: {n_env: 4}\nll: {}\nhl: {}\ntrain: {}\npool: {}");
+  EXPECT_EQ(emitted(old), "race: {n_env: 4}\nll: {}\nhl: {}\ntrain: {ll_pilot: ppo}\npool: {}");
   const std::string gone = " was removed, measured not to help (this build behaves as ";
   EXPECT_EQ(error_of("hl: {explore: team}"), "cfg.yaml: hl.explore: team" + gone + "aircraft); build commit b8c9f8c to use it");
   EXPECT_EQ(error_of("train: {ll_choice_snapshots: 4}"),
             "cfg.yaml: train.ll_choice_snapshots: 4" + gone + "0); build commit f91e291 to use it");
   EXPECT_EQ(error_of("race: {w_tube_wall: 0.15}"), "cfg.yaml: race.w_tube_wall: 0.15" + gone + "0); build commit 833c6d1 to use it");
   EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"), "cfg.yaml: pool.p_autopilot: 0.25" + gone + "0); build commit e9c8edf to use it");
+  // A removed value of a key that stays: train.ll_pilot residual.
+  EXPECT_EQ(error_of("train: {ll_pilot: residual}"),
+            "cfg.yaml: train.ll_pilot: residual was removed, measured not to help; build commit 5761eb7 to use it");
   YAML::Node set = YAML::Load("race: {n_env: 4}");
   io::apply_override(set, "race.governor_holds=airspeed");
   try {

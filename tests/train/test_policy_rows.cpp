@@ -85,35 +85,6 @@ TEST(GreedyLowLevel, NetworkMeanOrGoalFollowingAutopilotOnTheGivenRowsOnly) {
     for (float v : got) untouched += v == 42.0f;
     EXPECT_EQ(untouched, static_cast<int>(n) - 3 * race::kActionDim);
   }
-  // train.ll_pilot residual: the goal-following autopilot plus ll_residual_scale times the mean,
-  // which starts at exactly zero (the actor's last layer at zero): the untrained pilot is the
-  // autopilot, bit for bit; a moved network adds its scaled mean.
-  {
-    TrainConfig cr = c;
-    cr.loop.ll_pilot = LowLevelPilot::kResidual;
-    cr.loop.ll_residual_scale = 0.25;
-    RunPolicy p = untrained_policy(cr, 7);
-    std::vector<float> got(n, 42.0f), base(n, 42.0f);
-    greedy_ll_actions(p, env, obs, rows, gen, got.data());
-    race::autopilot_actions(env, goal_lane_autopilot(cr), base.data(), rows.data_ptr<std::int64_t>(), rows.numel());
-    EXPECT_EQ(got, base) << "an untrained residual pilot is the autopilot";
-    {
-      torch::NoGradGuard no_grad;
-      for (auto& w : p.ll->net()->parameters()) w.add_(0.05);
-    }
-    const std::vector<float> mean = [&] {
-      std::vector<float> m(n, 0.0f);
-      scatter_rows(rows, p.ll->act(models::index_rows(obs, rows), gen, false).mean, m.data());
-      return m;
-    }();
-    greedy_ll_actions(p, env, obs, rows, gen, got.data());
-    for (std::int64_t r : {1, 2, 6})
-      for (int d = 0; d < race::kActionDim; ++d) {
-        const std::size_t i = static_cast<std::size_t>(r) * race::kActionDim + static_cast<std::size_t>(d);
-        EXPECT_NE(mean[i], 0.0f);
-        EXPECT_EQ(got[i], base[i] + 0.25f * mean[i]) << "row " << r << " dim " << d;
-      }
-  }
   // train.ll_throttle governor: the network's Nz and roll on those rows, the throttle full.
   TrainConfig cg = c;
   cg.loop.ll_throttle = LowLevelThrottle::kGovernor;

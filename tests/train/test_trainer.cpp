@@ -191,26 +191,10 @@ TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
   EXPECT_EQ(a.ll_parameters(), ll0);
   EXPECT_NE(a.hl_parameters(), hl0);
   EXPECT_EQ(stopped_and_resumed(smoke(extra), "ap_split", 3)->hl_parameters(), a.hl_parameters());
-  EXPECT_NE(error_of("train: {ll_pilot: fly}").find("train.ll_pilot: 'fly' is not one of: ppo, autopilot, residual"),
+  EXPECT_NE(error_of("train: {ll_pilot: fly}").find("train.ll_pilot: 'fly' is not one of: ppo, autopilot"),
             std::string::npos);
   EXPECT_NE(error_of("train: {ll_pilot: autopilot, hl_phase_updates: 0}").find("train.hl_phase_updates must be > 0"),
             std::string::npos);
-}
-
-// train.ll_pilot residual: both levels learn (the network's correction moves from zero), and a
-// stopped and resumed run ends where an uninterrupted one does.
-TEST(Trainer, ResidualLowLevelLearnsACorrectionAndResumesExactly) {
-  const std::string extra = "train.ll_pilot=residual";
-  Trainer a(smoke(extra), fresh_dir("res_whole"));
-  const std::vector<float> ll0 = a.ll_parameters(), hl0 = a.hl_parameters();
-  const TrainSummary full = a.run();
-  int ll_updates = 0;
-  for (const MetricsRow& r : full.rows) ll_updates += r.phase == "ll";
-  EXPECT_GT(ll_updates, 0);
-  EXPECT_NE(a.ll_parameters(), ll0);
-  EXPECT_NE(a.hl_parameters(), hl0);
-  EXPECT_EQ(stopped_and_resumed(smoke(extra), "res_split", 3)->ll_parameters(), a.ll_parameters());
-  EXPECT_NE(error_of("train: {ll_residual_scale: 0}").find("train.ll_residual_scale"), std::string::npos);
 }
 
 // train.ll_throttle governor: the flight changes (other samples, other weights from the same
