@@ -28,7 +28,8 @@ Written written_by(const std::string& path);
 //    value it had then, where the file does not list it;
 //  - a retired key (a switch that was measured and removed) is dropped when it holds what this
 //    build does; any other value throws io::ConfigError naming `source`, the key, and the commit
-//    to build to use it.
+//    to build to use it;
+//  - a retired value of a key that stays (train.ll_pilot: residual) throws the same way.
 void migrate(YAML::Node root, const std::string& source, Written who);
 
 }  // namespace f16race::config_versions
