@@ -21,7 +21,8 @@ class DenseLinear : public torch::autograd::Function<DenseLinear> {
     const int64_t out = weight_in.size(0), in = weight_in.size(1);
     const auto x = x_in.reshape({-1, in}).contiguous();
     const auto weight = weight_in.contiguous();
-    const auto weight_t = weight.t().contiguous();  // [in, out]: B of the forward product
+    auto weight_t = torch::empty({in, out}, weight.options());  // [in, out]: B of the forward product
+    kernels::transpose_weight(weight.data_ptr<float>(), out, in, weight_t.data_ptr<float>());
     const auto bias = bias_in.defined() ? bias_in.contiguous() : bias_in;
     auto y = torch::empty({x.size(0), out}, x.options());
     kernels::GemmArgs g;

@@ -14,6 +14,7 @@
 
 #include "models/attention_encoder.hpp"
 #include "models/kernels/attention_mlp_forward.hpp"
+#include "models/kernels/attention_mlp_train.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -41,6 +42,12 @@ class LlActorCriticImpl : public torch::nn::Module {
   // A float copy of the weights for AttentionMlpForward (no-grad inference without LibTorch ops).
   AttentionMlpWeights eigen_weights() const;
   const torch::Tensor& log_std() const { return log_std_; }  // [action_dim]
+  // The weights in place for the fused training pass (models/kernels/attention_mlp_train.hpp): valid
+  // while the parameters' storage is (the optimiser updates it in place).
+  kernels::AttentionMlpTrainNet train_net() const;
+  // Gradient views into `grads`, one float tensor per parameter in parameters() order, each shaped
+  // and contiguous as its parameter (log_std's is the caller's).
+  kernels::AttentionMlpTrainGrads train_grads(const std::vector<torch::Tensor>& grads) const;
 
  private:
   LlActorCriticConfig cfg_;

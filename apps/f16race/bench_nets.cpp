@@ -160,6 +160,29 @@ void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims,
   }
 }
 
+// The LL's forward+backward as PpoAgent::update runs it (PpoConfig::fused_training: the fused pass,
+// models/kernels/attention_mlp_train.hpp), one pass per thread side by side as its chunks run.
+void time_fused_ll_training(const NetsBenchOptions& o, const models::ObsDims& dims, const Reference& ref) {
+  models::LlActorCriticConfig lc;
+  lc.dims = dims;
+  const int threads = torch::get_num_threads();
+  const auto flops = models::LlActorCritic(lc)->flops_per_sample();
+  const double us = 1e6 * bench::measure_ll_cost(lc, o.samples, o.repeats, false, threads,
+                                                 bench::kDefaultAliveShare, /*fused_train=*/true)
+                              .forward_backward_s;
+  const double gflops = kForwardBackwardFactor * static_cast<double>(flops) / (us * 1e3);
+  if (o.json)
+    std::printf("{\"bench\": \"nets\", \"network\": \"ll_actor_critic_fused\", \"samples\": %d, \"threads\": %d, "
+                "\"flops_per_sample\": %lld, \"backward_flops_per_sample\": %lld, "
+                "\"forward_backward_us_per_sample\": %.6g, \"forward_backward_gflops\": %.6g, "
+                "\"fma_peak_gflops\": %.6g, \"forward_backward_fma_share\": %.4g}\n",
+                o.samples, threads, static_cast<long long>(flops), static_cast<long long>(2 * flops), us, gflops,
+                ref.fma_gflops, gflops / ref.fma_gflops);
+  else
+    std::printf("%-20s %12.1f %12s %10s %12.4f %10s %9s %9.3f\n", "ll_actor_critic_fus", 1e-3 * flops, "-", "-", us,
+                "-", "-", gflops / ref.fma_gflops);
+}
+
 // The networks' own product, both copies where the CPU runs both (the same bits), against one
 // core's share of the FMA peak.
 void report_fixed_order_gemm(const NetsBenchOptions& o, const bench::FmaPeak& fma) {
@@ -219,6 +242,7 @@ void run_bench_nets(const NetsBenchOptions& o) {
   }
   for (auto& c : cases) time_case(c, o, ref, blas);
   time_eigen_forwards(o, dims, ref);
+  time_fused_ll_training(o, dims, ref);
 }
 
 }  // namespace

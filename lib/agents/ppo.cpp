@@ -254,7 +254,9 @@ PpoAgent::UpdateData PpoAgent::update_data(const RolloutBuffer& buffer) const {
   TORCH_CHECK(rows.numel() > 0 || replicas_.active(), "PpoAgent::update: the buffer holds no valid sample");
   // Observations stay in the buffer: each chunk gathers its rows from it (rows[chunk's]), where a
   // compacted copy of the valid rows cost a serial copy of the whole buffer per update.
-  UpdateData d{models::flatten2(buffer.obs),
+  const models::LlObs flat = models::flatten2(buffer.obs);
+  UpdateData d{models::LlObs{flat.ego.contiguous(), flat.goal.contiguous(), flat.ado.contiguous(),
+                             flat.ado_alive.contiguous(), flat.task.contiguous()},
                rows,
                buffer.actions.flatten(0, 1).index_select(0, rows),
                buffer.log_probs.flatten().index_select(0, rows),
@@ -290,13 +292,33 @@ bool PpoAgent::minibatch_step(const UpdateData& d, const torch::Tensor& mb, cons
     if (m == 0) return false;
     if (cfg_.normalize_advantages && m > 1) adv = (adv - adv.mean()) / (adv.std() + 1e-8);
   }
+  adv = adv.contiguous();
   const int64_t n_chunks =
       m == 0 ? 0 : cfg_.max_chunk_rows > 0 ? (m + cfg_.max_chunk_rows - 1) / cfg_.max_chunk_rows : 1;
   std::vector<ChunkGradient> chunks(static_cast<std::size_t>(n_chunks));
   for (int64_t c = 0; c < n_chunks; ++c)  // contiguous slices of the shuffled minibatch
     chunks[c].weight = static_cast<double>(m * (c + 1) / n_chunks - m * c / n_chunks) / static_cast<double>(m);
   const std::vector<torch::Tensor> params = net_->parameters();
-  const auto run = [&](int64_t c, ChunkGradient& r) {
+  while (static_cast<int64_t>(chunk_passes_.size()) < n_chunks) chunk_passes_.push_back(std::make_unique<PpoChunkPass>());
+  const auto run_fused = [&](int64_t c, ChunkGradient& r) {
+    const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
+    PpoChunkRows rows;
+    rows.obs = &d.buffer_obs;
+    rows.m = hi - lo;
+    rows.positions = mb.data_ptr<int64_t>() + lo;
+    rows.valid_rows = d.rows.data_ptr<int64_t>();
+    rows.actions = d.actions.data_ptr<float>();
+    rows.old_log_probs = d.old_log_probs.data_ptr<float>();
+    rows.old_values = d.old_values.data_ptr<float>();
+    rows.returns = d.returns.data_ptr<float>();
+    rows.advantages = adv.data_ptr<float>() + lo;
+    const PpoLossCoefs coefs{cfg_.clip_coef, cfg_.vf_coef, cfg_.ent_coef, cfg_.clip_value_loss};
+    PpoChunkPass& pass = *chunk_passes_[static_cast<std::size_t>(c)];
+    const std::array<double, 5> t = pass.run(*net_, rows, n_chunks == 1 ? 1.0 : r.weight, coefs);
+    r.grads = pass.grads();
+    r.terms = {t[0], t[1], t[2], t[3], t[4]};
+  };
+  const auto run_autograd = [&](int64_t c, ChunkGradient& r) {
     const int64_t lo = m * c / n_chunks, hi = m * (c + 1) / n_chunks;
     const auto rows_c = mb.slice(0, lo, hi);
     const auto out = net_(models::index_rows(d.buffer_obs, d.rows.index_select(0, rows_c)));
@@ -315,7 +337,8 @@ bool PpoAgent::minibatch_step(const UpdateData& d, const torch::Tensor& mb, cons
   o.replicas = &replicas_;
   o.mix = ReplicaMix::kShareWeighted;
   o.replica_weight = share;
-  const GradientStepResult step = gradient_step(*optimizer_, params, chunks, run, o);
+  const GradientStepResult step = cfg_.fused_training ? gradient_step(*optimizer_, params, chunks, run_fused, o)
+                                                      : gradient_step(*optimizer_, params, chunks, run_autograd, o);
   stats->chunk_wait_s += step.chunk_wait_s;
   stats->policy_loss += step.terms[0];
   stats->value_loss += step.terms[1];

@@ -20,6 +20,7 @@
 #include "agents/checkpoint_content.hpp"
 #include "agents/eigen_mirror.hpp"
 #include "agents/gradient_step.hpp"
+#include "agents/ppo_chunk_pass.hpp"
 #include "agents/replicas.hpp"
 #include "agents/rollout_buffer.hpp"
 #include "models/ll_actor_critic.hpp"
@@ -58,8 +59,12 @@ struct PpoConfig {
   // No-grad forward passes of act() and value(): the same network on Eigen float kernels
   // (models/kernels/attention_mlp_forward.hpp, equal to LibTorch's to float rounding; faster at rollout
   // batch sizes, docs/performance.md), or LibTorch's ops (false). Not a config key: tests and
-  // benchmarks compare the two paths. Training always uses LibTorch.
+  // benchmarks compare the two paths. Training's pass: fused_training below.
   bool eigen_inference = true;
+  // The update's forward and backward: the fused pass on plain buffers (agents/ppo_chunk_pass.hpp,
+  // the same products and tanh as the rollouts'), or LibTorch's autograd (false: the oracle the
+  // tests hold it to). Not a config key.
+  bool fused_training = true;
 };
 
 struct PpoAction {
@@ -162,6 +167,7 @@ class PpoAgent {
   CheckpointContent loaded_content_ = CheckpointContent::kFull;
   EigenMirror eigen_;  // the network on Eigen kernels for the rollout (cfg_.eigen_inference)
   std::vector<float> norm_terms_;  // infer_raw_into's float normalisation terms, reused
+  std::vector<std::unique_ptr<PpoChunkPass>> chunk_passes_;  // one per concurrent chunk (fused_training)
 };
 
 }  // namespace f16race::agents

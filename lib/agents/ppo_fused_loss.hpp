@@ -6,9 +6,36 @@
 // stays the oracle: a test holds the two equal in value and gradient.
 #include <torch/torch.h>
 
+#include <array>
+
 #include "agents/ppo.hpp"
 
 namespace f16race::agents {
+
+// The loss of `ppo_loss_rows` on raw rows: the network's outputs mean [M, A], log_std (row i at
+// log_std + i * log_std_row_stride: 0 for the one [A] parameter), value [M]; the constants action
+// [M, A], old_log_prob, advantages (normalised), old_value, returns [M]. M >= 1.
+struct PpoLossRows {
+  int64_t m = 0, a_dim = 0;
+  const float *mean = nullptr, *log_std = nullptr;
+  int64_t log_std_row_stride = 0;
+  const float *value = nullptr, *action = nullptr, *old_log_prob = nullptr, *advantages = nullptr,
+              *old_value = nullptr, *returns = nullptr;
+  double clip = 0.2, vf_coef = 0.5, ent_coef = 0.0, weight = 1.0;
+  bool clip_value = true;
+};
+
+// d(weight * total)/d(output): d_mean [M, A], d_value [M]; for log_std per row (d_log_std [M, A])
+// and/or summed over the rows in double (d_log_std_sum [A]), either may be null.
+struct PpoLossGrads {
+  float *d_mean = nullptr, *d_log_std = nullptr, *d_value = nullptr;
+  double* d_log_std_sum = nullptr;
+};
+
+// One pass over the rows: writes the gradients, returns the unweighted terms (policy, value,
+// entropy, approx_kl, clip_fraction). What fused_ppo_loss's node computes, and the fused training
+// pass (PpoAgent) calls directly.
+std::array<double, 5> ppo_loss_rows(const PpoLossRows& in, const PpoLossGrads& out);
 
 struct FusedPpoLoss {
   torch::Tensor total;  // weight * (policy - ent_coef entropy + vf_coef value): scalar, differentiable

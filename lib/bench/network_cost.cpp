@@ -57,10 +57,46 @@ double concurrent_forward_backward_s(Net& net, const Obs& obs, const LossOf& los
          static_cast<double>(calls * batch * concurrent);
 }
 
+// Seconds per sample of the fused training pass (models/kernels/attention_mlp_train.hpp) on the
+// LL: forward, then backward of the sum of the outputs, `concurrent` passes at once on the OpenMP
+// threads, each over all the rows in an object of its own (PpoAgent::update's chunks).
+double fused_ll_train_s(const models::LlActorCritic& net, const models::LlObs& obs, std::int64_t batch, int repeats,
+                        int concurrent) {
+  const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
+  const models::kernels::AttentionMlpTrainNet view = net->train_net();
+  std::vector<std::vector<torch::Tensor>> grads(static_cast<std::size_t>(concurrent));
+  std::vector<models::kernels::AttentionMlpTrainGrads> grad_views;
+  for (auto& g : grads) {
+    for (const auto& p : net->parameters()) g.push_back(torch::empty_like(p));
+    grad_views.push_back(net->train_grads(g));
+  }
+  const auto index = torch::arange(batch, torch::kInt64);
+  models::kernels::TrainRows rows;
+  rows.ego = obs.ego.data_ptr<float>(), rows.goal = obs.goal.data_ptr<float>(), rows.ado = obs.ado.data_ptr<float>();
+  rows.ado_alive = obs.ado_alive.data_ptr<bool>(), rows.task = obs.task.data_ptr<float>();
+  rows.index = index.data_ptr<std::int64_t>();
+  const auto a_dim = net->config().action_dim;
+  std::vector<std::vector<float>> mean(concurrent, std::vector<float>(static_cast<std::size_t>(batch * a_dim))),
+      value(concurrent, std::vector<float>(static_cast<std::size_t>(batch)));
+  const std::vector<float> ones(static_cast<std::size_t>(batch * a_dim), 1.0f);
+  std::vector<models::kernels::AttentionMlpTrain> passes(static_cast<std::size_t>(concurrent));
+  return time_median_s(
+             [&]() {
+#pragma omp parallel for num_threads(concurrent) schedule(static, 1)
+               for (int t = 0; t < concurrent; ++t)
+                 for (std::int64_t k = 0; k < calls; ++k) {
+                   passes[t].forward(view, batch, rows, mean[t].data(), value[t].data());
+                   passes[t].backward(view, ones.data(), ones.data(), grad_views[t]);
+                 }
+             },
+             repeats) /
+         static_cast<double>(calls * batch * concurrent);
+}
+
 }  // namespace
 
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
-                           bool eigen_forward, int concurrent, double alive_share) {
+                           bool eigen_forward, int concurrent, double alive_share, bool fused_train) {
   auto gen = models::make_generator(1);
   const models::HlObs h = random_hl_obs(cfg.dims, batch, gen, alive_share);
   const models::LlObs obs{h.ego, h.prev_action, h.ado, h.ado_alive, h.task};
@@ -85,7 +121,10 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
                       repeats) /
                   static_cast<double>(calls * batch);
   }
-  if (concurrent > 1) c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
+  if (fused_train)
+    c.forward_backward_s = fused_ll_train_s(net, obs, batch, repeats, std::max(1, concurrent));
+  else if (concurrent > 1)
+    c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
   return c;
 }
 

@@ -32,8 +32,12 @@ struct SampleCost {
 // `concurrent` > 1 times that many forward+backward passes at once on the OpenMP threads, as
 // PpoAgent::update runs the chunks of a minibatch (per-sample cost = wall time / all samples).
 // `alive_share`: of the other aircraft in the random rows (the attention core skips the dead).
+// `fused_train` prices the forward+backward on the fused training pass (PpoConfig::fused_training,
+// models/kernels/attention_mlp_train.hpp), `concurrent` passes at once, one thread each; otherwise
+// on LibTorch's autograd.
 SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t batch, int repeats,
-                           bool eigen_forward = false, int concurrent = 1, double alive_share = kDefaultAliveShare);
+                           bool eigen_forward = false, int concurrent = 1, double alive_share = kDefaultAliveShare,
+                           bool fused_train = false);
 // HL: `concurrent` as for the LL (EsAgent::update's chunks of a gradient step); `eigen_forward`
 // prices the forward on the Eigen kernels (the decisions', EsConfig::eigen_inference).
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent = 1,

@@ -52,7 +52,8 @@ FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::Netwo
     c.ll_forward = measure_ll_cost(lc, b, kRepeats, cfg.ll.eigen_inference, 1, alive.ll_forward).forward_s;
   const int concurrent = concurrent_chunks(w.ll_train_calls, w.ll_train_steps);
   if (const std::int64_t b = mean_batch(w.ll_train_rows, w.ll_train_calls); b > 0)
-    c.ll_train = measure_ll_cost(lc, b, kRepeats, false, concurrent, alive.ll_train).forward_backward_s;
+    c.ll_train = measure_ll_cost(lc, b, kRepeats, false, concurrent, alive.ll_train, cfg.ll.fused_training)
+                     .forward_backward_s;
   if (const std::int64_t b = mean_batch(w.hl_forward_rows, w.hl_forward_calls); b > 0)
     c.hl_forward = measure_hl_cost(hc, b, kRepeats, 1, cfg.hl.eigen_inference, alive.hl_forward).forward_s;
   // ES steps' chunks (hl.minibatch_chunks) run concurrently too.

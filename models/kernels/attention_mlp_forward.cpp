@@ -58,9 +58,7 @@ int64_t check_mlp(const std::vector<DenseLayer>& layers, int64_t in, const std::
 
 Dense dense_of(const DenseLayer& l) {
   Dense d{l.out, l.in, std::vector<float>(static_cast<std::size_t>(l.out * l.in)), l.bias};
-  for (int64_t o = 0; o < l.out; ++o)
-    for (int64_t i = 0; i < l.in; ++i)
-      d.weight_t[static_cast<std::size_t>(i * l.out + o)] = l.weight[static_cast<std::size_t>(o * l.in + i)];
+  kernels::transpose_weight(l.weight.data(), l.out, l.in, d.weight_t.data());
   return d;
 }
 

@@ -40,4 +40,9 @@ void column_sums(const float* x, int64_t m, int64_t row_stride, int64_t col_begi
   }
 }
 
+void transpose_weight(const float* weight, int64_t out, int64_t in, float* weight_t) {
+  for (int64_t o = 0; o < out; ++o)
+    for (int64_t i = 0; i < in; ++i) weight_t[i * out + o] = weight[o * in + i];
+}
+
 }  // namespace f16race::models::kernels

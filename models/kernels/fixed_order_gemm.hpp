@@ -45,6 +45,10 @@ inline void fixed_order_gemm(const GemmArgs& args, GemmIsa isa = GemmIsa::kAuto)
 // columns [col_begin, col_end).
 void column_sums(const float* x, int64_t m, int64_t row_stride, int64_t col_begin, int64_t col_end, float* out);
 
+// weight_t [in, out] = weight [out, in] transposed: a Linear layer's W^T, the B of its forward
+// product (the backward reads W as it is).
+void transpose_weight(const float* weight, int64_t out, int64_t in, float* weight_t);
+
 // Per-copy entry points (fixed_order_gemm_avx2.cpp, fixed_order_gemm_avx512.cpp).
 void fixed_order_gemm_avx2(const GemmArgs& args, int64_t row_begin, int64_t row_end);
 void fixed_order_gemm_avx512(const GemmArgs& args, int64_t row_begin, int64_t row_end);

@@ -28,8 +28,12 @@ for l in lines:
     if j.get("bench") == "nets" and "fma_peak_gflops" in j:  # every network read against the peak printed
         peaks = [json.loads(m)["f32_gflops"] for m in lines if json.loads(m).get("bench") == "fma_peak"]
         if peaks != [j["fma_peak_gflops"]]: sys.exit(what + ": fma_peak_gflops " + repr(j["fma_peak_gflops"]) + " != " + repr(peaks))
-        if abs(j["forward_fma_share"] - j["forward_gflops"] / j["fma_peak_gflops"]) > 1e-3 * j["forward_fma_share"]:
-            sys.exit(what + ": forward_fma_share " + repr(j["forward_fma_share"]))
+        for k in ("forward", "forward_backward"):  # each share printed is its rate over the peak
+            if k + "_fma_share" in j and abs(j[k + "_fma_share"] - j[k + "_gflops"] / j["fma_peak_gflops"]) > 1e-3 * j[k + "_fma_share"]:
+                sys.exit(what + ": " + k + "_fma_share " + repr(j[k + "_fma_share"]))
+        if "forward_fma_share" not in j and "forward_backward_fma_share" not in j: sys.exit(what + ": no share of the peak: " + l)
+    if j.get("bench") == "nets" and j.get("network") == "ll_actor_critic_fused" and not j["forward_backward_gflops"] > 0:
+        sys.exit(what + ": the fused LL training pass " + l)
     if j.get("bench") == "fixed_order_gemm":  # the networks product: the copy in use is the widest the CPU has
         gemms = [json.loads(m) for m in lines if json.loads(m).get("bench") == "fixed_order_gemm"]
         if [g["in_use"] for g in gemms].count(True) != 1: sys.exit(what + ": not one fixed_order_gemm copy in use")
@@ -59,6 +63,7 @@ out=$("$bin" bench train --config "$weird" --updates 1 --repeat 1 --json --set r
 check "bench train" "$weird" <<< "$out"
 out=$("$bin" bench nets --samples 16 --repeats 1 --json 2>&1) || fail "bench nets: $out"
 check "bench nets" <<< "$out"
+grep -q '"network": "ll_actor_critic_fused"' <<< "$out" || fail "bench nets: no line for the LL training pass"
 out=$("$bin" bench sim --aircraft 8 --substeps 10 --repeats 1 --threads 1 --json 2>&1) || fail "bench sim: $out"
 check "bench sim" <<< "$out"
 echo OK
