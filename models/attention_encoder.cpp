@@ -122,11 +122,16 @@ DenseLayer dense_layer(const torch::nn::Linear& layer) {
   return d;
 }
 
+std::vector<torch::nn::Linear> linear_modules(const torch::nn::Sequential& mlp) {
+  std::vector<torch::nn::Linear> layers;
+  for (std::size_t i = 0; i < mlp->size(); ++i)
+    if (auto linear = std::dynamic_pointer_cast<torch::nn::LinearImpl>(mlp->ptr(i))) layers.emplace_back(linear);
+  return layers;
+}
+
 std::vector<DenseLayer> dense_layers(const torch::nn::Sequential& mlp) {
   std::vector<DenseLayer> layers;
-  for (std::size_t i = 0; i < mlp->size(); ++i)
-    if (auto linear = std::dynamic_pointer_cast<torch::nn::LinearImpl>(mlp->ptr(i)))
-      layers.push_back(dense_layer(torch::nn::Linear(linear)));
+  for (const auto& l : linear_modules(mlp)) layers.push_back(dense_layer(l));
   return layers;
 }
 
@@ -144,6 +149,53 @@ AttentionMlpWeights encoder_weights(const AttentionEncoder& encoder, const ObsDi
   w.v = dense_layer(encoder->v_proj());
   w.out = dense_layer(encoder->out_proj());
   return w;
+}
+
+kernels::DenseView dense_view(const torch::nn::Linear& layer) {
+  TORCH_CHECK(layer->weight.is_contiguous() && layer->bias.is_contiguous() &&
+                  layer->weight.scalar_type() == torch::kFloat32,
+              "dense_view: float contiguous parameters expected");
+  return {layer->weight.size(0), layer->weight.size(1), layer->weight.data_ptr<float>(), layer->bias.data_ptr<float>()};
+}
+
+kernels::AttentionMlpTrainNet encoder_train_net(const AttentionEncoder& encoder, const ObsDims& dims, int64_t d_goal) {
+  kernels::AttentionMlpTrainNet n;
+  n.d_ego = dims.d_ego, n.d_goal = d_goal, n.d_ado = dims.d_ado, n.n_other = dims.n_other, n.d_task = dims.d_task;
+  n.d_model = encoder->config().d_model, n.n_heads = encoder->config().n_heads;
+  n.q = dense_view(encoder->q_proj());
+  n.k = dense_view(encoder->k_proj());
+  n.v = dense_view(encoder->v_proj());
+  n.out = dense_view(encoder->out_proj());
+  return n;
+}
+
+kernels::DenseGradView dense_grad_view(const torch::nn::Module& module, const std::vector<torch::Tensor>& grads,
+                                       const torch::nn::Linear& layer) {
+  const std::vector<torch::Tensor> params = module.parameters();
+  TORCH_CHECK(grads.size() == params.size(), "dense_grad_view: one gradient per parameter expected");
+  const auto grad_of = [&](const torch::Tensor& p) {
+    for (std::size_t i = 0; i < params.size(); ++i)
+      if (params[i].is_same(p)) {
+        TORCH_CHECK(grads[i].is_contiguous() && grads[i].sizes() == p.sizes() &&
+                        grads[i].scalar_type() == torch::kFloat32,
+                    "dense_grad_view: gradient ", i, " must be float, contiguous, ", p.sizes());
+        return grads[i].data_ptr<float>();
+      }
+    TORCH_CHECK(false, "dense_grad_view: a layer outside the module's parameters()");
+    return static_cast<float*>(nullptr);
+  };
+  return {grad_of(layer->weight), grad_of(layer->bias)};
+}
+
+kernels::AttentionMlpTrainGrads encoder_train_grads(const torch::nn::Module& module,
+                                                    const std::vector<torch::Tensor>& grads,
+                                                    const AttentionEncoder& encoder) {
+  kernels::AttentionMlpTrainGrads g;
+  g.q = dense_grad_view(module, grads, encoder->q_proj());
+  g.k = dense_grad_view(module, grads, encoder->k_proj());
+  g.v = dense_grad_view(module, grads, encoder->v_proj());
+  g.out = dense_grad_view(module, grads, encoder->out_proj());
+  return g;
 }
 
 }  // namespace f16race::models

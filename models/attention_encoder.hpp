@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "models/kernels/attention_mlp_forward.hpp"
+#include "models/kernels/attention_mlp_train.hpp"
 #include "models/obs.hpp"
 
 namespace f16race::models {
@@ -58,8 +59,23 @@ TORCH_MODULE(AttentionEncoder);
 // Weights copied out of LibTorch modules for AttentionMlpForward (float, row-major).
 DenseLayer dense_layer(const torch::nn::Linear& layer);
 std::vector<DenseLayer> dense_layers(const torch::nn::Sequential& mlp);  // its Linear layers, in order
+std::vector<torch::nn::Linear> linear_modules(const torch::nn::Sequential& mlp);  // the same, the modules
 // The encoder's part of a network's AttentionMlpWeights: sizes (d_goal: the width of the input
 // between ego and the encoding) and projections; the MLPs are the caller's.
 AttentionMlpWeights encoder_weights(const AttentionEncoder& encoder, const ObsDims& dims);
+
+// The same read in place for a training pass (models/kernels/attention_mlp_train.hpp): a layer's
+// parameters, and the encoder's part of a network's AttentionMlpTrainNet, with d_goal the width
+// between ego and the encoding (the LL's goal, the HL's previous action).
+kernels::DenseView dense_view(const torch::nn::Linear& layer);
+kernels::AttentionMlpTrainNet encoder_train_net(const AttentionEncoder& encoder, const ObsDims& dims, int64_t d_goal);
+// Gradient views of `layer` in `grads`: one float tensor per parameter of `module`, in its
+// parameters() order, each shaped and contiguous as its parameter.
+kernels::DenseGradView dense_grad_view(const torch::nn::Module& module, const std::vector<torch::Tensor>& grads,
+                                       const torch::nn::Linear& layer);
+// The encoder's gradient views (q, k, v, out) of `module`'s `grads` as above; the MLPs' are the caller's.
+kernels::AttentionMlpTrainGrads encoder_train_grads(const torch::nn::Module& module,
+                                                    const std::vector<torch::Tensor>& grads,
+                                                    const AttentionEncoder& encoder);
 
 }  // namespace f16race::models

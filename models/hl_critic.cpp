@@ -67,6 +67,21 @@ AttentionMlpWeights HlCriticImpl::eigen_weights() const {
   return w;
 }
 
+kernels::AttentionMlpTrainNet HlCriticImpl::train_net() const {
+  kernels::AttentionMlpTrainNet n = encoder_train_net(encoder_, cfg_.dims, cfg_.dims.d_prev_action);
+  for (const auto& l : linear_modules(trunk_)) n.actor.push_back(dense_view(l));
+  n.actor.push_back(dense_view(head_));
+  n.relu = true;
+  return n;
+}
+
+kernels::AttentionMlpTrainGrads HlCriticImpl::train_grads(const std::vector<torch::Tensor>& grads) const {
+  kernels::AttentionMlpTrainGrads g = encoder_train_grads(*this, grads, encoder_);
+  for (const auto& l : linear_modules(trunk_)) g.actor.push_back(dense_grad_view(*this, grads, l));
+  g.actor.push_back(dense_grad_view(*this, grads, head_));
+  return g;
+}
+
 int64_t HlCriticImpl::head_width() const {
   return (cfg_.decoupled ? 3 * cfg_.n_bins : n_joint_actions()) * cfg_.n_atoms;
 }

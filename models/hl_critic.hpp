@@ -55,6 +55,11 @@ class HlCriticImpl : public torch::nn::Module {
   int64_t head_width() const;
   // The network as AttentionMlpForward runs it (ReLU trunk and head as its one MLP).
   AttentionMlpWeights eigen_weights() const;
+  // The same read in place for the fused training pass (models/kernels/attention_mlp_train.hpp):
+  // its output is the head's [B, head_width()]; valid while the parameters' storage is.
+  kernels::AttentionMlpTrainNet train_net() const;
+  // Gradient views into `grads`, one float tensor per parameter in parameters() order.
+  kernels::AttentionMlpTrainGrads train_grads(const std::vector<torch::Tensor>& grads) const;
 
  private:
   HlCriticConfig cfg_;

@@ -74,62 +74,17 @@ AttentionMlpWeights LlActorCriticImpl::eigen_weights() const {
   return w;
 }
 
-namespace {
-
-kernels::DenseView dense_view(const torch::nn::Linear& l) {
-  TORCH_CHECK(l->weight.is_contiguous() && l->bias.is_contiguous() && l->weight.scalar_type() == torch::kFloat32,
-              "LlActorCritic: float contiguous parameters expected");
-  return {l->weight.size(0), l->weight.size(1), l->weight.data_ptr<float>(), l->bias.data_ptr<float>()};
-}
-
-std::vector<torch::nn::Linear> linear_layers(const torch::nn::Sequential& mlp) {
-  std::vector<torch::nn::Linear> layers;
-  for (std::size_t i = 0; i < mlp->size(); ++i)
-    if (auto linear = std::dynamic_pointer_cast<torch::nn::LinearImpl>(mlp->ptr(i)))
-      layers.emplace_back(linear);
-  return layers;
-}
-
-}  // namespace
-
 kernels::AttentionMlpTrainNet LlActorCriticImpl::train_net() const {
-  kernels::AttentionMlpTrainNet n;
-  n.d_ego = cfg_.dims.d_ego, n.d_goal = cfg_.dims.d_goal, n.d_ado = cfg_.dims.d_ado;
-  n.n_other = cfg_.dims.n_other, n.d_task = cfg_.dims.d_task;
-  n.d_model = cfg_.d_model, n.n_heads = cfg_.n_heads;
-  n.q = dense_view(encoder_->q_proj());
-  n.k = dense_view(encoder_->k_proj());
-  n.v = dense_view(encoder_->v_proj());
-  n.out = dense_view(encoder_->out_proj());
-  for (const auto& l : linear_layers(actor_)) n.actor.push_back(dense_view(l));
-  for (const auto& l : linear_layers(critic_)) n.critic.push_back(dense_view(l));
+  kernels::AttentionMlpTrainNet n = encoder_train_net(encoder_, cfg_.dims, cfg_.dims.d_goal);
+  for (const auto& l : linear_modules(actor_)) n.actor.push_back(dense_view(l));
+  for (const auto& l : linear_modules(critic_)) n.critic.push_back(dense_view(l));
   return n;
 }
 
 kernels::AttentionMlpTrainGrads LlActorCriticImpl::train_grads(const std::vector<torch::Tensor>& grads) const {
-  const std::vector<torch::Tensor> params = parameters();
-  TORCH_CHECK(grads.size() == params.size(), "LlActorCritic::train_grads: one gradient per parameter expected");
-  const auto grad_of = [&](const torch::Tensor& p) {
-    for (std::size_t i = 0; i < params.size(); ++i)
-      if (params[i].is_same(p)) {
-        TORCH_CHECK(grads[i].is_contiguous() && grads[i].sizes() == p.sizes() &&
-                        grads[i].scalar_type() == torch::kFloat32,
-                    "LlActorCritic::train_grads: gradient ", i, " must be float, contiguous, ", p.sizes());
-        return grads[i].data_ptr<float>();
-      }
-    TORCH_CHECK(false, "LlActorCritic::train_grads: a layer outside parameters()");
-    return static_cast<float*>(nullptr);
-  };
-  const auto view = [&](const torch::nn::Linear& l) {
-    return kernels::DenseGradView{grad_of(l->weight), grad_of(l->bias)};
-  };
-  kernels::AttentionMlpTrainGrads g;
-  g.q = view(encoder_->q_proj());
-  g.k = view(encoder_->k_proj());
-  g.v = view(encoder_->v_proj());
-  g.out = view(encoder_->out_proj());
-  for (const auto& l : linear_layers(actor_)) g.actor.push_back(view(l));
-  for (const auto& l : linear_layers(critic_)) g.critic.push_back(view(l));
+  kernels::AttentionMlpTrainGrads g = encoder_train_grads(*this, grads, encoder_);
+  for (const auto& l : linear_modules(actor_)) g.actor.push_back(dense_grad_view(*this, grads, l));
+  for (const auto& l : linear_modules(critic_)) g.critic.push_back(dense_grad_view(*this, grads, l));
   return g;
 }
 

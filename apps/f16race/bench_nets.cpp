@@ -160,27 +160,50 @@ void time_eigen_forwards(const NetsBenchOptions& o, const models::ObsDims& dims,
   }
 }
 
-// The LL's forward+backward as PpoAgent::update runs it (PpoConfig::fused_training: the fused pass,
-// models/kernels/attention_mlp_train.hpp), one pass per thread side by side as its chunks run.
-void time_fused_ll_training(const NetsBenchOptions& o, const models::ObsDims& dims, const Reference& ref) {
+// The forward+backward as training runs it (PpoConfig and EsConfig::fused_training: the fused
+// pass, models/kernels/attention_mlp_train.hpp) for the LL and the HL critics ES+D2 and ES+D3
+// (the head's logits; ES+D3's log-softmax is the loss's), one pass per thread side by side as
+// their chunks run.
+void time_fused_training(const NetsBenchOptions& o, const models::ObsDims& dims, const Reference& ref) {
+  const int threads = torch::get_num_threads();
   models::LlActorCriticConfig lc;
   lc.dims = dims;
-  const int threads = torch::get_num_threads();
-  const auto flops = models::LlActorCritic(lc)->flops_per_sample();
-  const double us = 1e6 * bench::measure_ll_cost(lc, o.samples, o.repeats, false, threads,
-                                                 bench::kDefaultAliveShare, /*fused_train=*/true)
-                              .forward_backward_s;
-  const double gflops = kForwardBackwardFactor * static_cast<double>(flops) / (us * 1e3);
-  if (o.json)
-    std::printf("{\"bench\": \"nets\", \"network\": \"ll_actor_critic_fused\", \"samples\": %d, \"threads\": %d, "
-                "\"flops_per_sample\": %lld, \"backward_flops_per_sample\": %lld, "
-                "\"forward_backward_us_per_sample\": %.6g, \"forward_backward_gflops\": %.6g, "
-                "\"fma_peak_gflops\": %.6g, \"forward_backward_fma_share\": %.4g}\n",
-                o.samples, threads, static_cast<long long>(flops), static_cast<long long>(2 * flops), us, gflops,
-                ref.fma_gflops, gflops / ref.fma_gflops);
-  else
-    std::printf("%-20s %12.1f %12s %10s %12.4f %10s %9s %9.3f\n", "ll_actor_critic_fus", 1e-3 * flops, "-", "-", us,
-                "-", "-", gflops / ref.fma_gflops);
+  models::HlCriticConfig d2;
+  d2.dims = dims;
+  d2.decoupled = true;
+  models::HlCriticConfig d3 = d2;
+  d3.n_atoms = 51;
+  const auto hl_us = [&](const models::HlCriticConfig& c) {
+    return 1e6 * bench::measure_hl_cost(c, o.samples, o.repeats, threads, false, bench::kDefaultAliveShare,
+                                        /*fused_train=*/true)
+                     .forward_backward_s;
+  };
+  const struct {
+    const char* name;
+    const char* short_name;
+    std::int64_t flops;
+    double us;
+  } fused_cases[] = {
+      {"ll_actor_critic_fused", "ll_actor_critic_fus", models::LlActorCritic(lc)->flops_per_sample(),
+       1e6 * bench::measure_ll_cost(lc, o.samples, o.repeats, false, threads, bench::kDefaultAliveShare,
+                                    /*fused_train=*/true)
+                 .forward_backward_s},
+      {"hl_critic_es_d1_d2_fused", "hl_critic_d1_d2_fus", models::HlCritic(d2)->flops_per_sample(), hl_us(d2)},
+      {"hl_critic_es_d3_fused", "hl_critic_d3_fus", models::HlCritic(d3)->flops_per_sample(), hl_us(d3)},
+  };
+  for (const auto& e : fused_cases) {
+    const double gflops = kForwardBackwardFactor * static_cast<double>(e.flops) / (e.us * 1e3);
+    if (o.json)
+      std::printf("{\"bench\": \"nets\", \"network\": \"%s\", \"samples\": %d, \"threads\": %d, "
+                  "\"flops_per_sample\": %lld, \"backward_flops_per_sample\": %lld, "
+                  "\"forward_backward_us_per_sample\": %.6g, \"forward_backward_gflops\": %.6g, "
+                  "\"fma_peak_gflops\": %.6g, \"forward_backward_fma_share\": %.4g}\n",
+                  e.name, o.samples, threads, static_cast<long long>(e.flops), static_cast<long long>(2 * e.flops),
+                  e.us, gflops, ref.fma_gflops, gflops / ref.fma_gflops);
+    else
+      std::printf("%-20s %12.1f %12s %10s %12.4f %10s %9s %9.3f\n", e.short_name, 1e-3 * e.flops, "-", "-", e.us,
+                  "-", "-", gflops / ref.fma_gflops);
+  }
 }
 
 // The networks' own product, both copies where the CPU runs both (the same bits), against one
@@ -242,7 +265,7 @@ void run_bench_nets(const NetsBenchOptions& o) {
   }
   for (auto& c : cases) time_case(c, o, ref, blas);
   time_eigen_forwards(o, dims, ref);
-  time_fused_ll_training(o, dims, ref);
+  time_fused_training(o, dims, ref);
 }
 
 }  // namespace

@@ -39,6 +39,106 @@ double huber(double d, double delta) {
 }
 double huber_slope(double d, double delta) { return d < -delta ? -delta : (d > delta ? delta : d); }
 
+}  // namespace
+
+EsLossSums es_d2_loss_rows(const EsTeamRows& rows, const float* qv, double huber_delta, float* g) {
+  const int64_t t = rows.t, n_a = rows.n_a, n_bins = rows.n_bins;
+  const int64_t* a = rows.actions;
+  const bool* act = rows.active;
+  const float* v = rows.target_value;
+  const double weight = rows.weight;
+  // Where member i of a team took bin a on axis j: (row, axis, bin) of q.
+  auto at = [&](int64_t team, int64_t i, int64_t j) {
+    const int64_t r = team * n_a + i;
+    return (r * 3 + j) * n_bins + a[r * 3 + j];
+  };
+  const double inv_valid = 1.0 / static_cast<double>(std::max<int64_t>(valid_teams(act, t, n_a), 1));
+  std::fill_n(g, t * n_a * 3 * n_bins, 0.0f);
+  double loss = 0.0, q_sum = 0.0, td = 0.0;
+  for (int64_t team = 0; team < t; ++team) {
+    int64_t members = 0;
+    double sum = 0.0;
+    for (int64_t i = 0; i < n_a; ++i) {
+      if (!act[team * n_a + i]) continue;
+      ++members;
+      sum += (static_cast<double>(qv[at(team, i, 0)]) + qv[at(team, i, 1)] + qv[at(team, i, 2)]) / 3.0;
+    }
+    if (members == 0) continue;  // not a valid team: no loss, no gradient
+    const double pred = sum / static_cast<double>(members), d = pred - static_cast<double>(v[team]);
+    loss += huber(d, huber_delta);
+    q_sum += pred;
+    td += std::abs(d);
+    // d loss / d Q^{i,j}(a^{i,j}) = huber'(d) / n_valid / members / 3 for each active member.
+    const float gi =
+        static_cast<float>(huber_slope(d, huber_delta) * inv_valid / (3.0 * static_cast<double>(members)) * weight);
+    for (int64_t i = 0; i < n_a; ++i) {
+      if (!act[team * n_a + i]) continue;
+      for (int64_t j = 0; j < 3; ++j) g[at(team, i, j)] = gi;
+    }
+  }
+  return {loss, q_sum, td, inv_valid};
+}
+
+EsLossSums es_d3_loss_rows(const EsTeamRows& rows, const float* l, const C51Support& support, float* g) {
+  const int64_t t = rows.t, n_a = rows.n_a, n_bins = rows.n_bins, k = support.n_atoms;
+  const int64_t* a = rows.actions;
+  const bool* act = rows.active;
+  const float *d = rows.target_dist, *v = rows.target_value;
+  const double weight = rows.weight;
+  // Where the taken bin's K atoms start in log_probs, per (team, member, axis).
+  auto offset = [&](int64_t team, int64_t i, int64_t j) {
+    return (((team * n_a + i) * 3 + j) * n_bins + a[(team * n_a + i) * 3 + j]) * k;
+  };
+  const double inv_valid = 1.0 / static_cast<double>(std::max<int64_t>(valid_teams(act, t, n_a), 1));
+  const double delta = support.delta();
+  std::fill_n(g, t * n_a * 3 * n_bins * k, 0.0f);
+  std::vector<double> mx(static_cast<std::size_t>(k)), sum(static_cast<std::size_t>(k));
+  double loss = 0.0, q = 0.0, td = 0.0;
+  for (int64_t team = 0; team < t; ++team) {
+    int64_t members = 0;
+    for (int64_t i = 0; i < n_a; ++i) members += act[team * n_a + i] ? 1 : 0;
+    if (members == 0) continue;  // not a valid team: no loss, no gradient
+    const double log_terms = std::log(3.0 * static_cast<double>(members));
+    std::fill(mx.begin(), mx.end(), -std::numeric_limits<double>::infinity());
+    std::fill(sum.begin(), sum.end(), 0.0);
+    for (int64_t i = 0; i < n_a; ++i) {
+      if (!act[team * n_a + i]) continue;
+      for (int64_t j = 0; j < 3; ++j) {
+        const float* x = l + offset(team, i, j);
+        for (int64_t c = 0; c < k; ++c) mx[c] = std::max(mx[c], static_cast<double>(x[c]));
+      }
+    }
+    for (int64_t i = 0; i < n_a; ++i) {
+      if (!act[team * n_a + i]) continue;
+      for (int64_t j = 0; j < 3; ++j) {
+        const float* x = l + offset(team, i, j);
+        for (int64_t c = 0; c < k; ++c) sum[c] += std::exp(x[c] - mx[c]);
+      }
+    }
+    double ce = 0.0, pred = 0.0;
+    for (int64_t c = 0; c < k; ++c) {
+      const double log_team = mx[c] + std::log(sum[c]) - log_terms;
+      ce -= d[team * k + c] * log_team;
+      pred += std::exp(log_team) * (support.v_min + delta * static_cast<double>(c));
+    }
+    loss += ce;
+    q += pred;
+    td += std::abs(pred - v[team]);
+    // d loss / d x_ijc = -target_c * softmax over the team's (i, j) of x_..c, / n_valid.
+    for (int64_t i = 0; i < n_a; ++i) {
+      if (!act[team * n_a + i]) continue;
+      for (int64_t j = 0; j < 3; ++j) {
+        const int64_t o = offset(team, i, j);
+        for (int64_t c = 0; c < k; ++c)
+          g[o + c] = static_cast<float>(-d[team * k + c] * std::exp(l[o + c] - mx[c]) / sum[c] * inv_valid * weight);
+      }
+    }
+  }
+  return {loss, q, td, inv_valid};
+}
+
+namespace {
+
 class EsD2LossNode : public torch::autograd::Function<EsD2LossNode> {
  public:
   // Returns {weight * loss [], stats [3] (loss, q, td; no gradient)}.
@@ -46,41 +146,13 @@ class EsD2LossNode : public torch::autograd::Function<EsD2LossNode> {
                                                 const Inputs& in, double huber_delta, double weight) {
     const auto q = q_in.contiguous();
     const auto actions = in.actions.contiguous(), active = in.active.contiguous(), value = in.target_value.contiguous();
-    const int64_t t = actions.size(0), n_a = actions.size(1), n_bins = q.size(2);
-    const float* qv = q.data_ptr<float>();
-    const int64_t* a = actions.data_ptr<int64_t>();
-    const bool* act = active.data_ptr<bool>();
-    const float* v = value.data_ptr<float>();
-    // Where member i of a team took bin a on axis j: (row, axis, bin) of q.
-    auto at = [&](int64_t team, int64_t i, int64_t j) {
-      const int64_t r = team * n_a + i;
-      return (r * 3 + j) * n_bins + a[r * 3 + j];
-    };
-    const double inv_valid = 1.0 / static_cast<double>(std::max<int64_t>(valid_teams(act, t, n_a), 1));
-    auto grad = torch::zeros_like(q);
-    float* g = grad.data_ptr<float>();
-    double loss = 0.0, q_sum = 0.0, td = 0.0;
-    for (int64_t team = 0; team < t; ++team) {
-      int64_t members = 0;
-      double sum = 0.0;
-      for (int64_t i = 0; i < n_a; ++i) {
-        if (!act[team * n_a + i]) continue;
-        ++members;
-        sum += (static_cast<double>(qv[at(team, i, 0)]) + qv[at(team, i, 1)] + qv[at(team, i, 2)]) / 3.0;
-      }
-      if (members == 0) continue;  // not a valid team: no loss, no gradient
-      const double pred = sum / static_cast<double>(members), d = pred - static_cast<double>(v[team]);
-      loss += huber(d, huber_delta);
-      q_sum += pred;
-      td += std::abs(d);
-      // d loss / d Q^{i,j}(a^{i,j}) = huber'(d) / n_valid / members / 3 for each active member.
-      const float gi =
-          static_cast<float>(huber_slope(d, huber_delta) * inv_valid / (3.0 * static_cast<double>(members)) * weight);
-      for (int64_t i = 0; i < n_a; ++i) {
-        if (!act[team * n_a + i]) continue;
-        for (int64_t j = 0; j < 3; ++j) g[at(team, i, j)] = gi;
-      }
-    }
+    EsTeamRows rows;
+    rows.t = actions.size(0), rows.n_a = actions.size(1), rows.n_bins = q.size(2);
+    rows.actions = actions.data_ptr<int64_t>(), rows.active = active.data_ptr<bool>();
+    rows.target_value = value.data_ptr<float>(), rows.weight = weight;
+    auto grad = torch::empty_like(q);
+    const EsLossSums r = es_d2_loss_rows(rows, q.data_ptr<float>(), huber_delta, grad.data_ptr<float>());
+    const double loss = r.loss, q_sum = r.q, td = r.td, inv_valid = r.inv_valid;
     return team_loss_outputs(ctx, grad, loss, q_sum, td, inv_valid, weight);
   }
 
@@ -99,61 +171,13 @@ class EsD3LossNode : public torch::autograd::Function<EsD3LossNode> {
     const auto lp = lp_in.contiguous();
     const auto actions = in.actions.contiguous(), active = in.active.contiguous(),
                dist = in.target_dist.contiguous(), value = in.target_value.contiguous();
-    const int64_t t = actions.size(0), n_a = actions.size(1), n_bins = lp.size(2), k = lp.size(3);
-    const float* l = lp.data_ptr<float>();
-    const int64_t* a = actions.data_ptr<int64_t>();
-    const bool* act = active.data_ptr<bool>();
-    const float *d = dist.data_ptr<float>(), *v = value.data_ptr<float>();
-    // Where the taken bin's K atoms start in log_probs, per (team, member, axis).
-    auto offset = [&](int64_t team, int64_t i, int64_t j) {
-      return (((team * n_a + i) * 3 + j) * n_bins + a[(team * n_a + i) * 3 + j]) * k;
-    };
-    const double inv_valid = 1.0 / static_cast<double>(std::max<int64_t>(valid_teams(act, t, n_a), 1));
-    const double delta = in.support.delta();
-    auto grad = torch::zeros_like(lp);
-    float* g = grad.data_ptr<float>();
-    std::vector<double> mx(static_cast<std::size_t>(k)), sum(static_cast<std::size_t>(k));
-    double loss = 0.0, q = 0.0, td = 0.0;
-    for (int64_t team = 0; team < t; ++team) {
-      int64_t members = 0;
-      for (int64_t i = 0; i < n_a; ++i) members += act[team * n_a + i] ? 1 : 0;
-      if (members == 0) continue;  // not a valid team: no loss, no gradient
-      const double log_terms = std::log(3.0 * static_cast<double>(members));
-      std::fill(mx.begin(), mx.end(), -std::numeric_limits<double>::infinity());
-      std::fill(sum.begin(), sum.end(), 0.0);
-      for (int64_t i = 0; i < n_a; ++i) {
-        if (!act[team * n_a + i]) continue;
-        for (int64_t j = 0; j < 3; ++j) {
-          const float* x = l + offset(team, i, j);
-          for (int64_t c = 0; c < k; ++c) mx[c] = std::max(mx[c], static_cast<double>(x[c]));
-        }
-      }
-      for (int64_t i = 0; i < n_a; ++i) {
-        if (!act[team * n_a + i]) continue;
-        for (int64_t j = 0; j < 3; ++j) {
-          const float* x = l + offset(team, i, j);
-          for (int64_t c = 0; c < k; ++c) sum[c] += std::exp(x[c] - mx[c]);
-        }
-      }
-      double ce = 0.0, pred = 0.0;
-      for (int64_t c = 0; c < k; ++c) {
-        const double log_team = mx[c] + std::log(sum[c]) - log_terms;
-        ce -= d[team * k + c] * log_team;
-        pred += std::exp(log_team) * (in.support.v_min + delta * static_cast<double>(c));
-      }
-      loss += ce;
-      q += pred;
-      td += std::abs(pred - v[team]);
-      // d loss / d x_ijc = -target_c * softmax over the team's (i, j) of x_..c, / n_valid.
-      for (int64_t i = 0; i < n_a; ++i) {
-        if (!act[team * n_a + i]) continue;
-        for (int64_t j = 0; j < 3; ++j) {
-          const int64_t o = offset(team, i, j);
-          for (int64_t c = 0; c < k; ++c)
-            g[o + c] = static_cast<float>(-d[team * k + c] * std::exp(l[o + c] - mx[c]) / sum[c] * inv_valid * weight);
-        }
-      }
-    }
+    EsTeamRows rows;
+    rows.t = actions.size(0), rows.n_a = actions.size(1), rows.n_bins = lp.size(2);
+    rows.actions = actions.data_ptr<int64_t>(), rows.active = active.data_ptr<bool>();
+    rows.target_value = value.data_ptr<float>(), rows.target_dist = dist.data_ptr<float>(), rows.weight = weight;
+    auto grad = torch::empty_like(lp);
+    const EsLossSums r = es_d3_loss_rows(rows, lp.data_ptr<float>(), in.support, grad.data_ptr<float>());
+    const double loss = r.loss, q = r.q, td = r.td, inv_valid = r.inv_valid;
     return team_loss_outputs(ctx, grad, loss, q, td, inv_valid, weight);
   }
 

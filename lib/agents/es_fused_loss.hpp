@@ -10,6 +10,28 @@
 
 namespace f16race::agents {
 
+// A chunk's teams for the losses' one pass on raw rows (what the nodes below compute, and the fused
+// training pass calls directly): actions [T, n_a, 3] bins, active [T, n_a], target_value [T],
+// target_dist [T, K] (ES+D3 only); the gradients are weight * d loss.
+struct EsTeamRows {
+  int64_t t = 0, n_a = 0, n_bins = 0;
+  const int64_t* actions = nullptr;
+  const bool* active = nullptr;
+  const float* target_value = nullptr;
+  const float* target_dist = nullptr;
+  double weight = 1.0;
+};
+
+// Sums over the valid teams; the terms are each sum times inv_valid (1 / the valid teams, or 1).
+struct EsLossSums {
+  double loss = 0.0, q = 0.0, td = 0.0, inv_valid = 1.0;
+};
+
+// ES+D2 on q [T * n_a, 3, n_bins]: writes grad (same shape, zeros but at the taken bins).
+EsLossSums es_d2_loss_rows(const EsTeamRows& rows, const float* q, double huber_delta, float* grad);
+// ES+D3 on log_probs [T * n_a, 3, n_bins, K]: writes grad (same shape).
+EsLossSums es_d3_loss_rows(const EsTeamRows& rows, const float* log_probs, const C51Support& support, float* grad);
+
 struct FusedEsLoss {
   torch::Tensor total;  // weight * loss: scalar, differentiable with respect to the critic's output
   double loss = 0.0;    // unweighted: mean over valid teams

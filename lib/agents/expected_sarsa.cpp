@@ -340,13 +340,15 @@ std::vector<int64_t> team_alive_counts(const torch::Tensor& ado_alive, int64_t t
 // What every gradient step of one update reads.
 struct EsAgent::UpdateData {
   const EsBatch& batch;
-  const models::HlObs& obs;  // normalised, [T * n_a] rows
+  const models::HlObs& obs;  // normalised, [T * n_a] rows, contiguous
   const torch::Tensor& active;
   const EsTarget& target;
   int64_t n_a;
   const bool* active_host;  // active, contiguous on the host
   torch::Tensor aircraft;   // arange(n_a)
   std::vector<int64_t> team_alive;
+  // The fused pass's reads, contiguous: actions [T, n_a, 3], the target's value [T] and dist [T, K].
+  torch::Tensor actions, target_value, target_dist;
 };
 
 EsStats EsAgent::update(const EsBatch& batch) {
@@ -359,7 +361,9 @@ EsStats EsAgent::update(const EsBatch& batch) {
     normalizer_->normalize(models::index_rows(flat_obs, active.reshape({-1}).nonzero().squeeze(1)), true);
     normalizer_->sync_replicas();  // replicas: every rank's batch, before it is normalised
   }
-  const auto obs = prepare(flat_obs, false);
+  const models::HlObs prepared = prepare(flat_obs, false);
+  const models::HlObs obs{prepared.ego.contiguous(), prepared.prev_action.contiguous(), prepared.ado.contiguous(),
+                          prepared.ado_alive.contiguous(), prepared.task.contiguous()};
   EsTarget target;
   EsStats stats;
   // A replica with no transition this time (t = 0) only joins the group's steps below.
@@ -371,8 +375,17 @@ EsStats EsAgent::update(const EsBatch& batch) {
     measure_before_steps(obs, batch, active, target, &stats);
   }
   const auto active_contiguous = active.contiguous();
-  const UpdateData d{batch, obs, active, target, n_a, active_contiguous.data_ptr<bool>(),
-                     torch::arange(n_a, torch::kInt64), team_alive_counts(flat_obs.ado_alive, t, n_a)};
+  const UpdateData d{batch,
+                     obs,
+                     active,
+                     target,
+                     n_a,
+                     active_contiguous.data_ptr<bool>(),
+                     torch::arange(n_a, torch::kInt64),
+                     team_alive_counts(flat_obs.ado_alive, t, n_a),
+                     batch.actions.contiguous(),
+                     target.value.defined() ? target.value.to(torch::kFloat32).contiguous() : torch::Tensor(),
+                     target.dist.defined() ? target.dist.to(torch::kFloat32).contiguous() : torch::Tensor()};
   double loss_sum = 0.0, q_sum = 0.0, td_sum = 0.0;
   int64_t n_steps = 0;
   for (int64_t epoch = 0; epoch < cfg_.n_epochs; ++epoch) {
@@ -428,6 +441,11 @@ void EsAgent::measure_before_steps(const models::HlObs& obs, const EsBatch& batc
 // One gradient step on the minibatch `teams` (int64 [m] team indices), its terms (loss, q, td)
 // averaged over the loss units (a team counts once when any member is active, else each active
 // member).
+bool es_fused_training(const EsConfig& cfg) {
+  return cfg.fused_training && (cfg.variant == EsVariant::kEsD2 ||
+                                (cfg.variant == EsVariant::kEsD3 && cfg.component_ce_weight == 0.0));
+}
+
 GradientStepResult EsAgent::minibatch_step(const UpdateData& d, const torch::Tensor& teams, EsStats* stats) {
   // The step's chunks: units (what the loss averages over) first, so each chunk's gradient can
   // weigh by its share while the chunks run concurrently.
@@ -450,11 +468,13 @@ GradientStepResult EsAgent::minibatch_step(const UpdateData& d, const torch::Ten
   for (int64_t c = 0; c < n_chunks; ++c)
     chunks[c].weight = n_chunks == 1 ? 1.0 : (units > 0.0 ? chunk_units[c] / units : 0.0);
   const std::vector<torch::Tensor> params = critic_->parameters();
+  while (static_cast<int64_t>(chunk_passes_.size()) < n_chunks) chunk_passes_.push_back(std::make_unique<EsChunkPass>());
   const auto run = [&](int64_t c, ChunkGradient& k) {
     // A replica leaves out what has no unit (its loss would be 0/0); one process runs it as a
     // plain backward() would.
     if (chunk_units[c] == 0.0 && (replicas_.active() || n_chunks > 1)) return;
-    chunk_gradient(d, teams.slice(0, m * c / n_chunks, m * (c + 1) / n_chunks), n_chunks > 1, params, k);
+    chunk_gradient(d, teams.slice(0, m * c / n_chunks, m * (c + 1) / n_chunks), n_chunks > 1, params, k,
+                   *chunk_passes_[static_cast<std::size_t>(c)]);
   };
   GradientStepOptions o;
   o.zero_unused = true;
@@ -474,12 +494,26 @@ GradientStepResult EsAgent::minibatch_step(const UpdateData& d, const torch::Ten
 
 // One chunk's gradient (weighted by k.weight when `weighted`) and terms (loss, q, td).
 void EsAgent::chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bool weighted,
-                             const std::vector<torch::Tensor>& params, ChunkGradient& k) {
+                             const std::vector<torch::Tensor>& params, ChunkGradient& k, EsChunkPass& pass) {
+  const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
+  const bool fused_d2 = cfg_.variant == EsVariant::kEsD2;
+  if (es_fused_training(cfg_) && teams.numel() > 0) {
+    EsChunkRows rows;
+    rows.obs = &d.obs;
+    rows.t = teams.numel(), rows.n_a = d.n_a;
+    rows.teams = teams.data_ptr<int64_t>();
+    rows.actions = d.actions.data_ptr<int64_t>();
+    rows.active = d.active_host;
+    rows.target_value = d.target_value.data_ptr<float>();
+    rows.target_dist = fused_d3 ? d.target_dist.data_ptr<float>() : nullptr;
+    const EsLossSums s = pass.run(*critic_, rows, weighted ? k.weight : 1.0, cfg_.huber_delta, support_);
+    k.grads = pass.grads();
+    k.terms = {s.loss * s.inv_valid, s.q * s.inv_valid, s.td * s.inv_valid};
+    return;
+  }
   const auto rows_c = (teams.unsqueeze(1) * d.n_a + d.aircraft).reshape({-1});
   const EsTarget target_c{d.target.value.index_select(0, teams),
                           d.target.dist.defined() ? d.target.dist.index_select(0, teams) : torch::Tensor()};
-  const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
-  const bool fused_d2 = cfg_.variant == EsVariant::kEsD2;
   const auto out = critic_->forward(models::index_rows(d.obs, rows_c), /*with_q=*/!fused_d3);
   const double weight = weighted ? k.weight : 1.0;
   if (fused_d2 || fused_d3) {

@@ -39,6 +39,7 @@
 #include "agents/checkpoint_content.hpp"
 #include "agents/c51.hpp"
 #include "agents/eigen_mirror.hpp"
+#include "agents/es_chunk_pass.hpp"
 #include "agents/gradient_step.hpp"
 #include "agents/replicas.hpp"
 #include "models/hl_critic.hpp"
@@ -97,12 +98,18 @@ struct EsConfig {
   // The decisions' action values (act, q_values): the critic on Eigen float kernels
   // (models/kernels/attention_mlp_forward.hpp, equal to HlCritic::forward to float rounding; the
   // decisions come a few at a time, where LibTorch's per-op cost is most of the price), or
-  // LibTorch's ops (false). Not a config key: tests and benchmarks compare the two paths. All
-  // training uses LibTorch.
+  // LibTorch's ops (false). Not a config key: tests and benchmarks compare the two paths.
   bool eigen_inference = true;
+  // ES+D2's and ES+D3's gradient steps: the critic's forward and backward on the fused pass
+  // (agents/es_chunk_pass.hpp), or LibTorch's autograd (false: the oracle the tests hold it to).
+  // The other variants always take autograd. Not a config key.
+  bool fused_training = true;
 };
 
 models::HlCriticConfig es_critic_config(const EsConfig& cfg);
+// Whether the gradient steps take the fused training pass: fused_training, and a team loss it
+// serves (ES+D2; ES+D3 without the component cross-entropy).
+bool es_fused_training(const EsConfig& cfg);
 
 struct EsAction {
   torch::Tensor bins;         // [B, 3] int64, the eps-greedy choice
@@ -236,7 +243,7 @@ class EsAgent {
                             const EsTarget& target, EsStats* stats);
   GradientStepResult minibatch_step(const UpdateData& d, const torch::Tensor& teams, EsStats* stats);
   void chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bool weighted,
-                      const std::vector<torch::Tensor>& params, ChunkGradient& k);
+                      const std::vector<torch::Tensor>& params, ChunkGradient& k, EsChunkPass& pass);
   void load_archive(torch::serialize::InputArchive& root);
   EsConfig cfg_;
   Replicas replicas_;
@@ -251,6 +258,7 @@ class EsAgent {
   // weights (an optimiser step, a load, a write through critic()).
   EigenMirror eigen_;
   std::vector<float> norm_terms_;  // the raw-rows forward's float normalisation terms, reused
+  std::vector<std::unique_ptr<EsChunkPass>> chunk_passes_;  // one per concurrent chunk (fused_training)
 };
 
 }  // namespace f16race::agents

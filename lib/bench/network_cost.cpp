@@ -57,11 +57,14 @@ double concurrent_forward_backward_s(Net& net, const Obs& obs, const LossOf& los
          static_cast<double>(calls * batch * concurrent);
 }
 
-// Seconds per sample of the fused training pass (models/kernels/attention_mlp_train.hpp) on the
-// LL: forward, then backward of the sum of the outputs, `concurrent` passes at once on the OpenMP
-// threads, each over all the rows in an object of its own (PpoAgent::update's chunks).
-double fused_ll_train_s(const models::LlActorCritic& net, const models::LlObs& obs, std::int64_t batch, int repeats,
-                        int concurrent) {
+// Seconds per sample of a network's fused training pass (models/kernels/attention_mlp_train.hpp):
+// forward, then backward of the sum of the outputs, `concurrent` passes at once on the OpenMP
+// threads, each over all the rows in an object of its own (the agents' concurrent chunks). `goal`:
+// the observation's field between ego and the encoding (the LL's goal, the HL's previous action).
+template <class Net>
+double fused_train_s(const Net& net, const torch::Tensor& ego, const torch::Tensor& goal, const torch::Tensor& ado,
+                     const torch::Tensor& ado_alive, const torch::Tensor& task, std::int64_t batch, int repeats,
+                     int concurrent) {
   const std::int64_t calls = std::max<std::int64_t>(1, 8192 / batch);
   const models::kernels::AttentionMlpTrainNet view = net->train_net();
   std::vector<std::vector<torch::Tensor>> grads(static_cast<std::size_t>(concurrent));
@@ -72,20 +75,20 @@ double fused_ll_train_s(const models::LlActorCritic& net, const models::LlObs& o
   }
   const auto index = torch::arange(batch, torch::kInt64);
   models::kernels::TrainRows rows;
-  rows.ego = obs.ego.data_ptr<float>(), rows.goal = obs.goal.data_ptr<float>(), rows.ado = obs.ado.data_ptr<float>();
-  rows.ado_alive = obs.ado_alive.data_ptr<bool>(), rows.task = obs.task.data_ptr<float>();
+  rows.ego = ego.data_ptr<float>(), rows.goal = goal.data_ptr<float>(), rows.ado = ado.data_ptr<float>();
+  rows.ado_alive = ado_alive.data_ptr<bool>(), rows.task = task.data_ptr<float>();
   rows.index = index.data_ptr<std::int64_t>();
-  const auto a_dim = net->config().action_dim;
-  std::vector<std::vector<float>> mean(concurrent, std::vector<float>(static_cast<std::size_t>(batch * a_dim))),
+  const auto width = static_cast<std::size_t>(batch * view.actor.back().out);
+  std::vector<std::vector<float>> out(concurrent, std::vector<float>(width)),
       value(concurrent, std::vector<float>(static_cast<std::size_t>(batch)));
-  const std::vector<float> ones(static_cast<std::size_t>(batch * a_dim), 1.0f);
+  const std::vector<float> ones(std::max(width, static_cast<std::size_t>(batch)), 1.0f);
   std::vector<models::kernels::AttentionMlpTrain> passes(static_cast<std::size_t>(concurrent));
   return time_median_s(
              [&]() {
 #pragma omp parallel for num_threads(concurrent) schedule(static, 1)
                for (int t = 0; t < concurrent; ++t)
                  for (std::int64_t k = 0; k < calls; ++k) {
-                   passes[t].forward(view, batch, rows, mean[t].data(), value[t].data());
+                   passes[t].forward(view, batch, rows, out[t].data(), value[t].data());
                    passes[t].backward(view, ones.data(), ones.data(), grad_views[t]);
                  }
              },
@@ -122,14 +125,15 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
                   static_cast<double>(calls * batch);
   }
   if (fused_train)
-    c.forward_backward_s = fused_ll_train_s(net, obs, batch, repeats, std::max(1, concurrent));
+    c.forward_backward_s =
+        fused_train_s(net, obs.ego, obs.goal, obs.ado, obs.ado_alive, obs.task, batch, repeats, std::max(1, concurrent));
   else if (concurrent > 1)
     c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
   return c;
 }
 
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent,
-                           bool eigen_forward, double alive_share) {
+                           bool eigen_forward, double alive_share, bool fused_train) {
   auto gen = models::make_generator(1);
   const models::HlObs obs = random_hl_obs(cfg.dims, batch, gen, alive_share);
   models::HlCritic net(cfg);
@@ -157,7 +161,11 @@ SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch
                       repeats) /
                   static_cast<double>(calls * batch);
   }
-  if (concurrent > 1) c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
+  if (fused_train)
+    c.forward_backward_s = fused_train_s(net, obs.ego, obs.prev_action, obs.ado, obs.ado_alive, obs.task, batch,
+                                         repeats, std::max(1, concurrent));
+  else if (concurrent > 1)
+    c.forward_backward_s = concurrent_forward_backward_s(net, obs, loss_of, batch, repeats, concurrent);
   return c;
 }
 

@@ -39,9 +39,11 @@ SampleCost measure_ll_cost(const models::LlActorCriticConfig& cfg, std::int64_t 
                            bool eigen_forward = false, int concurrent = 1, double alive_share = kDefaultAliveShare,
                            bool fused_train = false);
 // HL: `concurrent` as for the LL (EsAgent::update's chunks of a gradient step); `eigen_forward`
-// prices the forward on the Eigen kernels (the decisions', EsConfig::eigen_inference).
+// prices the forward on the Eigen kernels (the decisions', EsConfig::eigen_inference);
+// `fused_train` the forward+backward on the fused pass (EsConfig::fused_training: ES+D2, ES+D3).
 SampleCost measure_hl_cost(const models::HlCriticConfig& cfg, std::int64_t batch, int repeats, int concurrent = 1,
-                           bool eigen_forward = false, double alive_share = kDefaultAliveShare);
+                           bool eigen_forward = false, double alive_share = kDefaultAliveShare,
+                           bool fused_train = false);
 
 // GFLOP/s of a 1024 x 1024 x 1024 float matrix product at the current torch thread count: the
 // peak this LibTorch build reaches on this machine, the reference for the networks' GFLOP/s.

@@ -59,7 +59,8 @@ FloorCosts measure_floor_costs(const train::TrainConfig& cfg, const train::Netwo
   // ES steps' chunks (hl.minibatch_chunks) run concurrently too.
   const int hl_concurrent = concurrent_chunks(w.hl_train_calls, w.hl_train_steps);
   if (const std::int64_t b = mean_batch(w.hl_train_rows, w.hl_train_calls); b > 0)
-    c.hl_train = measure_hl_cost(hc, b, kRepeats, hl_concurrent, false, alive.hl_train).forward_backward_s;
+    c.hl_train = measure_hl_cost(hc, b, kRepeats, hl_concurrent, false, alive.hl_train, es_fused_training(cfg.hl))
+                     .forward_backward_s;
   return c;
 }
 

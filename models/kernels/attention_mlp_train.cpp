@@ -92,6 +92,8 @@ struct AttentionMlpTrain::Impl {
   std::vector<std::vector<float>> actor_wt, critic_wt;
   std::vector<float> denc, denc_critic, datt, dq, dk, dv, dh0, dh1;
 
+  bool relu = false;  // the activation between the MLPs' layers (else tanh)
+
   void mlp_forward(const std::vector<DenseView>& layers, std::vector<std::vector<float>>& wt,
                    std::vector<std::vector<float>>& h, int64_t ldx, float* out);
   void mlp_backward(const std::vector<DenseView>& layers, const std::vector<std::vector<float>>& h, int64_t ldx,
@@ -114,7 +116,11 @@ void AttentionMlpTrain::Impl::mlp_forward(const std::vector<DenseView>& layers, 
       dst = h[i].data();
     }
     forward_product(layers[i], wt[i].data(), in, ld, batch, dst, layers[i].out);
-    if (!last) tanh_in_place(dst, batch * layers[i].out);
+    if (!last && relu) {  // the rollout forward's max(x, 0)
+      for (int64_t j = 0; j < batch * layers[i].out; ++j) dst[j] = std::max(dst[j], 0.0f);
+    } else if (!last) {
+      tanh_in_place(dst, batch * layers[i].out);
+    }
     in = dst;
     ld = layers[i].out;
   }
@@ -142,7 +148,11 @@ void AttentionMlpTrain::Impl::mlp_backward(const std::vector<DenseView>& layers,
     const int64_t width = layers[i].in;
     input_grads(layers[i], dy, batch, 0, width, dh, width);
     const float* y = h[i - 1].data();
-    for (int64_t j = 0; j < batch * width; ++j) dh[j] *= 1.0f - y[j] * y[j];  // tanh' = 1 - tanh^2
+    if (relu) {
+      for (int64_t j = 0; j < batch * width; ++j) dh[j] = y[j] > 0.0f ? dh[j] : 0.0f;
+    } else {
+      for (int64_t j = 0; j < batch * width; ++j) dh[j] *= 1.0f - y[j] * y[j];  // tanh' = 1 - tanh^2
+    }
     dy = dh;
   }
 }
@@ -165,8 +175,10 @@ void AttentionMlpTrain::check(const AttentionMlpTrainNet& net) {
                                 " wide");
   const int64_t in = net.d_ego + net.d_goal + net.d_model + net.d_task;
   check_mlp(net.actor, in, "actor");
-  check_mlp(net.critic, in, "critic");
-  if (net.critic.back().out != 1) throw std::invalid_argument("AttentionMlpTrain: the critic must end in one unit");
+  if (!net.critic.empty()) {
+    check_mlp(net.critic, in, "critic");
+    if (net.critic.back().out != 1) throw std::invalid_argument("AttentionMlpTrain: the critic must end in one unit");
+  }
 }
 
 void AttentionMlpTrain::forward(const AttentionMlpTrainNet& net, int64_t batch, const TrainRows& rows, float* mean,
@@ -176,6 +188,7 @@ void AttentionMlpTrain::forward(const AttentionMlpTrainNet& net, int64_t batch, 
   const int64_t b = batch, n = net.n_other, d = net.d_model, da = net.d_ado;
   const int64_t enc0 = net.d_ego + net.d_goal, task0 = enc0 + d, dx = task0 + net.d_task;
   s.batch = b;
+  s.relu = net.relu;
   grow(s.x, b * dx);
   grow(s.ado, b * n * da);
   if (s.alive_capacity < b * n) {
@@ -213,7 +226,7 @@ void AttentionMlpTrain::forward(const AttentionMlpTrainNet& net, int64_t batch, 
   for (int64_t r = 0; r < b; ++r)  // nobody alive: exactly 0, the output bias dropped too
     if (!s.row_alive[r]) std::fill_n(s.x.data() + r * dx + enc0, d, 0.0f);
   s.mlp_forward(net.actor, s.actor_wt, s.actor_h, dx, mean);
-  s.mlp_forward(net.critic, s.critic_wt, s.critic_h, dx, value);
+  if (!net.critic.empty()) s.mlp_forward(net.critic, s.critic_wt, s.critic_h, dx, value);
 }
 
 void AttentionMlpTrain::backward(const AttentionMlpTrainNet& net, const float* d_mean, const float* d_value,
@@ -226,12 +239,13 @@ void AttentionMlpTrain::backward(const AttentionMlpTrainNet& net, const float* d
   grow(s.denc, b * d);
   grow(s.denc_critic, b * d);
   s.mlp_backward(net.actor, s.actor_h, dx, d_mean, grads.actor, enc0, d, s.denc.data());
-  s.mlp_backward(net.critic, s.critic_h, dx, d_value, grads.critic, enc0, d, s.denc_critic.data());
+  const bool value = !net.critic.empty();
+  if (value) s.mlp_backward(net.critic, s.critic_h, dx, d_value, grads.critic, enc0, d, s.denc_critic.data());
   for (int64_t r = 0; r < b; ++r) {
     float* e = s.denc.data() + r * d;
     const float* c = s.denc_critic.data() + r * d;
     if (!s.row_alive[r]) std::fill_n(e, d, 0.0f);
-    else for (int64_t j = 0; j < d; ++j) e[j] += c[j];
+    else if (value) for (int64_t j = 0; j < d; ++j) e[j] += c[j];
   }
   weight_grads(net.out, s.denc.data(), s.attended.data(), d, b, grads.out);
   grow(s.datt, b * d);

@@ -1,11 +1,14 @@
 #pragma once
-// The low-level actor-critic's training pass (models/ll_actor_critic.hpp: attention encoder, then a
-// tanh MLP for the action mean and one for the value) as one forward and one backward over plain
-// buffers, instead of ~60 LibTorch ops and their autograd graph per chunk. The products are the
+// A network's training pass, the attention encoder and then MLPs on [ego, goal or prev_action,
+// encoded, task], as one forward and one backward over plain buffers, instead of ~60 LibTorch ops
+// and their autograd graph per chunk. Two networks have this shape (as for the rollout forward,
+// attention_mlp_forward.hpp): the low-level actor-critic (models/ll_actor_critic.hpp: a tanh MLP
+// for the action mean and one for the value) and the high-level critic (models/hl_critic.hpp: a
+// ReLU trunk and its head as the one MLP, no value). The products are the
 // fixed-order kernels (fixed_order_gemm.hpp), the attention core masked_attention.hpp's, tanh the
 // rollout forward's (attention_mlp_forward.cpp), so the rollouts and the update see the same
-// network to the bit. LibTorch's autograd through LlActorCritic::forward is the oracle
-// (tests/models/test_attention_mlp_train).
+// network to the bit. LibTorch's autograd through the modules' forward is the oracle
+// (tests/models/test_attention_mlp_train.cpp).
 //
 // One object per concurrent chunk: it holds that chunk's activations between forward and backward,
 // in scratch that grows to the largest chunk and is reused. Single-threaded: the caller runs
@@ -31,9 +34,13 @@ struct DenseGradView {
 };
 
 struct AttentionMlpTrainNet {
+  // d_goal: the width between ego and the encoding (the LL's goal, the HL's previous action).
   int64_t d_ego = 0, d_goal = 0, d_ado = 0, n_other = 0, d_task = 0, d_model = 0, n_heads = 0;
-  DenseView q, k, v, out;               // the encoder's projections
-  std::vector<DenseView> actor, critic;  // tanh between layers; the critic ends in one unit
+  DenseView q, k, v, out;  // the encoder's projections
+  // The output MLP (LL: the action mean; HL: trunk and head) and the value MLP ending in one unit
+  // (LL only; empty: no value), `relu` or tanh between their layers.
+  std::vector<DenseView> actor, critic;
+  bool relu = false;
 };
 
 struct AttentionMlpTrainGrads {
@@ -62,10 +69,12 @@ class AttentionMlpTrain {
 
   // Checks that the layers chain (throws std::invalid_argument naming the layer).
   static void check(const AttentionMlpTrainNet& net);
-  // Writes mean [B, A] and value [B] for `batch` rows and keeps what backward needs.
+  // Writes mean [B, A] (the output MLP's) and value [B] (not without a value MLP) for `batch` rows
+  // and keeps what backward needs.
   void forward(const AttentionMlpTrainNet& net, int64_t batch, const TrainRows& rows, float* mean, float* value);
   // The gradients of sum(d_mean * mean) + sum(d_value * value) for the last forward's rows, with
-  // respect to every weight and bias of `net` (the same net as that forward).
+  // respect to every weight and bias of `net` (the same net as that forward; d_value unread
+  // without a value MLP).
   void backward(const AttentionMlpTrainNet& net, const float* d_mean, const float* d_value,
                 const AttentionMlpTrainGrads& grads);
 

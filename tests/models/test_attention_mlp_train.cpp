@@ -12,6 +12,7 @@
 
 #include "models/kernels/attention_mlp_forward.hpp"
 #include "models/kernels/attention_mlp_train.hpp"
+#include "models/hl_critic.hpp"
 #include "models/ll_actor_critic.hpp"
 #include "models/obs.hpp"
 
@@ -110,6 +111,66 @@ TEST(AttentionMlpTrain, OutputsAreTheRolloutForwardsBits) {
                   r_value.data_ptr<float>());
   EXPECT_TRUE(mean.equal(r_mean));
   EXPECT_TRUE(value.equal(r_value));
+}
+
+// The HL critic's head logits [B, head_width()] composed of its modules' LibTorch forwards (the
+// trunk's own Linear and ReLU): the oracle of the pass's output, for autograd.
+torch::Tensor head_logits_oracle(HlCritic& net, const HlObs& o) {
+  const auto children = net->named_children();
+  auto* encoder = children["encoder"]->as<AttentionEncoderImpl>();
+  auto* trunk = children["trunk"]->as<torch::nn::SequentialImpl>();
+  auto* head = children["head"]->as<torch::nn::LinearImpl>();
+  const auto encoded = encoder->forward(o.ego, o.ado, o.ado_alive);
+  return head->forward(trunk->forward(torch::cat({o.ego, o.prev_action, encoded, o.task}, 1)));
+}
+
+TEST(AttentionMlpTrain, TheHlCriticsReluTrunkAndHeadEqualAutogradAndTheRolloutForward) {
+  at::Generator g = make_generator(24);
+  HlCriticConfig cfg;
+  cfg.dims = ObsDims{22, 8, 7, 5};
+  cfg.n_atoms = 11;
+  cfg.v_min = -3.0;
+  cfg.v_max = 3.0;
+  HlCritic net(cfg);
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : net->parameters()) p.copy_(0.3 * torch::randn(p.sizes(), g));
+  }
+  const LlObs ll = buffer_obs(g, cfg.dims, kBufferRows);  // its goal rows stand for the previous action
+  const HlObs buffer{ll.ego, ll.goal, ll.ado, ll.ado_alive, ll.task};
+  const int64_t b = 120, w = net->head_width();
+  auto index = torch::randint(0, kBufferRows, {b}, g, torch::kInt64);
+  index[0] = 1;
+  auto head = torch::empty({b, w});
+  kernels::AttentionMlpTrain pass;
+  const auto view = net->train_net();
+  pass.forward(view, b, train_rows_of(ll, index), head.data_ptr<float>(), nullptr);
+  const HlObs rows = index_rows(buffer, index);
+  AttentionMlpForward rollout;
+  rollout.set_weights(net->eigen_weights());
+  auto r_head = torch::empty({b, w});
+  rollout.forward(b, rows.ego.data_ptr<float>(), rows.prev_action.data_ptr<float>(), rows.ado.data_ptr<float>(),
+                  rows.ado_alive.data_ptr<bool>(), rows.task.data_ptr<float>(), r_head.data_ptr<float>(), nullptr);
+  EXPECT_TRUE(head.equal(r_head));
+  const auto d_head = torch::randn({b, w}, g);
+  std::vector<torch::Tensor> grads;
+  const std::vector<torch::Tensor> params = net->parameters();
+  for (const auto& p : params) grads.push_back(torch::empty_like(p));
+  pass.backward(view, d_head.data_ptr<float>(), nullptr, net->train_grads(grads));
+  const auto x = head_logits_oracle(net, rows);
+  EXPECT_LT(largest_abs(x.detach() - head), 2e-5);
+  const auto oracle = torch::autograd::grad({(x * d_head).sum()}, params, {}, false, false, true);
+  double largest = 0.0;
+  for (const auto& o : oracle) largest = std::max(largest, largest_abs(o));
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const std::string name = net->named_parameters().keys()[i];
+    if (name == "encoder.k_proj.bias") {  // 0 but for rounding, on both sides: held to the largest's scale
+      EXPECT_LT(largest_abs(grads[i] - oracle[i]), 1e-6 * largest) << name;
+      continue;
+    }
+    EXPECT_LT(largest_abs(grads[i] - oracle[i]), 2e-5 * (1.0 + largest_abs(oracle[i]))) << name;
+    EXPECT_GT(largest_abs(oracle[i]), 1e-3) << name;
+  }
 }
 
 TEST(AttentionMlpTrain, RefusesLayersThatDoNotChain) {
