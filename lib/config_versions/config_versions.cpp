@@ -53,6 +53,7 @@ constexpr Retired kRetired[] = {
     {"race", "observe_team_lanes", "false", "b8c9f8c"},
     {"race", "lane_error_average_s", "0", "46d4f04"},
     {"race", "w_tube_wall", "0", "833c6d1"},
+    {"race", "w_track_progress", "0", "9d0d451"},
     {"race", "tube_wall_frac", "0.8", "833c6d1"},
     {"ll", "inference", "eigen", "b8c9f8c"},
     {"ll", "normalize_returns", "false", "c8c67be"},

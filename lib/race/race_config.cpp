@@ -92,7 +92,6 @@ void bind_reward_keys(R& r, RaceConfig* c) {
   r.read("separation_ft", &c->separation_ft, 0.0, 1e5);
   r.read("w_separation", &c->w_separation, -1e6, 1e6);
   r.read("goal_min_separation_ft", &c->goal_min_separation_ft, 0.0, 1e5);
-  r.read("w_track_progress", &c->w_track_progress, -1e6, 1e6);
   r.read("w_tube", &c->w_tube, -1e6, 1e6);
   r.read("w_collision", &c->w_collision, -1e6, 1e6);
   r.read("w_termination", &c->w_termination, -1e6, 1e6);

@@ -129,10 +129,6 @@ struct RaceConfig {
   // HL goals of teammates closer than this are pushed apart across the track (0: never), so a
   // team's decision never sends two aircraft to one point.
   double goal_min_separation_ft = 500.0;
-  // Progress along the track itself, in start-speed steps (the α of the lane term, but signed,
-  // clamped to [-2, 2]): the racing objective of Song et al. (2023), paid whatever the goal.
-  // 0: none (the paper's goal-tracking reward alone).
-  double w_track_progress = 0.0;
   double w_tube = 0.5;               // per second outside the tube, scaled by how far outside
   double w_collision = 5.0;          // once, when taken out by a collision
   double w_termination = 5.0;        // once, for any other termination

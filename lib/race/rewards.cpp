@@ -32,7 +32,6 @@ void RaceEnv::pay_rewards(int env, const double* progress_before_ft) {
     // Paid per start-speed step of progress (capped at 2: a projection jump at a corner pays no more).
     const double steps = (progress_ft_[i] - progress_before_ft[a]) / (c.start_speed_ftps * c.dt_ll_s);
     const double advance = std::clamp(steps, 0.0, 2.0);
-    r += c.w_track_progress * std::clamp(steps, -2.0, 2.0);
     r += advance * c.w_goal_proximity * std::exp(-gd / c.goal_scale_ft);
     r += advance * c.w_goal_lane * std::exp(-goal_lane_error_ft(i) / c.goal_lane_scale_ft);
     r -= separation_penalty(i);

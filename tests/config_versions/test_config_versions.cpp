@@ -80,6 +80,7 @@ TEST(ConfigVersions, RetiredKeysAtTheirValueGoOtherwiseAreRefused) {
   YAML::Node old = YAML::Load(R"(
 race: {goal_origin: center, observe_team_lanes: false, lane_error_average_s: 0, governor_sets_throttle_at_cap: false,
        governor_band_mach: 0.04, preview_on_line: false, lane_scales_with_radius: false, w_tube_wall: 0,
+       w_track_progress: 0,
        tube_wall_frac: 0.80000000000000004, governor_holds: mach, n_env: 4}
 ll: {inference: eigen, normalize_returns: false, init_at_trim: false}
 hl: {explore: aircraft, team_explore_scale: 1.0, critic: shared, team_target: sum, lateral: aircraft, inference: eigen}
@@ -94,6 +95,8 @@ pool: {p_center: 0.0, p_autopilot: 0}
   EXPECT_EQ(error_of("train: {ll_choice_snapshots: 4}"),
             "cfg.yaml: train.ll_choice_snapshots: 4" + gone + "0); build commit f91e291 to use it");
   EXPECT_EQ(error_of("race: {w_tube_wall: 0.15}"), "cfg.yaml: race.w_tube_wall: 0.15" + gone + "0); build commit 833c6d1 to use it");
+  EXPECT_EQ(error_of("race: {w_track_progress: 0.1}"),
+            "cfg.yaml: race.w_track_progress: 0.1" + gone + "0); build commit 9d0d451 to use it");
   EXPECT_EQ(error_of("pool: {p_autopilot: 0.25}"), "cfg.yaml: pool.p_autopilot: 0.25" + gone + "0); build commit e9c8edf to use it");
   // A removed value of a key that stays: train.ll_pilot residual.
   EXPECT_EQ(error_of("train: {ll_pilot: residual}"),

@@ -721,36 +721,6 @@ void scripted_step(RaceEnv& env, const std::vector<std::int64_t>& bins, std::vec
   env.step(act.data());
 }
 
-// race.w_track_progress pays the step's progress along the track, in start-speed steps clamped to
-// [-2, 2], on top of the goal terms and nothing else: the same races with and without it differ in
-// each acting aircraft's LL reward by exactly that, and in nothing the pilots see.
-TEST(RaceEnv, TrackProgressTermPaysTheStepsAdvanceAlongTheTrack) {
-  RaceConfig base = small_config(3, 2);
-  RaceConfig paid = base;
-  paid.w_track_progress = 0.25;
-  RaceEnv a(base), b(paid);
-  const int n = a.n_aircraft();
-  std::vector<std::int64_t> bins(static_cast<std::size_t>(n) * kHlDims, base.hl_center_bin());
-  std::vector<float> act_a(static_cast<std::size_t>(n) * kActionDim), act_b(act_a.size());
-  const double step_ft = base.start_speed_ftps * base.dt_ll_s;
-  int checked = 0;
-  for (int s = 0; s < 120; ++s) {
-    std::vector<double> before(a.progress_ft_data(), a.progress_ft_data() + n);
-    scripted_step(a, bins, act_a);
-    scripted_step(b, bins, act_b);
-    ASSERT_EQ(act_a, act_b) << "step " << s;
-    for (int i = 0; i < n; ++i) {
-      ASSERT_EQ(a.progress_ft(i), b.progress_ft(i)) << "step " << s;
-      if (a.env_done()[i / a.n_agent()]) continue;  // the race ended and a new one began: progress starts again
-      const double want = 0.25 * std::clamp((a.progress_ft(i) - before[i]) / step_ft, -2.0, 2.0);
-      if (a.ll_reward()[i] == 0.0f && b.ll_reward()[i] == 0.0f) continue;  // did not act
-      EXPECT_NEAR(b.ll_reward()[i] - a.ll_reward()[i], want, 1e-5) << "step " << s << " aircraft " << i;
-      checked += want > 0.2;
-    }
-  }
-  EXPECT_GT(checked, 100);  // flying forward at about the start speed pays about a quarter a step
-}
-
 // race.goal_line_frac: the middle bin's goal lies on the race's taut line (points within a quarter
 // of the radius), and the lane the goal observation and the lane reward measure from moves with
 // the line: at the aircraft's own cross-section it is the line there, not at the goal.
