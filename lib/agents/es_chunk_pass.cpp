@@ -39,6 +39,7 @@ EsLossSums EsChunkPass::run(const models::HlCriticImpl& net, const EsChunkRows& 
   if (grads_.size() != params.size()) {
     grads_.clear();
     for (const auto& p : params) grads_.push_back(torch::empty_like(p, torch::MemoryFormat::Contiguous));
+    grad_views_ = net.train_grads(grads_);
   }
   index_.resize(static_cast<std::size_t>(b));
   actions_.resize(static_cast<std::size_t>(b * 3));
@@ -80,7 +81,7 @@ EsLossSums EsChunkPass::run(const models::HlCriticImpl& net, const EsChunkRows& 
     sums = es_d3_loss_rows(team, log_probs_.data(), support, d_log_probs_.data());
     log_softmax_backward(log_probs_.data(), d_log_probs_.data(), groups, k, d_out_.data());
   }
-  pass_.backward(view, d_out_.data(), nullptr, net.train_grads(grads_));
+  pass_.backward(view, d_out_.data(), nullptr, grad_views_);
   return sums;
 }
 

@@ -50,6 +50,7 @@ class EsChunkPass {
   int64_t active_capacity_ = 0;
   std::vector<float> out_, log_probs_, d_log_probs_, d_out_, target_value_, target_dist_;
   std::vector<torch::Tensor> grads_;
+  models::kernels::AttentionMlpTrainGrads grad_views_;  // into grads_, made with them
 };
 
 }  // namespace f16race::agents

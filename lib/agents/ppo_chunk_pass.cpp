@@ -13,6 +13,9 @@ std::array<double, 5> PpoChunkPass::run(const models::LlActorCriticImpl& net, co
   if (grads_.size() != params.size()) {
     grads_.clear();
     for (const auto& p : params) grads_.push_back(torch::empty_like(p, torch::MemoryFormat::Contiguous));
+    grad_views_ = net.train_grads(grads_);
+    for (std::size_t i = 0; i < params.size(); ++i)
+      if (params[i].is_same(net.log_std())) log_std_slot_ = i;
   }
   const auto size = static_cast<std::size_t>(m);
   index_.resize(size);
@@ -46,12 +49,9 @@ std::array<double, 5> PpoChunkPass::run(const models::LlActorCriticImpl& net, co
   g.d_mean = d_mean_.data(), g.d_value = d_value_.data(), g.d_log_std_sum = d_log_std_.data();
   const std::array<double, 5> terms = ppo_loss_rows(loss, g);
 
-  pass_.backward(view, d_mean_.data(), d_value_.data(), net.train_grads(grads_));
-  for (std::size_t i = 0; i < params.size(); ++i)
-    if (params[i].is_same(log_std)) {
-      float* dst = grads_[i].data_ptr<float>();
-      for (int64_t j = 0; j < a_dim; ++j) dst[j] = static_cast<float>(d_log_std_[static_cast<std::size_t>(j)]);
-    }
+  pass_.backward(view, d_mean_.data(), d_value_.data(), grad_views_);
+  float* dst = grads_[log_std_slot_].data_ptr<float>();
+  for (int64_t j = 0; j < a_dim; ++j) dst[j] = static_cast<float>(d_log_std_[static_cast<std::size_t>(j)]);
   return terms;
 }
 

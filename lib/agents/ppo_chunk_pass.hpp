@@ -52,6 +52,8 @@ class PpoChunkPass {
   std::vector<float> mean_, value_, d_mean_, d_value_, action_, old_log_prob_, old_value_, returns_;
   std::vector<double> d_log_std_;
   std::vector<torch::Tensor> grads_;
+  models::kernels::AttentionMlpTrainGrads grad_views_;  // into grads_, made with them
+  std::size_t log_std_slot_ = 0;                        // log_std's place in parameters()
 };
 
 }  // namespace f16race::agents
