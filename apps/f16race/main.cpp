@@ -25,6 +25,7 @@
 #include "dist/process_group.hpp"
 #include "io/input_error.hpp"
 #include "io/numeric_mode.hpp"
+#include "io/openmp_waits.hpp"
 #include "io/provenance.hpp"
 
 // OpenBLAS (LibTorch's BLAS on Debian) runs its own thread pool that spins against the
@@ -55,19 +56,23 @@ __attribute__((constructor(101))) static void cpu_runs_this_build() {
   std::_Exit(2);
 }
 
+// The environment the libraries read when they load, before main: OpenBLAS its kernel set, glibc
+// its tunables, libgomp its spin count. When main changes it, the process runs itself again, once
+// (~0.4 s). A reproducible build that cannot is refused; a native one goes on as it was loaded.
+static void run_itself_again(char** argv) {
+  const std::string self = own_path();
+  if (!self.empty()) execv(self.c_str(), argv);
+  if (f16race::io::numeric_mode() != f16race::io::NumericMode::kReproducible) return;
+  std::fprintf(stderr, "f16race: error: could not run itself again with its kernel choices pinned (%s); run it "
+                       "with OPENBLAS_CORETYPE=Haswell ATEN_CPU_CAPABILITY=avx2 set, or build with F16RACE_ARCH=native\n",
+               self.empty() ? "no /proc/self/exe" : std::strerror(errno));
+  std::exit(2);
+}
+
 // Reproducible mode: the environment every library reads its kernel choice from is pinned
-// (io/numeric_mode.hpp). OpenBLAS reads OPENBLAS_CORETYPE and glibc its tunables when they load,
-// before main, so a process whose environment differs runs itself again, once (~0.4 s). Then the
-// choices are checked, so that a run never silently trains with other kernels.
-static void pin_reproducible_kernels(char** argv) {
-  if (f16race::io::pin_numeric_environment()) {
-    const std::string self = own_path();
-    if (!self.empty()) execv(self.c_str(), argv);
-    std::fprintf(stderr, "f16race: error: could not run itself again with its kernel choices pinned (%s); run it "
-                         "with OPENBLAS_CORETYPE=Haswell ATEN_CPU_CAPABILITY=avx2 set, or build with F16RACE_ARCH=native\n",
-                 self.empty() ? "no /proc/self/exe" : std::strerror(errno));
-    std::exit(2);
-  }
+// (io/numeric_mode.hpp) before this runs; here the choices are checked, so that a run never
+// silently trains with other kernels.
+static void check_reproducible_kernels() {
   const std::string core = f16race::io::blas_core();
   if (strcasecmp(core.c_str(), "haswell") != 0) {
     std::fprintf(stderr, "f16race: error: the reproducible build needs OpenBLAS's Haswell kernels as LibTorch's BLAS, and "
@@ -89,11 +94,11 @@ static void pin_reproducible_kernels(char** argv) {
 // Native mode: OpenBLAS picks its kernels from the CPU model when it loads, and takes its pre-AVX
 // "Prescott" set for a model it does not know (0.3.21 on Intel family 6 model 207): every LibTorch
 // GEMM then ran ~3x slower (bench nets, 1024^3 float product, 2 threads: 30 against 97 GFLOP/s with
-// the SkylakeX set). Only OPENBLAS_CORETYPE, read at load time, overrides that choice, so main sets
-// it from the CPU's features and runs itself again, once. A user's OPENBLAS_CORETYPE is left as it is.
-static void known_blas_kernels(char** argv) {
-  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
-  if (strcasecmp(f16race::io::blas_core().c_str(), "prescott") != 0) return;
+// the SkylakeX set). Only OPENBLAS_CORETYPE, read at load time, overrides that choice, so it is set
+// from the CPU's features (true: set). A user's OPENBLAS_CORETYPE is left as it is.
+static bool choose_known_blas_kernels() {
+  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return false;
+  if (strcasecmp(f16race::io::blas_core().c_str(), "prescott") != 0) return false;
   __builtin_cpu_init();
   const char* core = nullptr;
   if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq") &&
@@ -103,12 +108,8 @@ static void known_blas_kernels(char** argv) {
     core = "Haswell";
   else if (__builtin_cpu_supports("avx"))
     core = "Sandybridge";
-  if (core == nullptr) return;  // Prescott is the right set for this CPU
-  const std::string self = own_path();
-  if (self.empty()) return;  // no /proc: go on with the slower kernels
-  if (setenv("OPENBLAS_CORETYPE", core, 1) != 0) return;
-  execv(self.c_str(), argv);
-  unsetenv("OPENBLAS_CORETYPE");  // the exec failed: the same, slower kernels
+  if (core == nullptr) return false;  // Prescott is the right set for this CPU
+  return setenv("OPENBLAS_CORETYPE", core, 1) == 0;
 }
 
 // LibTorch allocates and frees the same large activation and gradient buffers on every PPO
@@ -185,8 +186,11 @@ static int out_of_memory() {
 }
 
 int main(int argc, char** argv) {
-  if (f16race::io::numeric_mode() == f16race::io::NumericMode::kReproducible) pin_reproducible_kernels(argv);
-  else known_blas_kernels(argv);
+  const bool reproducible = f16race::io::numeric_mode() == f16race::io::NumericMode::kReproducible;
+  bool environment_changed = f16race::io::bound_openmp_spins();
+  environment_changed |= reproducible ? f16race::io::pin_numeric_environment() : choose_known_blas_kernels();
+  if (environment_changed) run_itself_again(argv);
+  if (reproducible) check_reproducible_kernels();
   keep_freed_memory();
   single_threaded_blas();
   CLI::App app{"f16race: simulate, race, train and evaluate teams of F-16 aircraft (AeroBench dynamics)"};
