@@ -217,8 +217,10 @@ EsAgent::EsAgent(const EsConfig& cfg)
   sync_target();
   optimizer_ = std::make_unique<torch::optim::Adam>(
       critic_->parameters(), torch::optim::AdamOptions(cfg.learning_rate).eps(cfg.adam_eps));
-  if (cfg.eigen_inference)
+  if (cfg.eigen_inference) {
     eigen_.follow(critic_->parameters(), [critic = critic_] { return critic->eigen_weights(); });
+    target_eigen_.follow(target_->parameters(), [target = target_] { return target->eigen_weights(); });
+  }
 }
 
 void EsAgent::sync_target() {
@@ -264,15 +266,22 @@ torch::Tensor EsAgent::q_values(const models::HlObs& obs, const torch::Tensor& r
 
 torch::Tensor EsAgent::q_values(const models::HlObs& obs) {
   torch::NoGradGuard no_grad;
-  const int64_t b = models::check_obs(obs, cfg_.dims);
-  if (!eigen_.following()) return critic_(prepare(obs, false)).q;
-  const models::HlObs n = prepare(obs, false);
+  models::check_obs(obs, cfg_.dims);
+  return forward_no_grad(false, prepare(obs, false)).q;
+}
+
+models::HlOutput EsAgent::forward_no_grad(bool target, const models::HlObs& n) {
+  torch::NoGradGuard no_grad;
+  models::HlCritic& net = target ? target_ : critic_;
+  EigenMirror& mirror = target ? target_eigen_ : eigen_;
+  if (!mirror.following()) return net(n);
+  const int64_t b = n.ego.size(0);
   const auto ego = n.ego.contiguous(), prev = n.prev_action.contiguous(), ado = n.ado.contiguous(),
              alive = n.ado_alive.contiguous(), task = n.task.contiguous();
-  auto head = torch::empty({b, critic_->head_width()});
-  eigen_.current().forward(b, ego.data_ptr<float>(), prev.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
-                 task.data_ptr<float>(), head.data_ptr<float>(), nullptr);
-  return critic_->from_head(head).q;
+  auto head = torch::empty({b, net->head_width()});
+  mirror.current().forward(b, ego.data_ptr<float>(), prev.data_ptr<float>(), ado.data_ptr<float>(), alive.data_ptr<bool>(),
+                           task.data_ptr<float>(), head.data_ptr<float>(), nullptr);
+  return net->from_head(head);
 }
 
 EsAction EsAgent::choose(const torch::Tensor& q, double epsilon, at::Generator& generator) const {
@@ -369,7 +378,7 @@ EsStats EsAgent::update(const EsBatch& batch) {
   // A replica with no transition this time (t = 0) only joins the group's steps below.
   if (t > 0) {
     torch::NoGradGuard no_grad;
-    const auto next_out = target_(prepare(models::flatten2(batch.next_obs), false));
+    const auto next_out = forward_no_grad(true, prepare(models::flatten2(batch.next_obs), false));
     target = es_target(cfg_.variant, next_out, batch.reward, batch.done, active, masks.second, batch.next_epsilon,
                        cfg_.gamma, support_);
     measure_before_steps(obs, batch, active, target, &stats);
@@ -423,7 +432,7 @@ void EsAgent::measure_before_steps(const models::HlObs& obs, const EsBatch& batc
                                    const EsTarget& target, EsStats* stats) {
   torch::NoGradGuard no_grad;
   const auto rows = active.reshape({-1}).nonzero().squeeze(1);
-  const auto out = critic_(obs);
+  const auto out = forward_no_grad(false, obs);
   es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, stats);
   const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
                          cfg_.component_ce_weight);

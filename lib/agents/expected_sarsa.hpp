@@ -237,6 +237,9 @@ class EsAgent {
 
  private:
   models::HlObs prepare(const models::HlObs& flat_obs, bool update_stats);
+  // The no-grad forward of the online critic (or the target) on normalised rows, on its Eigen
+  // mirror when there is one: acting, the update's target and its diagnostics all read it.
+  models::HlOutput forward_no_grad(bool target, const models::HlObs& normalised);
   // update()'s parts (the gradient step itself: agents/gradient_step.hpp).
   struct UpdateData;
   void measure_before_steps(const models::HlObs& obs, const EsBatch& batch, const torch::Tensor& active,
@@ -257,6 +260,7 @@ class EsAgent {
   // The online critic for q_values on Eigen kernels; it follows every write to the critic's
   // weights (an optimiser step, a load, a write through critic()).
   EigenMirror eigen_;
+  EigenMirror target_eigen_;  // the same for the target network (it follows sync_target's copies)
   std::vector<float> norm_terms_;  // the raw-rows forward's float normalisation terms, reused
   std::vector<std::unique_ptr<EsChunkPass>> chunk_passes_;  // one per concurrent chunk (fused_training)
 };
