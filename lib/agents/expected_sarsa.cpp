@@ -147,7 +147,8 @@ EsTarget es_target(EsVariant v, const models::HlOutput& next_out, const torch::T
 }
 
 EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
-               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight) {
+               const EsTarget& target, double huber_delta, const C51Support& support, double component_ce_weight,
+               D3Loss d3_loss) {
   check_tensor(actions, "actions", {-1, -1, 3}, torch::kInt64);
   const int64_t t = actions.size(0), n_a = actions.size(1);
   check_tensor(active, "active", {t, n_a}, torch::kBool);
@@ -190,8 +191,12 @@ EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& ac
   const auto lp = lp_taken.masked_fill(active.logical_not().view({t, n_a, 1, 1}), -1e4);
   const auto n_terms = (3.0 * active.to(torch::kFloat32).sum(1)).clamp_min(1.0);
   const auto log_team = torch::logsumexp(lp.view({t, n_a * 3, k}), 1) - n_terms.log().unsqueeze(1);  // [T, K]
-  const auto cross_entropy = -(target.dist * log_team).sum(1);
   result.prediction = (log_team.exp() * support.atoms()).sum(1);
+  if (d3_loss == D3Loss::kHuberMean) {  // Eq. 5 on the mixture's mean: the target's mean is y_t
+    result.loss = huber(result.prediction, target.value, result.valid);
+    return result;
+  }
+  const auto cross_entropy = -(target.dist * log_team).sum(1);
   result.loss = masked_mean(cross_entropy, result.valid);
   if (component_ce_weight > 0.0) {
     // Each active component's own cross-entropy to the team target (an upper bound of the
@@ -435,7 +440,7 @@ void EsAgent::measure_before_steps(const models::HlObs& obs, const EsBatch& batc
   const auto out = forward_no_grad(false, obs);
   es_policy_diagnostics(out.q.index_select(0, rows), cfg_.n_bins, stats);
   const auto l = es_loss(cfg_.variant, out, batch.actions, active, target, cfg_.huber_delta, support_,
-                         cfg_.component_ce_weight);
+                         cfg_.component_ce_weight, cfg_.d3_loss);
   stats->loss_before = l.loss.item<double>();
   if (cfg_.variant == EsVariant::kEsD3) {
     const auto k = target.dist.size(1);
@@ -450,9 +455,13 @@ void EsAgent::measure_before_steps(const models::HlObs& obs, const EsBatch& batc
 // One gradient step on the minibatch `teams` (int64 [m] team indices), its terms (loss, q, td)
 // averaged over the loss units (a team counts once when any member is active, else each active
 // member).
+// ES+D3's loss that the fused node computes: the paper's cross-entropy alone.
+static bool fused_d3_loss(const EsConfig& cfg) {
+  return cfg.variant == EsVariant::kEsD3 && cfg.component_ce_weight == 0.0 && cfg.d3_loss == D3Loss::kCrossEntropy;
+}
+
 bool es_fused_training(const EsConfig& cfg) {
-  return cfg.fused_training && (cfg.variant == EsVariant::kEsD2 ||
-                                (cfg.variant == EsVariant::kEsD3 && cfg.component_ce_weight == 0.0));
+  return cfg.fused_training && (cfg.variant == EsVariant::kEsD2 || fused_d3_loss(cfg));
 }
 
 GradientStepResult EsAgent::minibatch_step(const UpdateData& d, const torch::Tensor& teams, EsStats* stats) {
@@ -504,7 +513,7 @@ GradientStepResult EsAgent::minibatch_step(const UpdateData& d, const torch::Ten
 // One chunk's gradient (weighted by k.weight when `weighted`) and terms (loss, q, td).
 void EsAgent::chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bool weighted,
                              const std::vector<torch::Tensor>& params, ChunkGradient& k, EsChunkPass& pass) {
-  const bool fused_d3 = cfg_.variant == EsVariant::kEsD3 && cfg_.component_ce_weight == 0.0;
+  const bool fused_d3 = fused_d3_loss(cfg_);
   const bool fused_d2 = cfg_.variant == EsVariant::kEsD2;
   if (es_fused_training(cfg_) && teams.numel() > 0) {
     EsChunkRows rows;
@@ -541,7 +550,7 @@ void EsAgent::chunk_gradient(const UpdateData& d, const torch::Tensor& teams, bo
   }
   const auto l = es_loss(cfg_.variant, out, d.batch.actions.index_select(0, teams),
                          d.active.index_select(0, teams), target_c, cfg_.huber_delta, support_,
-                         cfg_.component_ce_weight);
+                         cfg_.component_ce_weight, cfg_.d3_loss);
   k.grads = torch::autograd::grad({weighted ? l.loss * weight : l.loss}, params, /*grad_outputs=*/{},
                                   /*retain_graph=*/false, /*create_graph=*/false, /*allow_unused=*/true);
   torch::NoGradGuard no_grad;

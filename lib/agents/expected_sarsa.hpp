@@ -51,6 +51,11 @@ namespace f16race::agents {
 
 enum class EsVariant { kEs, kEsD1, kEsD2, kEsD3 };
 
+// ES+D3's loss: the cross-entropy of the team mixture against the projected C51 target (C51's
+// reading of the paper's Eq. 3), or the paper's Eq. 5 read literally: Huber on the TD error of the
+// mixture's expected value, the distribution shaped only through its mean.
+enum class D3Loss { kCrossEntropy, kHuberMean };
+
 // "es", "es_d1", "es_d2", "es_d3"; throws std::invalid_argument naming the bad value.
 EsVariant parse_es_variant(const std::string& name);
 const char* es_variant_name(EsVariant v);
@@ -92,6 +97,7 @@ struct EsConfig {
   // near-deterministic returns components of rarely taken bins can stop learning (measured on
   // the toy: 6 of 10 noise-free runs stalled; 0.1 fixed 6 of 6). See docs/learning.md.
   double component_ce_weight = 0.0;
+  D3Loss d3_loss = D3Loss::kCrossEntropy;  // es_d3 only
   bool normalize_obs = true;
   double obs_clip = 10.0;
   uint64_t seed = 1;  // minibatch order
@@ -108,7 +114,7 @@ struct EsConfig {
 
 models::HlCriticConfig es_critic_config(const EsConfig& cfg);
 // Whether the gradient steps take the fused training pass: fused_training, and a team loss it
-// serves (ES+D2; ES+D3 without the component cross-entropy).
+// serves (ES+D2; ES+D3's cross-entropy without the component term).
 bool es_fused_training(const EsConfig& cfg);
 
 struct EsAction {
@@ -196,7 +202,7 @@ struct EsLoss {
 // Loss of the online output (over T*n_a rows) for the taken actions [T, n_a, 3].
 EsLoss es_loss(EsVariant v, const models::HlOutput& out, const torch::Tensor& actions, const torch::Tensor& active,
                const EsTarget& target, double huber_delta, const C51Support& support,
-               double component_ce_weight = 0.0);
+               double component_ce_weight = 0.0, D3Loss d3_loss = D3Loss::kCrossEntropy);
 
 class EsAgent {
  public:

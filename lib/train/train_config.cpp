@@ -79,6 +79,9 @@ void bind_hl(R& r, agents::EsConfig* c) {
   r.read("max_grad_norm", &c->max_grad_norm, 0.0, 1e6);
   r.read("huber_delta", &c->huber_delta, 1e-6, 1e6);
   r.read("component_ce_weight", &c->component_ce_weight, 0.0, 1e3);
+  std::string d3_loss = c->d3_loss == agents::D3Loss::kHuberMean ? "huber_mean" : "cross_entropy";
+  r.read("d3_loss", &d3_loss, {"cross_entropy", "huber_mean"});
+  c->d3_loss = d3_loss == "huber_mean" ? agents::D3Loss::kHuberMean : agents::D3Loss::kCrossEntropy;
   r.finish();
 }
 
@@ -103,6 +106,7 @@ void bind_loop(R& r, LoopConfig* c) {
   r.skip("tail_member");  // read_tail_member's, from run folders only
   r.read("hl_tail_members", &c->hl_tail_members, 1, 16);
   r.read("ll_from", &c->ll_from, {});
+  r.read("keep_hl_decisions", &c->keep_hl_decisions);
   r.finish();
 }
 
@@ -196,6 +200,12 @@ void check_across_sections(const TrainConfig& c, const YAML::Node& root, const s
   if (c.loop.hl_tail_share > 0.0 && c.loop.hl_phase_updates == 0)
     throw io::ConfigError(source + ": train.hl_tail_share > 0 trains the high level alone at the end: "
                           "train.hl_phase_updates must be > 0");
+  if (c.hl.d3_loss == agents::D3Loss::kHuberMean &&
+      (c.hl.variant != agents::EsVariant::kEsD3 || c.hl.component_ce_weight > 0.0))
+    throw io::ConfigError(source + ": hl.d3_loss huber_mean is ES+D3's loss on the expected value: it needs "
+                          "hl.agent es_d3 and hl.component_ce_weight 0 (got " +
+                          agents::es_variant_name(c.hl.variant) + ", " + io::format_double(c.hl.component_ce_weight) +
+                          ")");
   if (c.ll.n_steps * c.race.n_env * c.race.team_size % c.ll.n_minibatches != 0)
     throw io::ConfigError(source + ": ll.n_minibatches (" + std::to_string(c.ll.n_minibatches) +
                           ") must divide ll.n_steps x race.n_env x race.team_size (" + std::to_string(c.ll.n_steps) +

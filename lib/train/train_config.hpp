@@ -55,6 +55,11 @@ struct LoopConfig {
   // that races (the Fig. 3 study); the run copies the weights into its own checkpoints, so it
   // never reads the folder again after it started. Empty: the run learns its own low level.
   std::string ll_from;
+  // An HL phase that follows an HL phase (the HL-only tail, train.ll_from, train.ll_pilot
+  // autopilot) changes only the pool opponent: true keeps the learner's decisions still open
+  // across it, so they are learned from; false drops them, as at every phase switch (an LL phase
+  // between two HL phases leaves them stale).
+  bool keep_hl_decisions = false;
 };
 
 struct PoolConfig {

@@ -238,7 +238,10 @@ void Trainer::State::switch_phase_if_due(bool ll_phase) {
     // opponent.
     phase = hl_only ? 1 : 1 - phase;
     phase_updates = 0;
-    for (int e = 0; e < n_env; ++e) open.open[e] = 0;  // decisions of the old phase are not learned from
+    // Decisions of the old phase are not learned from, unless only the opponent changes.
+    const bool hl_again = !ll_phase && phase == 1;
+    if (!(hl_again && cfg.loop.keep_hl_decisions))
+      for (int e = 0; e < n_env; ++e) open.open[e] = 0;
     load_opponent();
     for (int e = 0; e < n_env; ++e)
       if (opponent < 0 && vs_pool[e] == kVsPool) vs_pool[e] = kVsSelf;

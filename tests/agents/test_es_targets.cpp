@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -194,6 +195,54 @@ TEST(EsLoss, DistributionalTeamMixtureCrossEntropy) {
         component_ce -= (y.dist[s] * out.log_probs[s * n_a + i][j][actions[s][i][j].item<int64_t>()]).sum().item<double>();
   const auto lw = es_loss(EsVariant::kEsD3, out, actions, all_true(t, n_a), y, 1.0, support, 0.5);
   EXPECT_NEAR(lw.loss.item<double>(), ce / t + 0.5 * component_ce / (t * n_a * 3), 1e-5);
+}
+
+// hl.d3_loss huber_mean (the paper's Eq. 5 read literally): Huber on the mixture's expected value
+// against the target's mean, over valid teams; its gradient reaches each taken component through
+// d Q / d log p^{i,j}_k = p^{i,j}_k z_k / (3 n_active).
+TEST(EsLoss, DistributionalHuberOnTheMixturesMean) {
+  auto gen = models::make_generator(7);
+  const int64_t t = 4, n_a = 2, bins = 7, k = 11;
+  const C51Support support{-2.0, 2.0, k};
+  const auto logits = torch::randn({t * n_a, 3, bins, k}, gen, torch::kFloat32);
+  models::HlOutput out;
+  out.log_probs = torch::log_softmax(logits, -1).detach().requires_grad_(true);
+  out.q = (out.log_probs.detach().exp() * support.atoms()).sum(-1);
+  const auto actions = torch::randint(0, bins, {t, n_a, 3}, gen, torch::kInt64);
+  auto active = all_true(t, n_a);
+  active[1][0] = false;                 // a team of one
+  active[3][0] = active[3][1] = false;  // no team: left out
+  EsTarget y;
+  y.dist = torch::softmax(torch::randn({t, k}, gen, torch::kFloat32), 1);
+  y.value = torch::tensor({1.9f, -0.2f, 0.1f, 0.5f});  // team 0's error beyond delta 1, the others inside
+  const auto ce = es_loss(EsVariant::kEsD3, out, actions, active, y, 1.0, support);
+  const auto l = es_loss(EsVariant::kEsD3, out, actions, active, y, 1.0, support, 0.0, D3Loss::kHuberMean);
+  EXPECT_TRUE(torch::equal(l.prediction, ce.prediction));
+  double want = 0.0;
+  for (int64_t s = 0; s < 3; ++s) {
+    const double d = l.prediction[s].item<double>() - y.value[s].item<double>();
+    want += std::abs(d) <= 1.0 ? 0.5 * d * d : std::abs(d) - 0.5;
+  }
+  ASSERT_GT(std::abs(l.prediction[0].item<double>() - 1.9), 1.0);
+  EXPECT_NEAR(l.loss.item<double>(), want / 3, 1e-6);
+  l.loss.backward();
+  const auto g = out.log_probs.grad();
+  const auto p = out.log_probs.detach().exp();
+  for (int64_t s = 0; s < t; ++s)
+    for (int64_t i = 0; i < n_a; ++i) {
+      const int64_t members = s == 1 ? 1 : 2;
+      const double d = s < 3 ? l.prediction[s].item<double>() - y.value[s].item<double>() : 0.0;
+      const double slope = std::max(-1.0, std::min(1.0, d)) / 3.0 / (3.0 * members);
+      for (int64_t j = 0; j < 3; ++j) {
+        const int64_t a = actions[s][i][j].item<int64_t>();
+        const bool counts = s < 3 && active[s][i].item<bool>();
+        for (int64_t c = 0; c < k; c += 5) {
+          const double z = support.v_min + support.delta() * static_cast<double>(c);
+          const double want_g = counts ? slope * p[s * n_a + i][j][a][c].item<double>() * z : 0.0;
+          EXPECT_NEAR(g[s * n_a + i][j][a][c].item<double>(), want_g, 1e-6) << s << i << j << c;
+        }
+      }
+    }
 }
 
 }  // namespace

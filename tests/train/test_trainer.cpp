@@ -129,6 +129,14 @@ TEST(TrainConfig, BadKeysTypesAndRangesNameFileAndKey) {
   EXPECT_NE(error_of("hl: {v_min: 5, v_max: 1}").find("hl.v_min must be < hl.v_max"), std::string::npos);
   EXPECT_NE(error_of("race: {time_limit_s: 5, dt_hl_s: 8}").find("dt_hl_s (8) must be <= time_limit_s (5)"),
             std::string::npos);
+  EXPECT_NE(error_of("hl: {d3_loss: mse}").find("hl.d3_loss: 'mse' is not one of: cross_entropy, huber_mean"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {agent: es_d2, d3_loss: huber_mean}").find("hl.d3_loss huber_mean is ES+D3's loss"),
+            std::string::npos);
+  EXPECT_NE(error_of("hl: {agent: es_d3, d3_loss: huber_mean, component_ce_weight: 0.1}").find("es_d3, 0.1"),
+            std::string::npos);
+  EXPECT_EQ(error_of("hl: {agent: es_d3, d3_loss: huber_mean}"), "");
+  EXPECT_NE(error_of("train: {keep_hl_decisions: 2}").find("train.keep_hl_decisions"), std::string::npos);
 }
 
 // One seed drives a training run: race.seed may only repeat it (the config.yaml of every run
@@ -195,6 +203,23 @@ TEST(Trainer, AutopilotLowLevelLeavesOnlyTheHighLevelToLearn) {
             std::string::npos);
   EXPECT_NE(error_of("train: {ll_pilot: autopilot, hl_phase_updates: 0}").find("train.hl_phase_updates must be > 0"),
             std::string::npos);
+}
+
+// train.keep_hl_decisions: with only the high level learning and a new pool opponent after every
+// update (hl_phase_updates 1), the decisions open at a switch are learned from instead of dropped,
+// so each ES batch fills in fewer env steps; a stopped and resumed run (the open decisions are in
+// the checkpoint) ends where a whole one does. Off, every switch drops them, as before.
+TEST(Trainer, KeptHighLevelDecisionsFillEachBatchSooner) {
+  const TrainSummary dropped = Trainer(smoke("train.ll_pilot=autopilot"), fresh_dir("keep_off")).run();
+  const auto keep = [] { return smoke({"train.ll_pilot=autopilot", "train.keep_hl_decisions=true"}); };
+  Trainer a(keep(), fresh_dir("keep_on"));
+  const TrainSummary kept = a.run();
+  ASSERT_GT(dropped.rows.size(), 2u);
+  // The first batch is the same (nothing was open before it); from the second on, fewer steps.
+  EXPECT_EQ(kept.rows[0].env_steps, dropped.rows[0].env_steps);
+  EXPECT_LT(kept.rows[1].env_steps - kept.rows[0].env_steps, dropped.rows[1].env_steps - dropped.rows[0].env_steps);
+  EXPECT_GT(kept.updates, dropped.updates);
+  EXPECT_EQ(stopped_and_resumed(keep(), "keep_split", 3)->hl_parameters(), a.hl_parameters());
 }
 
 // train.ll_throttle governor: the flight changes (other samples, other weights from the same
