@@ -19,7 +19,6 @@ above 0.5, removed otherwise. Fewer seeds than the rule names: only how many are
 library only.
 """
 import csv
-import json
 import os
 import re
 import statistics
@@ -74,17 +73,7 @@ def keep_piece(piece, keep_dir):
 
 
 def load(keep_dir):
-    if not os.path.isdir(keep_dir):
-        sys.exit(f"{keep_dir}: not a folder of kept pieces (d3_sensitivity.py --keep-piece writes them)")
-    pieces = []
-    for name in sorted(os.listdir(keep_dir)):
-        if re.fullmatch(r"s\d+\.json", name):
-            with open(os.path.join(keep_dir, name)) as f:
-                p = json.load(f)
-            if not isinstance(p, dict) or not {"seed", "pairings", "runs"} <= set(p):
-                sys.exit(f"{keep_dir}/{name}: not a kept piece (keys seed, pairings, runs); keep it again")
-            pieces.append(p)
-    return sorted(pieces, key=lambda p: p["seed"])
+    return kept_json.load_pieces(keep_dir, ("seed", "pairings", "runs"), "d3_sensitivity.py")
 
 
 def t_interval(xs):

@@ -19,7 +19,6 @@ winrate against its own center line and blocks per race minus its center line's.
 library only.
 """
 import csv
-import json
 import os
 import random
 import re
@@ -65,22 +64,7 @@ def keep_piece(study, keep_dir):
 
 
 def load(keep_dir):
-    if not os.path.isdir(keep_dir):
-        sys.exit(f"{keep_dir}: not a folder of kept pieces (duel_verdict.py --keep-piece writes them)")
-    pieces = []
-    for name in sorted(os.listdir(keep_dir)):
-        if re.fullmatch(r"s\d+\.json", name):
-            try:
-                with open(os.path.join(keep_dir, name)) as f:
-                    p = json.load(f)
-            except (ValueError, OSError) as e:
-                sys.exit(f"{keep_dir}/{name}: unreadable ({e}); keep the piece again with --keep-piece")
-            if not isinstance(p, dict) or not {"seed", "d3_vs_d2", "controls"} <= set(p):
-                sys.exit(f"{keep_dir}/{name}: not a kept piece (keys seed, d3_vs_d2, controls); keep it again")
-            pieces.append(p)
-    if not pieces:
-        sys.exit(f"{keep_dir}: no sS.json piece kept yet")
-    return sorted(pieces, key=lambda p: p["seed"])
+    return kept_json.load_pieces(keep_dir, ("seed", "d3_vs_d2", "controls"), "duel_verdict.py")
 
 
 def verdict(pieces):

@@ -3,6 +3,7 @@ the machine and binary that made it. Written atomically, so a stop leaves the ol
 one. Standard library only."""
 import json
 import os
+import re
 import subprocess
 
 
@@ -30,6 +31,28 @@ def provenance():
     if binary:
         out["binary"] = subprocess.run([binary, "--version"], capture_output=True, text=True).stdout.strip()
     return out
+
+
+def load_pieces(keep_dir, keys, writer):
+    """The kept pieces KEEP_DIR/sS.json, sorted by seed; each must hold `keys` (with "seed").
+    Exits in one line naming the file for a folder that is not there, a piece that does not
+    parse or lacks a key, or no piece at all; `writer` names the command that keeps them."""
+    if not os.path.isdir(keep_dir):
+        raise SystemExit(f"{keep_dir}: not a folder of kept pieces ({writer} --keep-piece writes them)")
+    pieces = []
+    for name in sorted(os.listdir(keep_dir)):
+        if re.fullmatch(r"s\d+\.json", name):
+            try:
+                with open(os.path.join(keep_dir, name)) as f:
+                    p = json.load(f)
+            except (ValueError, OSError) as e:
+                raise SystemExit(f"{keep_dir}/{name}: unreadable ({e}); keep the piece again with --keep-piece")
+            if not isinstance(p, dict) or not set(keys) <= set(p):
+                raise SystemExit(f"{keep_dir}/{name}: not a kept piece (keys {', '.join(keys)}); keep it again")
+            pieces.append(p)
+    if not pieces:
+        raise SystemExit(f"{keep_dir}: no sS.json piece kept yet")
+    return sorted(pieces, key=lambda p: p["seed"])
 
 
 def write(path, obj):
